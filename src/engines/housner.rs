@@ -1,0 +1,327 @@
+//! The analytical reference: Housner's (1963) single rigid block on a rigid base.
+//!
+//! Rectangle 2b x 2h (B = 2b, H = 2h), `R = sqrt(b^2 + h^2)`, `alpha = atan(b/h)`,
+//! `p^2 = 3 g / (4 R)`. With theta counter-clockwise (theta > 0: rocking on the left corner),
+//! a ground acceleration `a_x` (+x) and `a_z` (up):
+//!
+//! ```text
+//! theta'' = -p^2 [ (1 + a_z/g) sin(alpha s - theta) - (a_x/g) cos(alpha s - theta) ],  s = sgn(theta)
+//! ```
+//!
+//! At each impact (theta = 0) the angular velocity is multiplied by `1 - 1.5 sin^2 alpha`
+//! (overridable as `housner.restitution`). A block at rest starts rocking when
+//! `|a_x| > (g + a_z) tan alpha`. The equation is integrated with classical RK4 (steps of at
+//! most `housner.max_step`, landing on every output time and excitation breakpoint); impacts
+//! are located by bisection on the step length to `housner.event_tolerance`. When the
+//! amplitude after an impact would be below 1e-12 rad the block is at rest (this ends the
+//! infinite sequence of ever smaller impacts in finite time). The block overturns when
+//! |theta| reaches pi/2; it is then held there. Sliding is not modelled.
+
+use super::{Engine, EngineError, RunOutput};
+use crate::events::NOISE_FLOOR;
+use crate::excitation::GroundMotion;
+use crate::scene::Scene;
+use crate::trajectory::Trajectory;
+use std::f64::consts::FRAC_PI_2;
+
+pub struct HousnerEngine;
+
+/// Parameters of one block.
+#[derive(Debug, Clone, Copy)]
+pub struct HousnerBlock {
+    pub b: f64,
+    pub h: f64,
+    pub alpha: f64,
+    pub p2: f64,
+    pub g: f64,
+    pub restitution: f64,
+}
+
+impl HousnerBlock {
+    pub fn new(width: f64, height: f64, g: f64, restitution: Option<f64>) -> Self {
+        let (b, h) = (width / 2.0, height / 2.0);
+        let r = b.hypot(h);
+        let alpha = (b / h).atan();
+        HousnerBlock {
+            b,
+            h,
+            alpha,
+            p2: 3.0 * g / (4.0 * r),
+            g,
+            restitution: restitution.unwrap_or(1.0 - 1.5 * alpha.sin().powi(2)),
+        }
+    }
+
+    /// Angular acceleration on pivot s (+1 left corner, -1 right corner).
+    pub fn accel(&self, theta: f64, s: f64, a: (f64, f64)) -> f64 {
+        let arg = self.alpha * s - theta;
+        -self.p2 * ((1.0 + a.1 / self.g) * arg.sin() - (a.0 / self.g) * arg.cos())
+    }
+
+    /// Centroid position and velocity relative to the upright position's base centre.
+    pub fn centroid(&self, theta: f64, omega: f64, s: f64) -> [f64; 6] {
+        let (sn, cs) = theta.sin_cos();
+        let (b, h) = (self.b, self.h);
+        [
+            -s * b + s * b * cs - h * sn,
+            s * b * sn + h * cs,
+            theta,
+            (-s * b * sn - h * cs) * omega,
+            (s * b * cs - h * sn) * omega,
+            omega,
+        ]
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Rocking,
+    Rest,
+    Overturned,
+}
+
+fn rk4(blk: &HousnerBlock, gm: &GroundMotion, t: f64, y: (f64, f64), s: f64, h: f64) -> (f64, f64) {
+    let f = |t: f64, th: f64| blk.accel(th, s, gm.acc(t));
+    let (th, om) = y;
+    let k1 = (om, f(t, th));
+    let k2 = (om + 0.5 * h * k1.1, f(t + 0.5 * h, th + 0.5 * h * k1.0));
+    let k3 = (om + 0.5 * h * k2.1, f(t + 0.5 * h, th + 0.5 * h * k2.0));
+    let k4 = (om + h * k3.1, f(t + h, th + h * k3.0));
+    (
+        th + h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0),
+        om + h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1),
+    )
+}
+
+/// Result of integrating one block.
+pub struct HousnerRun {
+    pub trajectory: Vec<(f64, [f64; 6])>,
+    /// All located impacts: (time, largest |theta| of the half-wave before it).
+    pub impacts: Vec<(f64, f64)>,
+    pub steps: u64,
+}
+
+/// Integrate from (theta0, omega0) to `duration`, sampling every `output_interval`.
+pub fn integrate(
+    blk: &HousnerBlock,
+    gm: &GroundMotion,
+    theta0: f64,
+    omega0: f64,
+    duration: f64,
+    output_interval: f64,
+    max_step: f64,
+    event_tol: f64,
+) -> HousnerRun {
+    let breaks = gm.breakpoints();
+    let mut phase = if theta0 == 0.0 && omega0 == 0.0 {
+        Phase::Rest
+    } else {
+        Phase::Rocking
+    };
+    let mut s = if theta0 != 0.0 {
+        theta0.signum()
+    } else if omega0 != 0.0 {
+        omega0.signum()
+    } else {
+        1.0
+    };
+    let (mut th, mut om) = (theta0, omega0);
+    let mut t = 0.0;
+    let mut out = vec![(0.0, blk.centroid(th, om, s))];
+    let mut impacts = Vec::new();
+    let mut wave_max = th.abs();
+    let mut steps = 0u64;
+    let n_out = (duration / output_interval - 1e-9).ceil() as usize;
+    let onset = |t: f64| -> f64 {
+        // > 0 when the ground acceleration can lift the block; sign gives the pivot.
+        let (ax, az) = gm.acc(t);
+        let lim = (blk.g + az) * blk.alpha.tan();
+        if ax > lim {
+            ax - lim
+        } else if ax < -lim {
+            ax + lim
+        } else {
+            0.0
+        }
+    };
+    for k in 1..=n_out {
+        let t_next = (k as f64 * output_interval).min(duration);
+        while t < t_next - 1e-15 {
+            // Step end: output time, next breakpoint, or max_step.
+            let mut t1 = t_next.min(t + max_step);
+            if let Some(&bp) = breaks.iter().find(|&&b| b > t + 1e-15 && b < t1) {
+                t1 = bp;
+            }
+            let h = t1 - t;
+            steps += 1;
+            match phase {
+                Phase::Overturned => {
+                    t = t1;
+                }
+                Phase::Rest => {
+                    let c1 = onset(t1);
+                    if c1 == 0.0 {
+                        t = t1;
+                        continue;
+                    }
+                    // Locate the onset: the last instant with no lift.
+                    let (mut lo, mut hi) = (t, t1);
+                    while hi - lo > event_tol {
+                        let mid = 0.5 * (lo + hi);
+                        if onset(mid) == 0.0 {
+                            lo = mid
+                        } else {
+                            hi = mid
+                        }
+                    }
+                    s = c1.signum();
+                    let (th1, om1) = rk4(blk, gm, hi, (0.0, 0.0), s, t1 - hi);
+                    if th1 * s > 0.0 {
+                        phase = Phase::Rocking;
+                        (th, om) = (th1, om1);
+                        wave_max = th.abs();
+                    }
+                    t = t1;
+                }
+                Phase::Rocking => {
+                    let (th1, om1) = rk4(blk, gm, t, (th, om), s, h);
+                    if th1 * s >= 0.0 {
+                        th = th1;
+                        om = om1;
+                        wave_max = wave_max.max(th.abs());
+                        t = t1;
+                        if th.abs() >= FRAC_PI_2 {
+                            phase = Phase::Overturned;
+                            th = FRAC_PI_2 * s;
+                            om = 0.0;
+                        }
+                        continue;
+                    }
+                    // Crossed zero inside the step: bisect on the step length.
+                    let (mut lo, mut hi) = (0.0, h);
+                    while hi - lo > event_tol {
+                        let mid = 0.5 * (lo + hi);
+                        let (thm, _) = rk4(blk, gm, t, (th, om), s, mid);
+                        if thm * s > 0.0 { lo = mid } else { hi = mid }
+                    }
+                    let tau = 0.5 * (lo + hi);
+                    let (_, om_imp) = rk4(blk, gm, t, (th, om), s, tau);
+                    let t_imp = t + tau;
+                    impacts.push((t_imp, wave_max));
+                    wave_max = 0.0;
+                    let om_after = om_imp * blk.restitution;
+                    let amp = om_after * om_after / (2.0 * blk.p2 * blk.alpha.sin());
+                    s = -s;
+                    if amp < 1e-12 || om_after * s <= 0.0 {
+                        phase = Phase::Rest;
+                        th = 0.0;
+                        om = 0.0;
+                        t = t1;
+                        continue;
+                    }
+                    // Continue on the new pivot for the rest of the step.
+                    let (th2, om2) = rk4(blk, gm, t_imp, (0.0, om_after), s, t1 - t_imp);
+                    th = th2;
+                    om = om2;
+                    if th * s < 0.0 {
+                        // A second crossing within one step cannot happen for max_step << 1/p.
+                        th = 0.0;
+                    }
+                    wave_max = th.abs();
+                    t = t1;
+                }
+            }
+        }
+        t = t_next;
+        out.push((t, blk.centroid(th, om, s)));
+    }
+    HousnerRun {
+        trajectory: out,
+        impacts,
+        steps,
+    }
+}
+
+impl Engine for HousnerEngine {
+    fn name(&self) -> &'static str {
+        "housner"
+    }
+
+    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+        let refuse = |reason: String| EngineError::Unsupported {
+            engine: "housner",
+            scene: scene.name.clone(),
+            reason,
+        };
+        if scene.blocks.len() != 1 {
+            return Err(refuse(format!(
+                "the Housner model is a single block on a rigid base; this scene has {} blocks",
+                scene.blocks.len()
+            )));
+        }
+        let gm = GroundMotion::from_scene(scene)?;
+        if gm.any_displacement_defined() {
+            return Err(refuse(
+                "the Housner model needs the ground acceleration; this scene prescribes a displacement history".into(),
+            ));
+        }
+        let b = &scene.blocks[0];
+        let layout = scene.layout();
+        let st = layout.blocks[0];
+        if st.vx != 0.0 || scene.initial.blocks.values().any(|s| s.vx != 0.0) {
+            return Err(refuse(
+                "the Housner model does not slide; initial vx must be 0".into(),
+            ));
+        }
+        let blk = HousnerBlock::new(b.width, b.height, scene.gravity, scene.housner.restitution);
+        let hs = &scene.housner;
+        let run = integrate(
+            &blk,
+            &gm,
+            st.phi,
+            st.omega,
+            scene.duration,
+            scene.output_interval,
+            hs.max_step,
+            hs.event_tolerance,
+        );
+        let mut tr = Trajectory::new(&[b.name.clone()]);
+        for (t, mut s) in run.trajectory {
+            s[0] += b.offset;
+            tr.push(t, &[s]);
+        }
+        let impacts: Vec<f64> = run
+            .impacts
+            .iter()
+            .filter(|(_, amp)| *amp >= NOISE_FLOOR)
+            .map(|(t, _)| *t)
+            .collect();
+        let mut notes = Vec::new();
+        let r = blk.restitution;
+        let mu_needed = (blk.h / blk.b) * (1.0 - r) / (1.0 + r);
+        let mu = scene.friction_below(0);
+        if mu < mu_needed {
+            notes.push(format!(
+                "friction {mu} is below the {mu_needed:.3} needed for the pivot not to slip at impact; the Housner model ignores sliding"
+            ));
+        }
+        Ok(RunOutput {
+            trajectory: tr,
+            settings: serde_json::json!({
+                "restitution": r,
+                "restitution_rule": if hs.restitution.is_some() { "given" } else { "1 - 1.5 sin^2 alpha" },
+                "max_step": hs.max_step,
+                "event_tolerance": hs.event_tolerance,
+                "integrator": "RK4 with bisection event location",
+                "output_interval": scene.output_interval,
+                "alpha": blk.alpha,
+                "p": blk.p2.sqrt(),
+            }),
+            engine_version: format!("rockbench {} housner", env!("CARGO_PKG_VERSION")),
+            steps: run.steps,
+            solver_iterations: None,
+            exact_impacts: Some(vec![impacts]),
+            notes,
+        })
+    }
+}

@@ -1,0 +1,91 @@
+//! Engines: everything that turns a scene into a trajectory.
+//!
+//! `Engine::run` is the only way the harness meets an engine.
+
+pub mod housner;
+pub mod native;
+
+use crate::scene::{Scene, SceneError};
+use crate::summary::Summary;
+use crate::trajectory::Trajectory;
+use std::path::Path;
+use std::time::Instant;
+
+/// What an engine returns.
+#[derive(Debug, Clone)]
+pub struct RunOutput {
+    pub trajectory: Trajectory,
+    /// Every setting that changes the answer, as used.
+    pub settings: serde_json::Value,
+    pub engine_version: String,
+    pub steps: u64,
+    pub solver_iterations: Option<u64>,
+    /// Impact times per block located by the engine itself (the Housner engine's exact
+    /// events); `None`: events are taken from the trajectory.
+    pub exact_impacts: Option<Vec<Vec<f64>>>,
+    pub notes: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    #[error("unknown engine `{0}` (known: {known})", known = ENGINE_NAMES.join(", "))]
+    Unknown(String),
+    #[error("engine `{engine}` cannot run scene `{scene}`: {reason}")]
+    Unsupported {
+        engine: &'static str,
+        scene: String,
+        reason: String,
+    },
+    #[error("engine `{engine}` failed: {message}")]
+    Failed {
+        engine: &'static str,
+        message: String,
+    },
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("{0}")]
+    Io(String),
+}
+
+/// A simulation engine.
+pub trait Engine: Send + Sync {
+    fn name(&self) -> &'static str;
+    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError>;
+}
+
+pub const ENGINE_NAMES: &[&str] = &["native", "housner"];
+
+pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
+    match name {
+        "native" => Ok(Box::new(native::NativeEngine)),
+        "housner" => Ok(Box::new(housner::HousnerEngine)),
+        other => Err(EngineError::Unknown(other.to_string())),
+    }
+}
+
+/// Run an engine, timing it, and build its summary.
+pub fn run_timed(engine: &dyn Engine, scene: &Scene) -> Result<(RunOutput, Summary), EngineError> {
+    let start = Instant::now();
+    let out = engine.run(scene)?;
+    let wall = start.elapsed().as_secs_f64();
+    if !out.trajectory.is_finite() {
+        return Err(EngineError::Failed {
+            engine: engine.name(),
+            message: "the trajectory contains NaN or infinity".into(),
+        });
+    }
+    let summary = Summary::build(scene, engine.name(), &out, wall);
+    Ok((out, summary))
+}
+
+/// Write `trajectory.csv` and `summary.json` into `dir`.
+pub fn write_outputs(dir: &Path, out: &RunOutput, summary: &Summary) -> Result<(), EngineError> {
+    let io = |e: std::io::Error| EngineError::Io(format!("{}: {e}", dir.display()));
+    std::fs::create_dir_all(dir).map_err(io)?;
+    out.trajectory
+        .write_csv(&dir.join("trajectory.csv"))
+        .map_err(io)?;
+    let json = serde_json::to_string_pretty(summary).expect("summaries serialise");
+    std::fs::write(dir.join("summary.json"), json + "\n").map_err(io)?;
+    Ok(())
+}

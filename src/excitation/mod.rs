@@ -1,0 +1,446 @@
+//! Ground motion: analytic pulses, acceleration records and prescribed displacements.
+//!
+//! Sign convention: a positive horizontal ground acceleration moves the ground towards +x;
+//! the inertial force on a block of mass m is `-m a_x`. A positive vertical acceleration moves
+//! the ground up (effective gravity `g + a_z`).
+//!
+//! Each component gives the exact acceleration `a(t)`, velocity `v(t)` and displacement
+//! `d(t)` of the ground, with `v(0) = d(0) = 0` (the ground is at rest before t = 0).
+//! Records are piecewise linear in acceleration (or in displacement), zero outside their span.
+
+pub mod records;
+
+use crate::scene::{MotionSpec, RecordFormat, Scene, SceneError};
+use std::f64::consts::PI;
+
+/// Whether a component was given as an acceleration or as a displacement history.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DefinedBy {
+    Acceleration,
+    Displacement,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PulseShape {
+    HalfSine,
+    OneSine,
+    Rectangular,
+}
+
+/// One component (horizontal or vertical) of ground motion.
+#[derive(Debug, Clone)]
+pub enum Component {
+    Pulse {
+        shape: PulseShape,
+        amplitude: f64,
+        duration: f64,
+        start: f64,
+    },
+    /// Piecewise-linear acceleration with exact cumulative velocity and displacement at the
+    /// samples.
+    AccelerationRecord {
+        t: Vec<f64>,
+        a: Vec<f64>,
+        v: Vec<f64>,
+        d: Vec<f64>,
+    },
+    /// Piecewise-linear displacement (velocity piecewise constant).
+    DisplacementRecord { t: Vec<f64>, d: Vec<f64> },
+}
+
+impl Component {
+    pub fn defined_by(&self) -> DefinedBy {
+        match self {
+            Component::DisplacementRecord { .. } => DefinedBy::Displacement,
+            _ => DefinedBy::Acceleration,
+        }
+    }
+
+    /// Ground acceleration at t, m/s^2 (zero between samples of a displacement record).
+    pub fn acc(&self, t: f64) -> f64 {
+        match self {
+            Component::Pulse {
+                shape,
+                amplitude: a,
+                duration: d,
+                start,
+            } => {
+                let s = t - start;
+                if !(0.0..=*d).contains(&s) {
+                    return 0.0;
+                }
+                match shape {
+                    PulseShape::HalfSine => a * (PI * s / d).sin(),
+                    PulseShape::OneSine => a * (2.0 * PI * s / d).sin(),
+                    PulseShape::Rectangular => *a,
+                }
+            }
+            Component::AccelerationRecord { t: ts, a, .. } => {
+                let Some(k) = segment(ts, t) else { return 0.0 };
+                let f = (t - ts[k]) / (ts[k + 1] - ts[k]);
+                a[k] + f * (a[k + 1] - a[k])
+            }
+            Component::DisplacementRecord { .. } => 0.0,
+        }
+    }
+
+    /// Ground velocity at t, m/s.
+    pub fn vel(&self, t: f64) -> f64 {
+        match self {
+            Component::Pulse {
+                shape,
+                amplitude: a,
+                duration: d,
+                start,
+            } => {
+                let s = (t - start).clamp(0.0, *d);
+                match shape {
+                    PulseShape::HalfSine => a * d / PI * (1.0 - (PI * s / d).cos()),
+                    PulseShape::OneSine => a * d / (2.0 * PI) * (1.0 - (2.0 * PI * s / d).cos()),
+                    PulseShape::Rectangular => a * s,
+                }
+            }
+            Component::AccelerationRecord { t: ts, a, v, .. } => {
+                if t <= ts[0] {
+                    return 0.0;
+                }
+                let n = ts.len();
+                if t >= ts[n - 1] {
+                    return v[n - 1];
+                }
+                let k = segment(ts, t).unwrap();
+                let h = t - ts[k];
+                let slope = (a[k + 1] - a[k]) / (ts[k + 1] - ts[k]);
+                v[k] + a[k] * h + 0.5 * slope * h * h
+            }
+            Component::DisplacementRecord { t: ts, d } => match segment(ts, t) {
+                Some(k) => (d[k + 1] - d[k]) / (ts[k + 1] - ts[k]),
+                None => 0.0,
+            },
+        }
+    }
+
+    /// Ground displacement at t, m.
+    pub fn disp(&self, t: f64) -> f64 {
+        match self {
+            Component::Pulse {
+                shape,
+                amplitude: a,
+                duration: d,
+                start,
+            } => {
+                let s = (t - start).max(0.0);
+                let sc = s.min(*d);
+                let (d_end, v_end) = match shape {
+                    PulseShape::HalfSine => (
+                        a * d / PI * (sc - d / PI * (PI * sc / d).sin()),
+                        a * d / PI * (1.0 - (PI * sc / d).cos()),
+                    ),
+                    PulseShape::OneSine => {
+                        let w = 2.0 * PI / d;
+                        (
+                            a / w * (sc - (w * sc).sin() / w),
+                            a / w * (1.0 - (w * sc).cos()),
+                        )
+                    }
+                    PulseShape::Rectangular => (0.5 * a * sc * sc, a * sc),
+                };
+                d_end + v_end * (s - sc)
+            }
+            Component::AccelerationRecord { t: ts, a, v, d } => {
+                if t <= ts[0] {
+                    return 0.0;
+                }
+                let n = ts.len();
+                if t >= ts[n - 1] {
+                    return d[n - 1] + v[n - 1] * (t - ts[n - 1]);
+                }
+                let k = segment(ts, t).unwrap();
+                let h = t - ts[k];
+                let slope = (a[k + 1] - a[k]) / (ts[k + 1] - ts[k]);
+                d[k] + v[k] * h + 0.5 * a[k] * h * h + slope * h * h * h / 6.0
+            }
+            Component::DisplacementRecord { t: ts, d } => {
+                if t <= ts[0] {
+                    return d[0];
+                }
+                let n = ts.len();
+                if t >= ts[n - 1] {
+                    return d[n - 1];
+                }
+                let k = segment(ts, t).unwrap();
+                let f = (t - ts[k]) / (ts[k + 1] - ts[k]);
+                d[k] + f * (d[k + 1] - d[k])
+            }
+        }
+    }
+
+    /// Instants where the acceleration is not smooth (integrators should step onto them).
+    pub fn breakpoints(&self) -> Vec<f64> {
+        match self {
+            Component::Pulse {
+                duration, start, ..
+            } => vec![*start, start + duration],
+            Component::AccelerationRecord { t, .. } | Component::DisplacementRecord { t, .. } => {
+                t.clone()
+            }
+        }
+    }
+}
+
+/// Index k with `t[k] <= x < t[k+1]`, if x is inside the samples.
+fn segment(t: &[f64], x: f64) -> Option<usize> {
+    if x < t[0] || x >= t[t.len() - 1] {
+        return None;
+    }
+    Some(t.partition_point(|&s| s <= x) - 1)
+}
+
+/// Horizontal and vertical ground motion of a scene.
+#[derive(Debug, Clone, Default)]
+pub struct GroundMotion {
+    pub horizontal: Option<Component>,
+    pub vertical: Option<Component>,
+}
+
+impl GroundMotion {
+    /// Build from a scene's `[excitation]`, reading record files relative to the scene file.
+    pub fn from_scene(scene: &Scene) -> Result<GroundMotion, SceneError> {
+        let Some(exc) = &scene.excitation else {
+            return Ok(GroundMotion::default());
+        };
+        let build = |m: &Option<MotionSpec>, comp: &str| -> Result<Option<Component>, SceneError> {
+            m.as_ref()
+                .map(|m| component(scene, m, &format!("excitation.{comp}")))
+                .transpose()
+        };
+        Ok(GroundMotion {
+            horizontal: build(&exc.horizontal, "horizontal")?,
+            vertical: build(&exc.vertical, "vertical")?,
+        })
+    }
+
+    pub fn is_none(&self) -> bool {
+        self.horizontal.is_none() && self.vertical.is_none()
+    }
+
+    /// Ground acceleration (a_x, a_z) at t.
+    pub fn acc(&self, t: f64) -> (f64, f64) {
+        (
+            self.horizontal.as_ref().map_or(0.0, |c| c.acc(t)),
+            self.vertical.as_ref().map_or(0.0, |c| c.acc(t)),
+        )
+    }
+    pub fn vel(&self, t: f64) -> (f64, f64) {
+        (
+            self.horizontal.as_ref().map_or(0.0, |c| c.vel(t)),
+            self.vertical.as_ref().map_or(0.0, |c| c.vel(t)),
+        )
+    }
+    pub fn disp(&self, t: f64) -> (f64, f64) {
+        (
+            self.horizontal.as_ref().map_or(0.0, |c| c.disp(t)),
+            self.vertical.as_ref().map_or(0.0, |c| c.disp(t)),
+        )
+    }
+    pub fn any_displacement_defined(&self) -> bool {
+        [&self.horizontal, &self.vertical].iter().any(|c| {
+            c.as_ref()
+                .is_some_and(|c| c.defined_by() == DefinedBy::Displacement)
+        })
+    }
+    /// Sorted, de-duplicated instants where the acceleration is not smooth.
+    pub fn breakpoints(&self) -> Vec<f64> {
+        let mut b: Vec<f64> = [&self.horizontal, &self.vertical]
+            .iter()
+            .filter_map(|c| c.as_ref())
+            .flat_map(|c| c.breakpoints())
+            .collect();
+        b.sort_by(|a, c| a.total_cmp(c));
+        b.dedup();
+        b
+    }
+}
+
+fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, SceneError> {
+    let file = scene.source.as_str();
+    Ok(match m {
+        MotionSpec::HalfSine {
+            amplitude,
+            duration,
+            period,
+            start,
+        } => Component::Pulse {
+            shape: PulseShape::HalfSine,
+            amplitude: *amplitude,
+            duration: duration.unwrap_or_else(|| period.unwrap_or(0.0) / 2.0),
+            start: *start,
+        },
+        MotionSpec::OneSine {
+            amplitude,
+            duration,
+            period,
+            start,
+        } => Component::Pulse {
+            shape: PulseShape::OneSine,
+            amplitude: *amplitude,
+            duration: duration.or(*period).unwrap_or(0.0),
+            start: *start,
+        },
+        MotionSpec::Rectangular {
+            amplitude,
+            duration,
+            start,
+        } => Component::Pulse {
+            shape: PulseShape::Rectangular,
+            amplitude: *amplitude,
+            duration: *duration,
+            start: *start,
+        },
+        MotionSpec::Record {
+            file: rec,
+            scale,
+            format,
+        } => {
+            let path = scene.base_dir.join(rec);
+            let fmt = format.unwrap_or_else(|| {
+                if rec.to_ascii_lowercase().ends_with(".at2") {
+                    RecordFormat::At2
+                } else {
+                    RecordFormat::Csv
+                }
+            });
+            let text = read(&path, file, field)?;
+            let (s, unit) = match fmt {
+                RecordFormat::At2 => (records::parse_at2(&text), records::STANDARD_GRAVITY),
+                RecordFormat::Csv => (records::parse_two_column(&text), 1.0),
+            };
+            let s = s.map_err(|e| {
+                SceneError::new(
+                    file,
+                    format!("{field}.file"),
+                    format!("{}: {e}", path.display()),
+                )
+            })?;
+            let a: Vec<f64> = s.v.iter().map(|x| x * unit * scale).collect();
+            let (v, d) = integrate_piecewise_linear(&s.t, &a);
+            Component::AccelerationRecord { t: s.t, a, v, d }
+        }
+        MotionSpec::Displacement { file: rec, scale } => {
+            let path = scene.base_dir.join(rec);
+            let text = read(&path, file, field)?;
+            let s = records::parse_two_column(&text).map_err(|e| {
+                SceneError::new(
+                    file,
+                    format!("{field}.file"),
+                    format!("{}: {e}", path.display()),
+                )
+            })?;
+            if s.v[0] != 0.0 {
+                return Err(SceneError::new(
+                    file,
+                    format!("{field}.file"),
+                    format!(
+                        "{}: the displacement must start at 0 (got {})",
+                        path.display(),
+                        s.v[0]
+                    ),
+                ));
+            }
+            Component::DisplacementRecord {
+                t: s.t,
+                d: s.v.iter().map(|x| x * scale).collect(),
+            }
+        }
+    })
+}
+
+fn read(path: &std::path::Path, file: &str, field: &str) -> Result<String, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        SceneError::new(
+            file,
+            format!("{field}.file"),
+            format!("cannot read {}: {e}", path.display()),
+        )
+    })?;
+    if text.trim().is_empty() {
+        return Err(SceneError::new(
+            file,
+            format!("{field}.file"),
+            format!("{} is empty", path.display()),
+        ));
+    }
+    Ok(text)
+}
+
+/// Exact velocity and displacement at the samples of a piecewise-linear acceleration that is
+/// zero before the first sample.
+fn integrate_piecewise_linear(t: &[f64], a: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = t.len();
+    let mut v = vec![0.0; n];
+    let mut d = vec![0.0; n];
+    for k in 0..n - 1 {
+        let h = t[k + 1] - t[k];
+        v[k + 1] = v[k] + 0.5 * h * (a[k] + a[k + 1]);
+        d[k + 1] = d[k] + v[k] * h + h * h * (a[k] / 3.0 + a[k + 1] / 6.0);
+    }
+    (v, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pulse(shape: PulseShape) -> Component {
+        Component::Pulse {
+            shape,
+            amplitude: 2.0,
+            duration: 0.4,
+            start: 0.1,
+        }
+    }
+
+    /// The closed-form velocity and displacement are the integrals of the acceleration.
+    #[test]
+    fn pulse_integrals_match_quadrature() {
+        for shape in [
+            PulseShape::HalfSine,
+            PulseShape::OneSine,
+            PulseShape::Rectangular,
+        ] {
+            let c = pulse(shape);
+            let h = 1e-5;
+            let (mut v, mut d) = (0.0, 0.0);
+            let mut t = 0.0;
+            while t < 0.8 - 1e-12 {
+                let a0 = c.acc(t + 0.5 * h);
+                d += v * h + 0.5 * a0 * h * h;
+                v += a0 * h;
+                t += h;
+            }
+            assert!(
+                (v - c.vel(0.8)).abs() < 1e-6,
+                "{shape:?} v {v} vs {}",
+                c.vel(0.8)
+            );
+            assert!(
+                (d - c.disp(0.8)).abs() < 1e-6,
+                "{shape:?} d {d} vs {}",
+                c.disp(0.8)
+            );
+        }
+    }
+
+    #[test]
+    fn record_integrals_are_exact_for_linear_acceleration() {
+        // a = t on [0, 1]: v = t^2/2, d = t^3/6.
+        let t: Vec<f64> = (0..=10).map(|i| i as f64 * 0.1).collect();
+        let a = t.clone();
+        let (v, d) = integrate_piecewise_linear(&t, &a);
+        let c = Component::AccelerationRecord { t, a, v, d };
+        for x in [0.05, 0.37, 0.99] {
+            assert!((c.vel(x) - x * x / 2.0).abs() < 1e-14);
+            assert!((c.disp(x) - x * x * x / 6.0).abs() < 1e-14);
+        }
+    }
+}

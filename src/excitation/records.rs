@@ -1,0 +1,173 @@
+//! Reading ground-motion records: two-column CSV and PEER NGA `.AT2`.
+//!
+//! Errors are plain strings naming the line; the caller prefixes the file and scene field.
+
+/// Standard gravity used to convert `.AT2` accelerations (in g) to m/s^2.
+pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// A sampled history: strictly increasing times and one value per time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Samples {
+    pub t: Vec<f64>,
+    pub v: Vec<f64>,
+}
+
+/// Two columns `time, value` separated by a comma, semicolon, tab or spaces. One header line
+/// and `#` comment lines are skipped.
+pub fn parse_two_column(text: &str) -> Result<Samples, String> {
+    let mut t = Vec::new();
+    let mut v = Vec::new();
+    let mut seen_data = false;
+    for (ln, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let cols: Vec<&str> = line
+            .split(|c: char| c == ',' || c == ';' || c == '\t' || c == ' ')
+            .filter(|s| !s.is_empty())
+            .collect();
+        let nums: Result<Vec<f64>, _> = cols.iter().map(|c| c.parse::<f64>()).collect();
+        match nums {
+            Err(_) if !seen_data && t.is_empty() => continue, // header line
+            Err(_) => return Err(format!("line {}: not two numbers: `{line}`", ln + 1)),
+            Ok(n) if n.len() != 2 => {
+                return Err(format!(
+                    "line {}: expected 2 columns (time, value), found {}",
+                    ln + 1,
+                    n.len()
+                ));
+            }
+            Ok(n) => {
+                seen_data = true;
+                if !n[0].is_finite() || !n[1].is_finite() {
+                    return Err(format!("line {}: value is not finite", ln + 1));
+                }
+                if let Some(&last) = t.last() {
+                    if n[0] <= last {
+                        return Err(format!(
+                            "line {}: time {} does not increase (previous {last})",
+                            ln + 1,
+                            n[0]
+                        ));
+                    }
+                }
+                t.push(n[0]);
+                v.push(n[1]);
+            }
+        }
+    }
+    if t.len() < 2 {
+        return Err("needs at least two samples".into());
+    }
+    Ok(Samples { t, v })
+}
+
+/// PEER NGA `.AT2`: three free header lines, then either `NPTS=  N, DT=  .005 SEC` (current
+/// form) or `N  DT` followed by words (older form), then NPTS values in g, several per line.
+/// Returns accelerations in g at `t_i = i * DT`.
+pub fn parse_at2(text: &str) -> Result<Samples, String> {
+    let lines: Vec<&str> = text.lines().collect();
+    if lines.len() < 4 {
+        return Err(format!(
+            "has {} lines; a PEER .AT2 file has 4 header lines before the data",
+            lines.len()
+        ));
+    }
+    let header = lines[3];
+    let (npts, dt) = parse_at2_header(header)
+        .ok_or_else(|| format!("line 4: cannot read NPTS and DT from `{}`", header.trim()))?;
+    if npts < 2 {
+        return Err(format!(
+            "line 4: NPTS = {npts}; at least 2 samples are needed"
+        ));
+    }
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(format!("line 4: DT = {dt} must be positive"));
+    }
+    let mut v = Vec::with_capacity(npts);
+    for (k, line) in lines.iter().enumerate().skip(4) {
+        for tok in line.split_whitespace() {
+            let x: f64 = tok
+                .parse()
+                .map_err(|_| format!("line {}: `{tok}` is not a number", k + 1))?;
+            if !x.is_finite() {
+                return Err(format!("line {}: value is not finite", k + 1));
+            }
+            v.push(x);
+        }
+    }
+    if v.len() < npts {
+        return Err(format!(
+            "header says NPTS = {npts} but the file has only {} values (truncated?)",
+            v.len()
+        ));
+    }
+    if v.len() > npts {
+        return Err(format!(
+            "header says NPTS = {npts} but the file has {} values",
+            v.len()
+        ));
+    }
+    let t = (0..npts).map(|i| i as f64 * dt).collect();
+    Ok(Samples { t, v })
+}
+
+fn parse_at2_header(line: &str) -> Option<(usize, f64)> {
+    let up = line.to_ascii_uppercase();
+    if up.contains("NPTS") && up.contains("DT") && up.contains('=') {
+        let after = |key: &str| -> Option<String> {
+            let i = up.find(key)? + key.len();
+            let rest = up[i..].trim_start().strip_prefix('=')?.trim_start();
+            Some(
+                rest.chars()
+                    .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'E' | '-' | '+'))
+                    .collect(),
+            )
+        };
+        let n: usize = after("NPTS")?.parse().ok()?;
+        let dt: f64 = after("DT")?.parse().ok()?;
+        return Some((n, dt));
+    }
+    let mut it = line.split_whitespace();
+    let n: usize = it.next()?.trim_end_matches(',').parse().ok()?;
+    let dt: f64 = it.next()?.trim_end_matches(',').parse().ok()?;
+    Some((n, dt))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const NEW: &str = "PEER NGA STRONG MOTION DATABASE RECORD\nTest 1940\nACCELERATION TIME SERIES IN UNITS OF G\nNPTS=    5, DT=   .0100 SEC\n 0.1 0.2 0.3\n 0.4 0.5\n";
+    const OLD: &str = "PEER STRONG MOTION DATABASE RECORD\nTest\nACCELERATION TIME HISTORY IN UNITS OF G\n   5    0.0100    NPTS, DT\n 1.0E-01 2.0E-01 3.0E-01 4.0E-01 5.0E-01\n";
+
+    #[test]
+    fn at2_both_header_forms_read_the_same_samples() {
+        let a = parse_at2(NEW).unwrap();
+        let b = parse_at2(OLD).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a.v, vec![0.1, 0.2, 0.3, 0.4, 0.5]);
+        assert!((a.t[4] - 0.04).abs() < 1e-15);
+    }
+
+    #[test]
+    fn at2_fewer_values_than_npts_is_an_error() {
+        let text = NEW.replace(" 0.4 0.5\n", "");
+        let e = parse_at2(&text).unwrap_err();
+        assert!(e.contains("NPTS = 5") && e.contains("only 3"), "{e}");
+    }
+
+    #[test]
+    fn csv_with_header_and_comments() {
+        let s = parse_two_column("# comment\ntime,acc\n0,0\n0.1,1.5\n0.2,-1\n").unwrap();
+        assert_eq!(s.t, vec![0.0, 0.1, 0.2]);
+        assert_eq!(s.v, vec![0.0, 1.5, -1.0]);
+    }
+
+    #[test]
+    fn csv_non_increasing_time_names_the_line() {
+        let e = parse_two_column("0,0\n0.1,1\n0.1,2\n").unwrap_err();
+        assert!(e.starts_with("line 3"), "{e}");
+    }
+}

@@ -1,0 +1,321 @@
+//! Contact detection between rectangular blocks and the ground.
+//!
+//! Sign conventions (used everywhere else): a contact point belongs to a pair (A, B) where A
+//! owns the face (A may be the ground) and B the other body; the unit normal `n` points from A
+//! into B; the tangent is `t = (n_z, -n_x)`; the signed gap is positive when open.
+//!
+//! Block-block pairs: the reference face is the face (of either block) with the largest
+//! separation (separating-axis test); ties within a relative 1e-9 go to the lower-indexed
+//! block, then the lower face index, so a corner-corner tie is broken deterministically. The
+//! contact points are the two ends of the overlap of the reference face and the most
+//! anti-parallel face of the other block: a vertex of one body against a face of the other.
+
+/// A body's pose: centroid and rotation (counter-clockwise).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    pub x: f64,
+    pub z: f64,
+    pub phi: f64,
+}
+
+/// A rectangle of half-width `b` and half-height `h`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rect {
+    pub b: f64,
+    pub h: f64,
+}
+
+impl Rect {
+    /// Vertices in counter-clockwise order: bottom-left, bottom-right, top-right, top-left.
+    pub fn vertices(&self, p: &Pose) -> [(f64, f64); 4] {
+        let (s, c) = p.phi.sin_cos();
+        let local = [
+            (-self.b, -self.h),
+            (self.b, -self.h),
+            (self.b, self.h),
+            (-self.b, self.h),
+        ];
+        local.map(|(lx, lz)| (p.x + c * lx - s * lz, p.z + s * lx + c * lz))
+    }
+    pub fn min_dim(&self) -> f64 {
+        2.0 * self.b.min(self.h)
+    }
+}
+
+/// One contact point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactPoint {
+    /// Body owning the face (`None`: the ground).
+    pub a: Option<usize>,
+    /// The other body.
+    pub b: usize,
+    /// Location, m.
+    pub point: (f64, f64),
+    /// Unit normal from A into B.
+    pub normal: (f64, f64),
+    /// Signed gap, m (> 0 open).
+    pub gap: f64,
+}
+
+/// Axis-aligned bounding box of a posed rectangle.
+fn aabb(r: &Rect, p: &Pose) -> (f64, f64, f64, f64) {
+    let v = r.vertices(p);
+    let mut bb = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (x, z) in v {
+        bb.0 = bb.0.min(x);
+        bb.1 = bb.1.max(x);
+        bb.2 = bb.2.min(z);
+        bb.3 = bb.3.max(z);
+    }
+    bb
+}
+
+/// Candidate block pairs whose bounding boxes, enlarged by `margin(i)`, overlap: a sweep over
+/// x after sorting (no all-pairs search).
+pub fn broad_phase(
+    rects: &[Rect],
+    poses: &[Pose],
+    margin: &dyn Fn(usize) -> f64,
+) -> Vec<(usize, usize)> {
+    let boxes: Vec<_> = rects
+        .iter()
+        .zip(poses)
+        .enumerate()
+        .map(|(i, (r, p))| {
+            let m = margin(i);
+            let b = aabb(r, p);
+            (b.0 - m, b.1 + m, b.2 - m, b.3 + m)
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..rects.len()).collect();
+    order.sort_by(|&i, &j| boxes[i].0.total_cmp(&boxes[j].0).then(i.cmp(&j)));
+    let mut pairs = Vec::new();
+    let mut active: Vec<usize> = Vec::new();
+    for &i in &order {
+        active.retain(|&j| boxes[j].1 >= boxes[i].0);
+        for &j in &active {
+            if boxes[j].2 <= boxes[i].3 && boxes[i].2 <= boxes[j].3 {
+                pairs.push((i.min(j), i.max(j)));
+            }
+        }
+        active.push(i);
+    }
+    pairs.sort_unstable();
+    pairs
+}
+
+/// Contacts of block `i` with the flat ground at height `ground_z`: every vertex whose gap is
+/// below `reach`.
+pub fn ground_contacts(
+    i: usize,
+    r: &Rect,
+    p: &Pose,
+    ground_z: f64,
+    reach: &dyn Fn((f64, f64), f64) -> bool,
+    out: &mut Vec<ContactPoint>,
+) {
+    for v in r.vertices(p) {
+        let gap = v.1 - ground_z;
+        if reach(v, gap) {
+            out.push(ContactPoint {
+                a: None,
+                b: i,
+                point: v,
+                normal: (0.0, 1.0),
+                gap,
+            });
+        }
+    }
+}
+
+fn cross(a: (f64, f64), b: (f64, f64)) -> f64 {
+    a.0 * b.1 - a.1 * b.0
+}
+fn dot(a: (f64, f64), b: (f64, f64)) -> f64 {
+    a.0 * b.0 + a.1 * b.1
+}
+fn sub(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0 - b.0, a.1 - b.1)
+}
+
+/// Outward unit normal of face k (from vertex k to k+1) of a counter-clockwise polygon.
+fn face_normal(v: &[(f64, f64); 4], k: usize) -> (f64, f64) {
+    let d = sub(v[(k + 1) % 4], v[k]);
+    let l = d.0.hypot(d.1);
+    (d.1 / l, -d.0 / l)
+}
+
+/// Contact points between blocks `i < j`. `reach(point, gap)` decides which candidates are kept.
+pub fn block_contacts(
+    (i, ri, pi): (usize, &Rect, &Pose),
+    (j, rj, pj): (usize, &Rect, &Pose),
+    reach: &dyn Fn((f64, f64), f64) -> bool,
+    out: &mut Vec<ContactPoint>,
+) {
+    let vi = ri.vertices(pi);
+    let vj = rj.vertices(pj);
+    let scale = ri.b + ri.h + rj.b + rj.h;
+    // Reference face: the largest separation over the faces of both blocks.
+    let mut best: Option<(f64, usize, usize)> = None; // (separation, owner 0|1, face)
+    for (owner, (va, vb)) in [(&vi, &vj), (&vj, &vi)].into_iter().enumerate() {
+        for k in 0..4 {
+            let n = face_normal(va, k);
+            let sep = vb
+                .iter()
+                .map(|&v| dot(n, sub(v, va[k])))
+                .fold(f64::INFINITY, f64::min);
+            let better = match best {
+                None => true,
+                Some((s, _, _)) => sep > s + 1e-9 * scale,
+            };
+            if better {
+                best = Some((sep, owner, k));
+            }
+        }
+    }
+    let (_, owner, k) = best.expect("rectangles have faces");
+    let (a, va, b, vb) = if owner == 0 {
+        (i, &vi, j, &vj)
+    } else {
+        (j, &vj, i, &vi)
+    };
+    let n = face_normal(va, k);
+    let (p0, p1) = (va[k], va[(k + 1) % 4]);
+    // Incident face of B: most anti-parallel to n.
+    let m = (0..4)
+        .min_by(|&x, &y| dot(face_normal(vb, x), n).total_cmp(&dot(face_normal(vb, y), n)))
+        .unwrap();
+    let (q0, q1) = (vb[m], vb[(m + 1) % 4]);
+    let tan = sub(p1, p0);
+    let len2 = dot(tan, tan);
+    let tol = 1e-9;
+    let before = out.len();
+    // B's vertices over A's face.
+    for q in [q0, q1] {
+        let s = dot(sub(q, p0), tan) / len2;
+        if (-tol..=1.0 + tol).contains(&s) {
+            let gap = dot(n, sub(q, p0));
+            if reach(q, gap) {
+                out.push(ContactPoint {
+                    a: Some(a),
+                    b,
+                    point: q,
+                    normal: n,
+                    gap,
+                });
+            }
+        }
+    }
+    // A's face ends under B's face.
+    let d = sub(q1, q0);
+    let denom = cross(n, d);
+    if denom.abs() > 1e-12 * d.0.hypot(d.1) {
+        for p in [p0, p1] {
+            let lam = cross(sub(q0, p), d) / denom; // p + lam n lies on the line q0-q1
+            let hit = (p.0 + lam * n.0, p.1 + lam * n.1);
+            let s = dot(sub(hit, q0), d) / dot(d, d);
+            if s > tol && s < 1.0 - tol {
+                let dup = out[before..]
+                    .iter()
+                    .any(|c| (c.point.0 - p.0).abs() + (c.point.1 - p.1).abs() < 1e-9 * scale);
+                if !dup && reach(p, lam) {
+                    out.push(ContactPoint {
+                        a: Some(a),
+                        b,
+                        point: p,
+                        normal: n,
+                        gap: lam,
+                    });
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn narrower_block_on_wider_gives_its_two_bottom_corners() {
+        let lower = Rect { b: 0.625, h: 0.625 };
+        let upper = Rect { b: 0.5, h: 1.25 };
+        let pl = Pose {
+            x: 0.0,
+            z: 0.625,
+            phi: 0.0,
+        };
+        let pu = Pose {
+            x: 0.0,
+            z: 1.25 + 1.25,
+            phi: 0.0,
+        };
+        let mut out = Vec::new();
+        block_contacts(
+            (0, &lower, &pl),
+            (1, &upper, &pu),
+            &|_, g| g < 0.1,
+            &mut out,
+        );
+        assert_eq!(out.len(), 2);
+        for c in &out {
+            assert_eq!(c.a, Some(0));
+            assert!((c.normal.1 - 1.0).abs() < 1e-12);
+            assert!(c.gap.abs() < 1e-12);
+            assert!((c.point.0.abs() - 0.5).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn wider_block_on_narrower_uses_the_lower_corners() {
+        let lower = Rect { b: 0.5, h: 0.5 };
+        let upper = Rect { b: 1.0, h: 0.5 };
+        let pl = Pose {
+            x: 0.0,
+            z: 0.5,
+            phi: 0.0,
+        };
+        let pu = Pose {
+            x: 0.0,
+            z: 1.5 + 1e-3,
+            phi: 0.0,
+        };
+        let mut out = Vec::new();
+        block_contacts(
+            (0, &lower, &pl),
+            (1, &upper, &pu),
+            &|_, g| g < 0.1,
+            &mut out,
+        );
+        assert_eq!(out.len(), 2, "{out:?}");
+        for c in &out {
+            assert!((c.point.0.abs() - 0.5).abs() < 1e-12, "{c:?}");
+            assert!((c.gap - 1e-3).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn broad_phase_finds_only_touching_pairs() {
+        let r = Rect { b: 0.5, h: 0.5 };
+        let poses: Vec<Pose> = (0..5)
+            .map(|k| Pose {
+                x: 3.0 * k as f64,
+                z: 0.5,
+                phi: 0.0,
+            })
+            .chain(std::iter::once(Pose {
+                x: 0.0,
+                z: 1.5,
+                phi: 0.0,
+            }))
+            .collect();
+        let rects = vec![r; poses.len()];
+        let pairs = broad_phase(&rects, &poses, &|_| 0.01);
+        assert_eq!(pairs, vec![(0, 5)]);
+    }
+}

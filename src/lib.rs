@@ -1,0 +1,34 @@
+//! # rockbench
+//!
+//! Rigid-block rocking dynamics for museum artworks (a statue on its pedestal), computed with
+//! the contact-dynamics method of "Vulnerability assessment of monumental artworks using
+//! contact time-history analysis", and cross-checked against other engines.
+//!
+//! ## Units and sign conventions (stated once)
+//! SI units throughout; 2D plane motion, forces per metre of depth. `x` is horizontal, `z` up,
+//! rotations counter-clockwise positive. A positive rotation of a block on its support pivots
+//! on its left corner. A positive horizontal ground acceleration moves the ground towards +x
+//! (inertial force `-m a_x` on each block). Contact normals point from the body owning the
+//! face into the other body; gaps are positive when open (see [`geometry`]).
+//!
+//! ## The method (native engine)
+//! Each block has DOFs `q_i = [x_i, z_i, phi_i]` at its centroid and `M_i = diag(m, m, I)`.
+//! Contact points are vertex-face pairs re-detected from the geometry every step, with no
+//! tension and associative Coulomb friction: per point, `g0 + (nrow ± mu trow) dq >= 0`. The
+//! theta-method (`a = (v - v0)/dt`, `v = (dq/dt - (1 - theta) v0)/theta`) gives
+//! `Mbar dq + A c = fbar0` with `Mbar = M/(theta dt^2)`, `fbar0 = f + Mbar v0 dt`, solved each
+//! step as one of two dual QPs (displacement-based or force-based): see [`native::problem`].
+//!
+//! ## Layout
+//! [`scene`] (files, checks, initial layout) · [`excitation`] (pulses, records) ·
+//! [`geometry`] (contact detection) · [`native`] (the theta step and its QP solvers) ·
+//! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`].
+
+pub mod engines;
+pub mod events;
+pub mod excitation;
+pub mod geometry;
+pub mod native;
+pub mod scene;
+pub mod summary;
+pub mod trajectory;

@@ -1,0 +1,112 @@
+//! Assembly of the one-step problem: mass, contact rows and free forces.
+//!
+//! Relative displacement at a contact point p: `du = du_B(p) - du_A(p)` with
+//! `du_i(p) = (dx_i - dphi_i (p_z - z_i), dz_i + dphi_i (p_x - x_i))`; the rows are
+//! `nrow = d(n·du)/d(dq)` and `trow = d(t·du)/d(dq)`, `t = (n_z, -n_x)`.
+
+use super::problem::{ContactRows, SparseRow};
+use crate::geometry::{ContactPoint, Pose, Rect};
+use crate::scene::Scene;
+
+/// Bodies of a scene as the native engine sees them.
+#[derive(Debug, Clone)]
+pub struct Bodies {
+    pub rects: Vec<Rect>,
+    /// Diagonal of M: (m, m, I) per block.
+    pub mass: Vec<f64>,
+    /// Friction with the ground, per block.
+    pub ground_friction: Vec<f64>,
+    /// Friction with other blocks, keyed by the upper (higher-index) block.
+    pub block_friction: Vec<f64>,
+}
+
+impl Bodies {
+    pub fn of(scene: &Scene) -> Bodies {
+        let rects = scene
+            .blocks
+            .iter()
+            .map(|b| Rect {
+                b: b.width / 2.0,
+                h: b.height / 2.0,
+            })
+            .collect();
+        let mass = scene
+            .blocks
+            .iter()
+            .flat_map(|b| [b.mass(), b.mass(), b.inertia()])
+            .collect();
+        let fr: Vec<f64> = (0..scene.blocks.len())
+            .map(|i| scene.friction_below(i))
+            .collect();
+        Bodies {
+            rects,
+            mass,
+            ground_friction: fr.clone(),
+            block_friction: fr,
+        }
+    }
+    pub fn len(&self) -> usize {
+        self.rects.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.rects.is_empty()
+    }
+    pub fn friction(&self, c: &ContactPoint) -> f64 {
+        match c.a {
+            None => self.ground_friction[c.b],
+            Some(a) => self.block_friction[a.max(c.b)],
+        }
+    }
+}
+
+pub fn poses(q: &[f64]) -> Vec<Pose> {
+    q.chunks_exact(3)
+        .map(|c| Pose {
+            x: c[0],
+            z: c[1],
+            phi: c[2],
+        })
+        .collect()
+}
+
+/// Coefficients of `d·du_i(p)` on body i's DOFs for a direction d.
+fn body_terms(row: &mut SparseRow, i: usize, pose: &Pose, p: (f64, f64), d: (f64, f64), sign: f64) {
+    let rx = p.0 - pose.x;
+    let rz = p.1 - pose.z;
+    row.push((3 * i, sign * d.0));
+    row.push((3 * i + 1, sign * d.1));
+    row.push((3 * i + 2, sign * (-d.0 * rz + d.1 * rx)));
+}
+
+/// Rows of one contact point; `ground_step` is the ground's displacement over the step.
+pub fn contact_rows(
+    c: &ContactPoint,
+    poses: &[Pose],
+    mu: f64,
+    ground_step: (f64, f64),
+) -> ContactRows {
+    let n = c.normal;
+    let t = (n.1, -n.0);
+    let mut nrow = Vec::with_capacity(6);
+    let mut trow = Vec::with_capacity(6);
+    body_terms(&mut nrow, c.b, &poses[c.b], c.point, n, 1.0);
+    body_terms(&mut trow, c.b, &poses[c.b], c.point, t, 1.0);
+    let (g_n, g_t) = match c.a {
+        Some(a) => {
+            body_terms(&mut nrow, a, &poses[a], c.point, n, -1.0);
+            body_terms(&mut trow, a, &poses[a], c.point, t, -1.0);
+            (c.gap, 0.0)
+        }
+        None => (
+            c.gap - (n.0 * ground_step.0 + n.1 * ground_step.1),
+            -(t.0 * ground_step.0 + t.1 * ground_step.1),
+        ),
+    };
+    ContactRows {
+        mu,
+        g_n,
+        g_t,
+        nrow,
+        trow,
+    }
+}

@@ -1,0 +1,122 @@
+//! Settings of the native engine (`[native]` in a scene), with documented defaults.
+
+use crate::scene::SceneError;
+use serde::{Deserialize, Serialize};
+
+/// Which of the two dual QPs is solved each step. They give the same step.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Formulation {
+    /// Displacement-based QP in the increments `dq` (3 variables per block).
+    #[default]
+    Primal,
+    /// Force-based QP in the contact forces `(N, T)` (2 variables per contact point).
+    Dual,
+}
+
+/// Contact solver back-end.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum SolverKind {
+    /// Clarabel interior-point QP solver (the reference back-end).
+    #[default]
+    Clarabel,
+}
+
+fn d_theta() -> f64 {
+    0.7
+}
+fn d_dt() -> f64 {
+    1e-3
+}
+fn d_tol() -> f64 {
+    1e-10
+}
+fn d_max_iter() -> u32 {
+    200
+}
+fn d_reach() -> f64 {
+    0.25
+}
+
+/// `[native]` settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NativeSettings {
+    /// Theta of the time discretisation, in [0.5, 1] (default 0.7, the paper's value).
+    /// `v = (dq/dt - (1 - theta) v0) / theta`.
+    #[serde(default = "d_theta")]
+    pub theta: f64,
+    /// Time step, s (default 1e-3).
+    #[serde(default = "d_dt")]
+    pub dt: f64,
+    /// `primal` (displacement-based) or `dual` (force-based) QP (default primal).
+    #[serde(default)]
+    pub formulation: Formulation,
+    /// Contact solver back-end (default clarabel).
+    #[serde(default)]
+    pub solver: SolverKind,
+    /// Clarabel's absolute and relative duality-gap and feasibility tolerances on the scaled
+    /// problem (default 1e-10).
+    #[serde(default = "d_tol")]
+    pub tolerance: f64,
+    /// Interior-point iteration limit per step (default 200).
+    #[serde(default = "d_max_iter")]
+    pub max_iterations: u32,
+    /// Accept Clarabel's `AlmostSolved` (reduced accuracy) status (default false: such a step is
+    /// an error).
+    #[serde(default)]
+    pub accept_almost_solved: bool,
+    /// Contact points are kept in the problem while their gap is below this fraction of the
+    /// smaller dimension of the bodies involved, or below three times the distance their
+    /// closing speed covers in one step (default 0.25). Open points further away cannot close
+    /// within the step and are left out.
+    #[serde(default = "d_reach")]
+    pub contact_reach: f64,
+}
+
+impl Default for NativeSettings {
+    fn default() -> Self {
+        NativeSettings {
+            theta: d_theta(),
+            dt: d_dt(),
+            formulation: Formulation::default(),
+            solver: SolverKind::default(),
+            tolerance: d_tol(),
+            max_iterations: d_max_iter(),
+            accept_almost_solved: false,
+            contact_reach: d_reach(),
+        }
+    }
+}
+
+impl NativeSettings {
+    pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+        let e = |f: &str, m: String| Err(SceneError::new(file, format!("native.{f}"), m));
+        if !self.theta.is_finite() || !(0.5..=1.0).contains(&self.theta) {
+            return e("theta", format!("must be in [0.5, 1] (got {})", self.theta));
+        }
+        if !self.dt.is_finite() || self.dt <= 0.0 {
+            return e(
+                "dt",
+                format!("must be a positive number of seconds (got {})", self.dt),
+            );
+        }
+        if !self.tolerance.is_finite() || self.tolerance <= 0.0 || self.tolerance >= 1e-2 {
+            return e(
+                "tolerance",
+                format!("must be in (0, 1e-2) (got {})", self.tolerance),
+            );
+        }
+        if self.max_iterations == 0 {
+            return e("max_iterations", "must be at least 1".into());
+        }
+        if !self.contact_reach.is_finite() || self.contact_reach <= 0.0 {
+            return e(
+                "contact_reach",
+                format!("must be a positive fraction (got {})", self.contact_reach),
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,312 @@
+//! The reference back-end: Clarabel on the primal (displacement) or dual (force) QP.
+//!
+//! Scaling: raw `Mbar` is ~1e10 at dt = 1e-3, so the unknowns are velocities `u = dq/dt`
+//! and the objective is divided by `s = max(M)/theta`:
+//!
+//! ```text
+//! primal:  min 1/2 u' P u + q' u   s.t.  -(nrow ± mu trow) u <= (g_n ± mu g_t)/dt
+//!          P = M/(theta s),  q = -(dt f + M v0/theta)/s
+//! dual:    min 1/2 c' (H P^-1 H') c + (g/dt - H P^-1 q)' c   s.t. ±T - mu N <= 0
+//!          u = P^-1 (H'c - q)
+//! ```
+//!
+//! The scaled dual variables are `c dt / s`. Presolve is off; only `Solved` is accepted
+//! (`AlmostSolved` too when the settings allow it).
+
+use super::{ContactSolver, SolveFailure};
+use crate::native::problem::{StepProblem, StepSolution};
+use crate::native::settings::{Formulation, NativeSettings};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT,
+    SolverStatus,
+};
+use std::collections::BTreeMap;
+
+pub struct ClarabelSolver {
+    formulation: Formulation,
+    settings: DefaultSettings<f64>,
+    accept_almost: bool,
+}
+
+impl ClarabelSolver {
+    pub fn new(s: &NativeSettings) -> Self {
+        Self::with_formulation(s, s.formulation)
+    }
+
+    pub fn with_formulation(s: &NativeSettings, formulation: Formulation) -> Self {
+        let settings = DefaultSettingsBuilder::default()
+            .verbose(false)
+            .presolve_enable(false)
+            .tol_gap_abs(s.tolerance)
+            .tol_gap_rel(s.tolerance)
+            .tol_feas(s.tolerance)
+            .max_iter(s.max_iterations)
+            .build()
+            .expect("clarabel settings are valid");
+        ClarabelSolver {
+            formulation,
+            settings,
+            accept_almost: s.accept_almost_solved,
+        }
+    }
+
+    fn check(&self, status: SolverStatus) -> Result<(), SolveFailure> {
+        match status {
+            SolverStatus::Solved => Ok(()),
+            SolverStatus::AlmostSolved if self.accept_almost => Ok(()),
+            other => Err(SolveFailure {
+                solver: "clarabel",
+                status: format!("{other:?}"),
+            }),
+        }
+    }
+}
+
+/// Scaled primal data shared by both formulations.
+struct Scaled {
+    p: Vec<f64>,
+    q: Vec<f64>,
+    s: f64,
+}
+
+fn scaled(pr: &StepProblem) -> Scaled {
+    let n = pr.n_dof();
+    let s = pr.mass.iter().cloned().fold(0.0, f64::max) / pr.theta;
+    let p = pr.mass.iter().map(|m| m / (pr.theta * s)).collect();
+    let q = (0..n)
+        .map(|i| -(pr.dt * pr.force[i] + pr.mass[i] * pr.v0[i] / pr.theta) / s)
+        .collect();
+    Scaled { p, q, s }
+}
+
+/// Build a CSC matrix from (row, col) -> value entries.
+fn csc(m: usize, n: usize, entries: &BTreeMap<(usize, usize), f64>) -> CscMatrix<f64> {
+    let mut colptr = vec![0usize; n + 1];
+    let mut rowval = Vec::with_capacity(entries.len());
+    let mut nzval = Vec::with_capacity(entries.len());
+    // BTreeMap is ordered by (row, col); CSC needs column-major order.
+    let mut by_col: Vec<(usize, usize, f64)> =
+        entries.iter().map(|(&(r, c), &v)| (c, r, v)).collect();
+    by_col.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+    for &(c, r, v) in &by_col {
+        colptr[c + 1] += 1;
+        rowval.push(r);
+        nzval.push(v);
+    }
+    for c in 0..n {
+        colptr[c + 1] += colptr[c];
+    }
+    CscMatrix::new(m, n, colptr, rowval, nzval)
+}
+
+impl ClarabelSolver {
+    fn solve_primal(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let n = pr.n_dof();
+        let sc = scaled(pr);
+        let mut pe = BTreeMap::new();
+        for (i, &v) in sc.p.iter().enumerate() {
+            pe.insert((i, i), v);
+        }
+        let m = 2 * pr.contacts.len();
+        let mut ae = BTreeMap::new();
+        let mut b = Vec::with_capacity(m);
+        for (k, c) in pr.contacts.iter().enumerate() {
+            for (r, sign) in [(2 * k, 1.0), (2 * k + 1, -1.0)] {
+                for &(i, v) in &c.nrow {
+                    *ae.entry((r, i)).or_insert(0.0) -= v;
+                }
+                for &(i, v) in &c.trow {
+                    *ae.entry((r, i)).or_insert(0.0) -= sign * c.mu * v;
+                }
+                b.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
+            }
+        }
+        let p = csc(n, n, &pe);
+        let a = csc(m, n, &ae);
+        let cones = if m > 0 {
+            vec![NonnegativeConeT(m)]
+        } else {
+            vec![]
+        };
+        let mut solver = DefaultSolver::new(&p, &sc.q, &a, &b, &cones, self.settings.clone())
+            .map_err(|e| SolveFailure {
+                solver: "clarabel",
+                status: format!("setup failed: {e:?}"),
+            })?;
+        solver.solve();
+        self.check(solver.solution.status)?;
+        let dq: Vec<f64> = solver.solution.x.iter().map(|u| u * pr.dt).collect();
+        let zscale = sc.s / pr.dt;
+        let (mut normal, mut tangential) = (Vec::new(), Vec::new());
+        for (k, c) in pr.contacts.iter().enumerate() {
+            let (zp, zm) = (
+                solver.solution.z[2 * k] * zscale,
+                solver.solution.z[2 * k + 1] * zscale,
+            );
+            normal.push(zp + zm);
+            tangential.push(c.mu * (zp - zm));
+        }
+        Ok(StepSolution {
+            dq,
+            normal,
+            tangential,
+            iterations: solver.solution.iterations,
+        })
+    }
+
+    fn solve_dual(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let n = pr.n_dof();
+        let sc = scaled(pr);
+        let k = pr.contacts.len();
+        // Rows of H: 2k (N) and 2k+1 (T).
+        let mut rows: Vec<&Vec<(usize, f64)>> = Vec::with_capacity(2 * k);
+        for c in &pr.contacts {
+            rows.push(&c.nrow);
+            rows.push(&c.trow);
+        }
+        // Rows touching each DOF, for the sparse product H P^-1 H'.
+        let mut by_dof: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+        for (r, row) in rows.iter().enumerate() {
+            for &(i, v) in row.iter() {
+                by_dof[i].push((r, v));
+            }
+        }
+        let mut pe: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+        for (i, list) in by_dof.iter().enumerate() {
+            let w = 1.0 / sc.p[i];
+            for &(r1, v1) in list {
+                for &(r2, v2) in list {
+                    if r1 <= r2 {
+                        *pe.entry((r1, r2)).or_insert(0.0) += v1 * w * v2;
+                    }
+                }
+            }
+        }
+        let mut qd = vec![0.0; 2 * k];
+        for (r, row) in rows.iter().enumerate() {
+            qd[r] = -row.iter().map(|&(i, v)| v * sc.q[i] / sc.p[i]).sum::<f64>();
+        }
+        for (kk, c) in pr.contacts.iter().enumerate() {
+            qd[2 * kk] += c.g_n / pr.dt;
+            qd[2 * kk + 1] += c.g_t / pr.dt;
+        }
+        let mut ae = BTreeMap::new();
+        let mut b = Vec::with_capacity(2 * k);
+        for (kk, c) in pr.contacts.iter().enumerate() {
+            // T - mu N <= 0 ; -T - mu N <= 0
+            ae.insert((2 * kk, 2 * kk), -c.mu);
+            ae.insert((2 * kk, 2 * kk + 1), 1.0);
+            ae.insert((2 * kk + 1, 2 * kk), -c.mu);
+            ae.insert((2 * kk + 1, 2 * kk + 1), -1.0);
+            b.push(0.0);
+            b.push(0.0);
+        }
+        let p = csc(2 * k, 2 * k, &pe);
+        let a = csc(2 * k, 2 * k, &ae);
+        let cones = if k > 0 {
+            vec![NonnegativeConeT(2 * k)]
+        } else {
+            vec![]
+        };
+        let mut solver = DefaultSolver::new(&p, &qd, &a, &b, &cones, self.settings.clone())
+            .map_err(|e| SolveFailure {
+                solver: "clarabel",
+                status: format!("setup failed: {e:?}"),
+            })?;
+        solver.solve();
+        self.check(solver.solution.status)?;
+        let c = &solver.solution.x;
+        let mut u: Vec<f64> = sc.q.iter().map(|q| -q).collect();
+        for (r, row) in rows.iter().enumerate() {
+            for &(i, v) in row.iter() {
+                u[i] += v * c[r];
+            }
+        }
+        let dq = u
+            .iter()
+            .zip(&sc.p)
+            .map(|(ui, pi)| ui / pi * pr.dt)
+            .collect();
+        let fscale = sc.s / pr.dt;
+        Ok(StepSolution {
+            dq,
+            normal: (0..k).map(|kk| c[2 * kk] * fscale).collect(),
+            tangential: (0..k).map(|kk| c[2 * kk + 1] * fscale).collect(),
+            iterations: solver.solution.iterations,
+        })
+    }
+}
+
+impl ContactSolver for ClarabelSolver {
+    fn name(&self) -> &'static str {
+        match self.formulation {
+            Formulation::Primal => "clarabel-primal",
+            Formulation::Dual => "clarabel-dual",
+        }
+    }
+
+    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        match self.formulation {
+            Formulation::Primal => self.solve_primal(problem),
+            Formulation::Dual => self.solve_dual(problem),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::native::problem::ContactRows;
+
+    /// A point mass on the ground under gravity: the contact holds it, N = m g.
+    fn resting_mass() -> StepProblem {
+        StepProblem {
+            theta: 0.7,
+            dt: 1e-3,
+            mass: vec![2.0, 2.0, 1.0],
+            force: vec![0.0, -2.0 * 9.81, 0.0],
+            v0: vec![0.0; 3],
+            contacts: vec![ContactRows {
+                mu: 0.5,
+                g_n: 0.0,
+                g_t: 0.0,
+                nrow: vec![(1, 1.0)],
+                trow: vec![(0, 1.0)],
+            }],
+        }
+    }
+
+    #[test]
+    fn resting_mass_primal_and_dual_give_zero_increment_and_weight() {
+        for f in [Formulation::Primal, Formulation::Dual] {
+            let mut s = ClarabelSolver::with_formulation(&NativeSettings::default(), f);
+            let sol = s.solve(&resting_mass()).unwrap();
+            assert!(sol.dq.iter().all(|d| d.abs() < 1e-12), "{f:?} {:?}", sol.dq);
+            assert!(
+                (sol.normal[0] - 2.0 * 9.81).abs() < 1e-6,
+                "{f:?} N = {}",
+                sol.normal[0]
+            );
+            assert!(sol.tangential[0].abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn pushed_mass_slides_with_friction_force_mu_n() {
+        // A horizontal push of 3 m g exceeds mu m g: it slides, T = -mu N opposes it
+        // (associative law: it also lifts by mu |du_t|).
+        let mut pr = resting_mass();
+        pr.force[0] = 3.0 * 2.0 * 9.81;
+        for f in [Formulation::Primal, Formulation::Dual] {
+            let mut s = ClarabelSolver::with_formulation(&NativeSettings::default(), f);
+            let sol = s.solve(&pr).unwrap();
+            assert!(sol.dq[0] > 0.0);
+            assert!((sol.tangential[0] + 0.5 * sol.normal[0]).abs() < 1e-6 * sol.normal[0].abs());
+            assert!(
+                (sol.dq[1] - 0.5 * sol.dq[0]).abs() < 1e-12,
+                "dilatancy dz = mu dx"
+            );
+        }
+    }
+}

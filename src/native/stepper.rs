@@ -1,0 +1,262 @@
+//! One step of the theta-method (the paper's position-level scheme).
+//!
+//! From `(q0, v0)` at `t0`: detect contacts and gaps from the current geometry, assemble
+//! `Mbar dq + A c = fbar0`, solve the QP, then `v = (dq/dt - (1 - theta) v0)/theta`,
+//! `q = q0 + dq`.
+//!
+//! Ground motion is discretised once per step and shared by both routes, so that inertial
+//! forces and a moving ground give the same relative motion to round-off:
+//! - given as an acceleration: `a_eff = (V(t1) - V(t0))/dt` (exact mean acceleration),
+//!   ground velocity `w1 = w0 + dt a_eff`, ground increment `Δd = dt w0 + theta dt^2 a_eff`;
+//! - given as a displacement: `Δd = D(t1) - D(t0)` (exact), `w1 = (Δd/dt - (1-theta) w0)/theta`,
+//!   `a_eff = (w1 - w0)/dt`.
+//!
+//! Inertial route: coordinates relative to the ground, forces `-m a_eff`. Moving-ground route:
+//! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
+
+use super::assembly::{Bodies, contact_rows, poses};
+use super::problem::{StepProblem, StepSolution};
+use super::settings::NativeSettings;
+use super::solver::{ContactSolver, SolveFailure};
+use crate::excitation::{DefinedBy, GroundMotion};
+use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
+use crate::scene::AppliedAs;
+
+/// State of the native engine between steps.
+#[derive(Debug, Clone)]
+pub struct NativeState {
+    pub t: f64,
+    pub step: u64,
+    /// (x, z, phi) per block; absolute when the ground moves, relative to it otherwise.
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+    /// Discrete ground displacement and velocity (x, z).
+    pub ground_d: (f64, f64),
+    pub ground_w: (f64, f64),
+}
+
+/// Ground increment of one step.
+#[derive(Debug, Clone, Copy)]
+struct GroundStep {
+    dd: (f64, f64),
+    w1: (f64, f64),
+    a_eff: (f64, f64),
+}
+
+pub struct Stepper {
+    pub settings: NativeSettings,
+    pub bodies: Bodies,
+    gravity: f64,
+    motion: GroundMotion,
+    applied_as: AppliedAs,
+    solver: Box<dyn ContactSolver>,
+    /// Contacts of the last step (for inspection and tests).
+    pub last_contacts: Vec<ContactPoint>,
+    pub iterations: u64,
+}
+
+/// A step that could not be taken.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum StepError {
+    #[error("step {step} (t = {t:.6} s): contact solver failed: {failure}")]
+    Solver {
+        step: u64,
+        t: f64,
+        failure: SolveFailure,
+    },
+    #[error("step {step} (t = {t:.6} s): the state became non-finite")]
+    NonFinite { step: u64, t: f64 },
+}
+
+impl Stepper {
+    pub fn new(
+        settings: NativeSettings,
+        bodies: Bodies,
+        gravity: f64,
+        motion: GroundMotion,
+        applied_as: AppliedAs,
+        solver: Box<dyn ContactSolver>,
+    ) -> Self {
+        Stepper {
+            settings,
+            bodies,
+            gravity,
+            motion,
+            applied_as,
+            solver,
+            last_contacts: Vec::new(),
+            iterations: 0,
+        }
+    }
+
+    pub fn solver_name(&self) -> &'static str {
+        self.solver.name()
+    }
+
+    fn ground_step(&self, s: &NativeState) -> GroundStep {
+        let dt = self.settings.dt;
+        let th = self.settings.theta;
+        let (t0, t1) = (s.t, s.t + dt);
+        let comp = |c: Option<&crate::excitation::Component>, w0: f64| -> (f64, f64, f64) {
+            match c {
+                None => (0.0, w0, 0.0),
+                Some(c) if c.defined_by() == DefinedBy::Acceleration => {
+                    let a = (c.vel(t1) - c.vel(t0)) / dt;
+                    (dt * w0 + th * dt * dt * a, w0 + dt * a, a)
+                }
+                Some(c) => {
+                    let dd = c.disp(t1) - c.disp(t0);
+                    let w1 = (dd / dt - (1.0 - th) * w0) / th;
+                    (dd, w1, (w1 - w0) / dt)
+                }
+            }
+        };
+        let (dx, wx, ax) = comp(self.motion.horizontal.as_ref(), s.ground_w.0);
+        let (dz, wz, az) = comp(self.motion.vertical.as_ref(), s.ground_w.1);
+        GroundStep {
+            dd: (dx, dz),
+            w1: (wx, wz),
+            a_eff: (ax, az),
+        }
+    }
+
+    /// Contact points at the current geometry.
+    pub fn detect(&self, s: &NativeState) -> Vec<ContactPoint> {
+        let ps = poses(&s.q);
+        let dt = self.settings.dt;
+        let frac = self.settings.contact_reach;
+        let ground_z = match self.applied_as {
+            AppliedAs::MovingGround => s.ground_d.1,
+            AppliedAs::InertialForces => 0.0,
+        };
+        let ground_speed = match self.applied_as {
+            AppliedAs::MovingGround => s.ground_w.0.hypot(s.ground_w.1),
+            AppliedAs::InertialForces => 0.0,
+        };
+        let speed = |i: usize, p: (f64, f64)| -> f64 {
+            let (vx, vz, om) = (s.v[3 * i], s.v[3 * i + 1], s.v[3 * i + 2]);
+            let (rx, rz) = (p.0 - ps[i].x, p.1 - ps[i].z);
+            (vx - om * rz).hypot(vz + om * rx)
+        };
+        let mut out = Vec::new();
+        for (i, r) in self.bodies.rects.iter().enumerate() {
+            let lim = frac * r.min_dim();
+            let reach = |p: (f64, f64), gap: f64| {
+                gap < lim || gap < 3.0 * (speed(i, p) + ground_speed) * dt
+            };
+            ground_contacts(i, r, &ps[i], ground_z, &reach, &mut out);
+        }
+        let rects = &self.bodies.rects;
+        let margin =
+            |i: usize| frac * rects[i].min_dim() + 3.0 * s.v[3 * i].hypot(s.v[3 * i + 1]) * dt;
+        for (i, j) in broad_phase(rects, &ps, &margin) {
+            let lim = frac * rects[i].min_dim().min(rects[j].min_dim());
+            let reach =
+                |p: (f64, f64), gap: f64| gap < lim || gap < 3.0 * (speed(i, p) + speed(j, p)) * dt;
+            block_contacts(
+                (i, &rects[i], &ps[i]),
+                (j, &rects[j], &ps[j]),
+                &reach,
+                &mut out,
+            );
+        }
+        out
+    }
+
+    /// Build the problem of the next step (also returns the ground increment).
+    fn problem(&self, s: &NativeState, contacts: &[ContactPoint]) -> (StepProblem, GroundStep) {
+        let g = self.ground_step(s);
+        let ps = poses(&s.q);
+        let n = self.bodies.len();
+        let (ax, az) = match self.applied_as {
+            AppliedAs::InertialForces => g.a_eff,
+            AppliedAs::MovingGround => (0.0, 0.0),
+        };
+        let mut force = vec![0.0; 3 * n];
+        for i in 0..n {
+            let m = self.bodies.mass[3 * i];
+            force[3 * i] = -m * ax;
+            force[3 * i + 1] = -m * (self.gravity + az);
+        }
+        let ground_step = match self.applied_as {
+            AppliedAs::MovingGround => g.dd,
+            AppliedAs::InertialForces => (0.0, 0.0),
+        };
+        let rows = contacts
+            .iter()
+            .map(|c| contact_rows(c, &ps, self.bodies.friction(c), ground_step))
+            .collect();
+        (
+            StepProblem {
+                theta: self.settings.theta,
+                dt: self.settings.dt,
+                mass: self.bodies.mass.clone(),
+                force,
+                v0: s.v.clone(),
+                contacts: rows,
+            },
+            g,
+        )
+    }
+
+    /// The problem the next step would solve (for replay and cross-checks).
+    pub fn next_problem(&self, s: &NativeState) -> StepProblem {
+        let c = self.detect(s);
+        self.problem(s, &c).0
+    }
+
+    /// Advance one step.
+    pub fn step(&mut self, s: &mut NativeState) -> Result<StepSolution, StepError> {
+        let contacts = self.detect(s);
+        let (pr, g) = self.problem(s, &contacts);
+        let sol = self
+            .solver
+            .solve(&pr)
+            .map_err(|failure| StepError::Solver {
+                step: s.step + 1,
+                t: s.t,
+                failure,
+            })?;
+        let dt = self.settings.dt;
+        let th = self.settings.theta;
+        for i in 0..s.q.len() {
+            let v = (sol.dq[i] / dt - (1.0 - th) * s.v[i]) / th;
+            s.v[i] = v;
+            s.q[i] += sol.dq[i];
+        }
+        s.ground_d.0 += g.dd.0;
+        s.ground_d.1 += g.dd.1;
+        s.ground_w = g.w1;
+        s.t += dt;
+        s.step += 1;
+        self.iterations += sol.iterations as u64;
+        self.last_contacts = contacts;
+        if !s.q.iter().chain(&s.v).all(|x| x.is_finite()) {
+            return Err(StepError::NonFinite {
+                step: s.step,
+                t: s.t,
+            });
+        }
+        Ok(sol)
+    }
+
+    /// Block states relative to the ground: (x, z, phi, vx, vz, omega) per block.
+    pub fn relative_states(&self, s: &NativeState) -> Vec<[f64; 6]> {
+        let (dx, dz, wx, wz) = match self.applied_as {
+            AppliedAs::MovingGround => (s.ground_d.0, s.ground_d.1, s.ground_w.0, s.ground_w.1),
+            AppliedAs::InertialForces => (0.0, 0.0, 0.0, 0.0),
+        };
+        (0..self.bodies.len())
+            .map(|i| {
+                [
+                    s.q[3 * i] - dx,
+                    s.q[3 * i + 1] - dz,
+                    s.q[3 * i + 2],
+                    s.v[3 * i] - wx,
+                    s.v[3 * i + 1] - wz,
+                    s.v[3 * i + 2],
+                ]
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,188 @@
+//! The initial configuration of a scene: where each block is, what it rests on, and how it
+//! moves at t = 0.
+//!
+//! Blocks are first placed upright (bottom to top), then each is rotated by its relative
+//! `rotation` about its pivot corner on its support (left corner for a positive,
+//! counter-clockwise rotation), composed up the stack, and finally the whole assembly is
+//! rotated rigidly by `tilt` about the bottom block's pivot corner.
+
+use super::Scene;
+use serde::{Deserialize, Serialize};
+
+/// Position and velocity of one block's centroid: `x`, `z` (m), `phi` (rad, counter-clockwise),
+/// and their rates.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct BlockState {
+    pub x: f64,
+    pub z: f64,
+    pub phi: f64,
+    pub vx: f64,
+    pub vz: f64,
+    pub omega: f64,
+}
+
+/// Initial configuration of a scene.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// Initial state of every block (same order as the scene).
+    pub blocks: Vec<BlockState>,
+    /// The body each block rests on initially: `None` is the ground.
+    pub supports: Vec<Option<usize>>,
+    /// Upright centre of each block before any rotation.
+    pub upright: Vec<(f64, f64)>,
+    /// Pivot corner (world, upright coordinates) of each block's relative rotation.
+    pub pivots: Vec<(f64, f64)>,
+}
+
+/// A rigid motion of the plane: `p -> R(angle) p + t`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Rigid {
+    pub angle: f64,
+    pub t: (f64, f64),
+}
+
+impl Rigid {
+    pub const IDENTITY: Rigid = Rigid {
+        angle: 0.0,
+        t: (0.0, 0.0),
+    };
+    /// Rotation by `angle` about point `c`.
+    pub fn about(c: (f64, f64), angle: f64) -> Rigid {
+        let (s, co) = angle.sin_cos();
+        Rigid {
+            angle,
+            t: (c.0 - (co * c.0 - s * c.1), c.1 - (s * c.0 + co * c.1)),
+        }
+    }
+    pub fn apply(&self, p: (f64, f64)) -> (f64, f64) {
+        let (s, c) = self.angle.sin_cos();
+        (c * p.0 - s * p.1 + self.t.0, s * p.0 + c * p.1 + self.t.1)
+    }
+    /// `self ∘ other`.
+    pub fn then_after(&self, other: &Rigid) -> Rigid {
+        let t = self.apply(other.t);
+        Rigid {
+            angle: self.angle + other.angle,
+            t,
+        }
+    }
+}
+
+/// Horizontal overlap length of two intervals.
+pub(crate) fn overlap(a: (f64, f64), b: (f64, f64)) -> f64 {
+    (a.1.min(b.1) - a.0.max(b.0)).max(0.0)
+}
+
+impl Layout {
+    pub fn of(scene: &Scene) -> Layout {
+        let n = scene.blocks.len();
+        let mut upright = Vec::with_capacity(n);
+        let mut supports = Vec::with_capacity(n);
+        for (i, b) in scene.blocks.iter().enumerate() {
+            let (x, bottom, support) = match b.x {
+                None if i == 0 => (b.offset, 0.0, None),
+                None => {
+                    let (xb, zb): (f64, f64) = upright[i - 1];
+                    let top = zb + scene.blocks[i - 1].height / 2.0;
+                    (xb + b.offset, top, Some(i - 1))
+                }
+                Some(x) => {
+                    let span = (x - b.width / 2.0, x + b.width / 2.0);
+                    let mut best: (f64, Option<usize>, f64) = (0.0, None, 0.0);
+                    for j in 0..i {
+                        let (xj, zj): (f64, f64) = upright[j];
+                        let bj = &scene.blocks[j];
+                        let ov = overlap(span, (xj - bj.width / 2.0, xj + bj.width / 2.0));
+                        if ov <= 0.0 {
+                            continue;
+                        }
+                        let top = zj + bj.height / 2.0;
+                        if top > best.0 + 1e-12 || (top > best.0 - 1e-12 && ov > best.2) {
+                            best = (top, Some(j), ov);
+                        }
+                    }
+                    (x, best.0, best.1)
+                }
+            };
+            upright.push((x, bottom + b.height / 2.0));
+            supports.push(support);
+        }
+
+        // Relative rotations, composed bottom-up; the pivot is the support's-top corner on the
+        // side of the rotation (left for positive).
+        let init = |i: usize| scene.initial.blocks.get(&scene.blocks[i].name);
+        let mut maps: Vec<Rigid> = Vec::with_capacity(n);
+        let mut pivots = Vec::with_capacity(n);
+        for i in 0..n {
+            let b = &scene.blocks[i];
+            let (x, z) = upright[i];
+            let bottom = z - b.height / 2.0;
+            let rel = init(i).map(|s| s.rotation).unwrap_or(0.0);
+            let omega = init(i).map(|s| s.omega).unwrap_or(0.0);
+            let total_for_sign = if i == 0 {
+                rel + scene.initial.tilt
+            } else {
+                rel
+            };
+            let sign = if total_for_sign != 0.0 {
+                total_for_sign.signum()
+            } else if omega != 0.0 {
+                omega.signum()
+            } else {
+                1.0
+            };
+            let (lo, hi) = match supports[i] {
+                None => (x - b.width / 2.0, x + b.width / 2.0),
+                Some(s) => {
+                    let (xs, _) = upright[s];
+                    let ws = scene.blocks[s].width;
+                    (
+                        (x - b.width / 2.0).max(xs - ws / 2.0),
+                        (x + b.width / 2.0).min(xs + ws / 2.0),
+                    )
+                }
+            };
+            let pivot = (if sign > 0.0 { lo } else { hi }, bottom);
+            pivots.push(pivot);
+            let base = supports[i].map(|s| maps[s]).unwrap_or(Rigid::IDENTITY);
+            maps.push(base.then_after(&Rigid::about(pivot, rel)));
+        }
+        let tilt = Rigid::about(pivots[0], scene.initial.tilt);
+        let maps: Vec<Rigid> = maps.iter().map(|m| tilt.then_after(m)).collect();
+
+        // Velocities: each block adds its relative angular velocity about its (current) pivot
+        // and its sliding velocity along its support's top face.
+        let mut blocks: Vec<BlockState> = Vec::with_capacity(n);
+        for i in 0..n {
+            let (cx, cz) = maps[i].apply(upright[i]);
+            let s = init(i).cloned().unwrap_or_default();
+            let (mut vx, mut vz, mut om) = (0.0, 0.0, 0.0);
+            let mut support_angle = 0.0;
+            if let Some(sp) = supports[i] {
+                let p = &blocks[sp];
+                om = p.omega;
+                vx = p.vx - p.omega * (cz - p.z);
+                vz = p.vz + p.omega * (cx - p.x);
+                support_angle = p.phi;
+            }
+            let piv = maps[i].apply(pivots[i]);
+            vx += -s.omega * (cz - piv.1) + s.vx * support_angle.cos();
+            vz += s.omega * (cx - piv.0) + s.vx * support_angle.sin();
+            om += s.omega;
+            blocks.push(BlockState {
+                x: cx,
+                z: cz,
+                phi: maps[i].angle,
+                vx,
+                vz,
+                omega: om,
+            });
+        }
+        Layout {
+            blocks,
+            supports,
+            upright,
+            pivots,
+        }
+    }
+}

@@ -1,0 +1,303 @@
+//! Field-by-field checks of a parsed scene. Each failure is one line naming the field.
+
+use super::layout::{Layout, overlap};
+use super::{MotionSpec, Scene, SceneError};
+use std::collections::BTreeSet;
+
+pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
+    let file = scene.source.as_str();
+    let err = |field: String, msg: String| Err(SceneError::new(file, field, msg));
+    let positive = |field: &str, v: f64| -> Result<(), SceneError> {
+        if !v.is_finite() || v <= 0.0 {
+            return Err(SceneError::new(
+                file,
+                field,
+                format!("must be a positive number (got {v})"),
+            ));
+        }
+        Ok(())
+    };
+    let finite = |field: &str, v: f64| -> Result<(), SceneError> {
+        if !v.is_finite() {
+            return Err(SceneError::new(
+                file,
+                field,
+                format!("must be finite (got {v})"),
+            ));
+        }
+        Ok(())
+    };
+
+    if scene.name.trim().is_empty() {
+        return err("name".into(), "must not be empty".into());
+    }
+    positive("duration", scene.duration)?;
+    positive("gravity", scene.gravity)?;
+    positive("output_interval", scene.output_interval)?;
+    if scene.blocks.is_empty() {
+        return err(
+            "blocks".into(),
+            "at least one [[blocks]] entry is required".into(),
+        );
+    }
+    let mut names = BTreeSet::new();
+    for (i, b) in scene.blocks.iter().enumerate() {
+        let f = |k: &str| format!("blocks[{i}].{k}");
+        if b.name.trim().is_empty() {
+            return err(f("name"), "must not be empty".into());
+        }
+        if !names.insert(b.name.as_str()) {
+            return err(f("name"), format!("duplicate block name `{}`", b.name));
+        }
+        positive(&f("width"), b.width)?;
+        positive(&f("height"), b.height)?;
+        positive(&f("density"), b.density)?;
+        finite(&f("offset"), b.offset)?;
+        if let Some(x) = b.x {
+            finite(&f("x"), x)?;
+            if b.offset != 0.0 {
+                return err(f("offset"), "give either `x` or `offset`, not both".into());
+            }
+        }
+    }
+
+    // Initial state.
+    finite("initial.tilt", scene.initial.tilt)?;
+    for (name, s) in &scene.initial.blocks {
+        let f = |k: &str| format!("initial.blocks.{name}.{k}");
+        if scene.index_of(name).is_none() {
+            return err(
+                format!("initial.blocks.{name}"),
+                format!("there is no block named `{name}`"),
+            );
+        }
+        finite(&f("rotation"), s.rotation)?;
+        finite(&f("omega"), s.omega)?;
+        finite(&f("vx"), s.vx)?;
+        if s.rotation.abs() >= std::f64::consts::FRAC_PI_2 {
+            return err(
+                f("rotation"),
+                format!("|rotation| must be below pi/2 (got {})", s.rotation),
+            );
+        }
+    }
+    if scene.initial.tilt.abs() >= std::f64::consts::FRAC_PI_2 {
+        return err(
+            "initial.tilt".into(),
+            format!("|tilt| must be below pi/2 (got {})", scene.initial.tilt),
+        );
+    }
+
+    // Contact.
+    let friction_ok = |field: &str, mu: f64| -> Result<(), SceneError> {
+        if !mu.is_finite() || mu < 0.0 {
+            return Err(SceneError::new(
+                file,
+                field,
+                format!("must be a non-negative number (got {mu})"),
+            ));
+        }
+        Ok(())
+    };
+    friction_ok("contact.friction", scene.contact.friction)?;
+    for (name, s) in &scene.contact.interfaces {
+        if scene.index_of(name).is_none() {
+            return err(
+                format!("contact.interfaces.{name}"),
+                format!(
+                    "there is no block named `{name}` (interfaces are keyed by their upper block)"
+                ),
+            );
+        }
+        friction_ok(&format!("contact.interfaces.{name}.friction"), s.friction)?;
+    }
+
+    // Geometry: every block rests on something, nothing overlaps, nothing starts past
+    // overturning.
+    let layout = Layout::of(scene);
+    for i in 1..scene.blocks.len() {
+        let b = &scene.blocks[i];
+        if b.x.is_none() {
+            let below = &scene.blocks[i - 1];
+            let (xb, _) = layout.upright[i - 1];
+            let (x, _) = layout.upright[i];
+            let ov = overlap(
+                (x - b.width / 2.0, x + b.width / 2.0),
+                (xb - below.width / 2.0, xb + below.width / 2.0),
+            );
+            if ov <= 1e-9 * b.width.max(below.width) {
+                return err(
+                    format!("blocks[{i}].offset"),
+                    format!(
+                        "block `{}` does not rest on block `{}` (offset {} leaves no overlap)",
+                        b.name, below.name, b.offset
+                    ),
+                );
+            }
+        }
+    }
+    for i in 0..scene.blocks.len() {
+        for j in 0..i {
+            let (bi, bj) = (&scene.blocks[i], &scene.blocks[j]);
+            let (xi, zi) = layout.upright[i];
+            let (xj, zj) = layout.upright[j];
+            let ox = overlap(
+                (xi - bi.width / 2.0, xi + bi.width / 2.0),
+                (xj - bj.width / 2.0, xj + bj.width / 2.0),
+            );
+            let oz = overlap(
+                (zi - bi.height / 2.0, zi + bi.height / 2.0),
+                (zj - bj.height / 2.0, zj + bj.height / 2.0),
+            );
+            let tol = 1e-9 * (bi.width + bi.height + bj.width + bj.height);
+            if ox > tol && oz > tol {
+                return err(
+                    format!("blocks[{i}]"),
+                    format!("block `{}` overlaps block `{}`", bi.name, bj.name),
+                );
+            }
+        }
+    }
+    check_overturning(scene, &layout)?;
+
+    // Excitation.
+    if let Some(exc) = &scene.excitation {
+        for (comp, m) in [("horizontal", &exc.horizontal), ("vertical", &exc.vertical)] {
+            let Some(m) = m else { continue };
+            let f = |k: &str| format!("excitation.{comp}.{k}");
+            match m {
+                MotionSpec::HalfSine {
+                    amplitude,
+                    duration,
+                    period,
+                    start,
+                }
+                | MotionSpec::OneSine {
+                    amplitude,
+                    duration,
+                    period,
+                    start,
+                } => {
+                    finite(&f("amplitude"), *amplitude)?;
+                    finite(&f("start"), *start)?;
+                    match (duration, period) {
+                        (Some(d), None) => positive(&f("duration"), *d)?,
+                        (None, Some(p)) => positive(&f("period"), *p)?,
+                        _ => {
+                            return err(
+                                format!("excitation.{comp}"),
+                                "give exactly one of `duration` or `period`".into(),
+                            );
+                        }
+                    }
+                }
+                MotionSpec::Rectangular {
+                    amplitude,
+                    duration,
+                    start,
+                } => {
+                    finite(&f("amplitude"), *amplitude)?;
+                    finite(&f("start"), *start)?;
+                    positive(&f("duration"), *duration)?;
+                }
+                MotionSpec::Record { scale, .. } | MotionSpec::Displacement { scale, .. } => {
+                    finite(&f("scale"), *scale)?;
+                }
+            }
+        }
+        // Loading checks the record files themselves.
+        crate::excitation::GroundMotion::from_scene(scene)?;
+    }
+
+    scene.native.validate(file)?;
+    positive("housner.max_step", scene.housner.max_step)?;
+    positive("housner.event_tolerance", scene.housner.event_tolerance)?;
+    if let Some(r) = scene.housner.restitution {
+        if !r.is_finite() || !(0.0..=1.0).contains(&r) {
+            return err(
+                "housner.restitution".into(),
+                format!("must be in [0, 1] (got {r})"),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A block (with everything it carries) whose centre of mass lies beyond its pivot corner
+/// would overturn at once: refuse the initial rotation that puts it there.
+fn check_overturning(scene: &Scene, layout: &Layout) -> Result<(), SceneError> {
+    let n = scene.blocks.len();
+    // Blocks carried by block i: i and everything whose support chain reaches i.
+    let carried = |i: usize| -> Vec<usize> {
+        (0..n)
+            .filter(|&j| {
+                let mut k = Some(j);
+                while let Some(kk) = k {
+                    if kk == i {
+                        return true;
+                    }
+                    k = layout.supports[kk];
+                }
+                false
+            })
+            .collect()
+    };
+    for i in 0..n {
+        let rel = scene
+            .initial
+            .blocks
+            .get(&scene.blocks[i].name)
+            .map(|s| s.rotation)
+            .unwrap_or(0.0)
+            + if i == 0 { scene.initial.tilt } else { 0.0 };
+        if rel == 0.0 {
+            continue;
+        }
+        // In the support's frame the block is rotated by `rel` about its pivot; compare the
+        // carried centre of mass with the pivot, both in final coordinates rotated back by the
+        // support's angle.
+        let support_angle = layout.supports[i]
+            .map(|s| layout.blocks[s].phi)
+            .unwrap_or(0.0);
+        let group = carried(i);
+        let mass: f64 = group.iter().map(|&j| scene.blocks[j].mass()).sum();
+        let com_x: f64 = group
+            .iter()
+            .map(|&j| scene.blocks[j].mass() * layout.blocks[j].x)
+            .sum::<f64>()
+            / mass;
+        let com_z: f64 = group
+            .iter()
+            .map(|&j| scene.blocks[j].mass() * layout.blocks[j].z)
+            .sum::<f64>()
+            / mass;
+        // Pivot in final coordinates: the block's pivot corner moved with the block.
+        let b = &scene.blocks[i];
+        let (ux, uz) = layout.upright[i];
+        let (px, pz) = layout.pivots[i];
+        let (s, c) = layout.blocks[i].phi.sin_cos();
+        let (dx, dz) = (px - ux, pz - uz);
+        let pivot = (
+            layout.blocks[i].x + c * dx - s * dz,
+            layout.blocks[i].z + s * dx + c * dz,
+        );
+        let (ss, cs) = support_angle.sin_cos();
+        let arm = cs * (com_x - pivot.0) + ss * (com_z - pivot.1);
+        if arm * rel.signum() <= 0.0 {
+            let field = if i == 0 && scene.initial.tilt != 0.0 {
+                "initial.tilt".to_string()
+            } else {
+                format!("initial.blocks.{}.rotation", b.name)
+            };
+            return Err(SceneError::new(
+                &scene.source,
+                field,
+                format!(
+                    "rotation {rel} rad puts the centre of mass of `{}` and what it carries past its pivot corner: the stack would start overturning",
+                    b.name
+                ),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,190 @@
+//! The common output of every engine: sampled block states.
+//!
+//! `trajectory.csv` has a column `t` (s), then for every block `<name>_x`, `<name>_z`
+//! (centroid, m, relative to the ground's current position), `<name>_phi` (rad,
+//! counter-clockwise), `<name>_vx`, `<name>_vz` (m/s) and `<name>_omega` (rad/s).
+
+use std::io::Write;
+use std::path::Path;
+
+/// The sampled history of one block.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BlockHistory {
+    pub name: String,
+    pub x: Vec<f64>,
+    pub z: Vec<f64>,
+    pub phi: Vec<f64>,
+    pub vx: Vec<f64>,
+    pub vz: Vec<f64>,
+    pub omega: Vec<f64>,
+}
+
+/// Sample times and block histories.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trajectory {
+    pub t: Vec<f64>,
+    pub blocks: Vec<BlockHistory>,
+}
+
+pub const FIELDS: [&str; 6] = ["x", "z", "phi", "vx", "vz", "omega"];
+
+impl Trajectory {
+    pub fn new(names: &[String]) -> Self {
+        Trajectory {
+            t: Vec::new(),
+            blocks: names
+                .iter()
+                .map(|n| BlockHistory {
+                    name: n.clone(),
+                    ..Default::default()
+                })
+                .collect(),
+        }
+    }
+
+    /// Append one sample: `(x, z, phi, vx, vz, omega)` per block.
+    pub fn push(&mut self, t: f64, states: &[[f64; 6]]) {
+        self.t.push(t);
+        for (b, s) in self.blocks.iter_mut().zip(states) {
+            b.x.push(s[0]);
+            b.z.push(s[1]);
+            b.phi.push(s[2]);
+            b.vx.push(s[3]);
+            b.vz.push(s[4]);
+            b.omega.push(s[5]);
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    pub fn block(&self, name: &str) -> Option<&BlockHistory> {
+        self.blocks.iter().find(|b| b.name == name)
+    }
+
+    /// True when every value is finite.
+    pub fn is_finite(&self) -> bool {
+        self.t.iter().all(|x| x.is_finite())
+            && self.blocks.iter().all(|b| {
+                [&b.x, &b.z, &b.phi, &b.vx, &b.vz, &b.omega]
+                    .iter()
+                    .all(|v| v.iter().all(|x| x.is_finite()))
+            })
+    }
+
+    pub fn header(&self) -> Vec<String> {
+        let mut h = vec!["t".to_string()];
+        for b in &self.blocks {
+            for f in FIELDS {
+                h.push(format!("{}_{f}", b.name));
+            }
+        }
+        h
+    }
+
+    pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+        writeln!(w, "{}", self.header().join(","))?;
+        for k in 0..self.t.len() {
+            write!(w, "{:e}", self.t[k])?;
+            for b in &self.blocks {
+                for v in [b.x[k], b.z[k], b.phi[k], b.vx[k], b.vz[k], b.omega[k]] {
+                    write!(w, ",{v:e}")?;
+                }
+            }
+            writeln!(w)?;
+        }
+        w.flush()
+    }
+
+    /// Read a `trajectory.csv` (as written by any engine). Errors name the line.
+    pub fn read_csv(path: &Path) -> Result<Trajectory, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        Self::parse_csv(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    pub fn parse_csv(text: &str) -> Result<Trajectory, String> {
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines
+            .next()
+            .ok_or("empty trajectory file")?
+            .split(',')
+            .map(str::trim)
+            .collect();
+        if header.first() != Some(&"t") || (header.len() - 1) % 6 != 0 || header.len() < 7 {
+            return Err("header must be `t` then six columns per block".into());
+        }
+        let mut names = Vec::new();
+        for chunk in header[1..].chunks(6) {
+            let name = chunk[0]
+                .strip_suffix("_x")
+                .ok_or_else(|| format!("column `{}` should end in _x", chunk[0]))?;
+            for (c, f) in chunk.iter().zip(FIELDS) {
+                if *c != format!("{name}_{f}") {
+                    return Err(format!("column `{c}` should be `{name}_{f}`"));
+                }
+            }
+            names.push(name.to_string());
+        }
+        let mut tr = Trajectory::new(&names);
+        for (ln, line) in lines.enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let vals: Result<Vec<f64>, _> =
+                line.split(',').map(|s| s.trim().parse::<f64>()).collect();
+            let vals = vals.map_err(|e| format!("line {}: {e}", ln + 2))?;
+            if vals.len() != header.len() {
+                return Err(format!(
+                    "line {}: {} values, header has {}",
+                    ln + 2,
+                    vals.len(),
+                    header.len()
+                ));
+            }
+            let states: Vec<[f64; 6]> = vals[1..]
+                .chunks(6)
+                .map(|c| [c[0], c[1], c[2], c[3], c[4], c[5]])
+                .collect();
+            tr.push(vals[0], &states);
+        }
+        if tr.is_empty() {
+            return Err("no samples".into());
+        }
+        Ok(tr)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_round_trip_is_exact() {
+        let mut tr = Trajectory::new(&["a".to_string(), "b".to_string()]);
+        tr.push(
+            0.0,
+            &[
+                [1.0, 2.0, 0.1, 0.0, 0.0, 0.0],
+                [0.1, 0.2, 0.3, 0.4, 0.5, 0.6],
+            ],
+        );
+        tr.push(
+            1e-3,
+            &[
+                [1.0 / 3.0, 2.0, -0.1, 1e-300, 0.0, 3.0],
+                [0.1, 0.2, 0.3, 0.4, 0.5, 0.6],
+            ],
+        );
+        let dir = std::env::temp_dir().join(format!("rb-traj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("t.csv");
+        tr.write_csv(&p).unwrap();
+        assert_eq!(Trajectory::read_csv(&p).unwrap(), tr);
+    }
+}
