@@ -24,11 +24,13 @@
 //! [`geometry`] (contact detection) · [`native`] (the theta step and its QP solvers) ·
 //! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`].
 
+pub mod cli;
 pub mod engines;
 pub mod events;
 pub mod excitation;
 pub mod geometry;
 pub mod native;
+
 pub mod scene;
 pub mod summary;
 pub mod trajectory;
