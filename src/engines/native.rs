@@ -50,7 +50,10 @@ impl Engine for NativeEngine {
             steps: n_steps,
             solver_iterations: Some(stepper.iterations),
             exact_impacts: None,
-            notes: Vec::new(),
+            notes: vec![format!(
+                "{} of {} steps polished on their active set",
+                stepper.polished_steps, n_steps
+            )],
         })
     }
 }

@@ -75,4 +75,6 @@ pub struct StepSolution {
     pub tangential: Vec<f64>,
     /// Solver iterations used.
     pub iterations: u32,
+    /// Whether the solution was polished on its active set.
+    pub polished: bool,
 }

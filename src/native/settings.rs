@@ -73,6 +73,14 @@ pub struct NativeSettings {
     /// within the step and are left out.
     #[serde(default = "d_reach")]
     pub contact_reach: f64,
+    /// Polish each interior-point solution on its active set (default true): takes the step
+    /// from the solver tolerance to round-off. See `native::solver::polish`.
+    #[serde(default = "d_true")]
+    pub polish: bool,
+}
+
+fn d_true() -> bool {
+    true
 }
 
 impl Default for NativeSettings {
@@ -86,6 +94,7 @@ impl Default for NativeSettings {
             max_iterations: d_max_iter(),
             accept_almost_solved: false,
             contact_reach: d_reach(),
+            polish: true,
         }
     }
 }

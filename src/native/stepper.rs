@@ -53,6 +53,8 @@ pub struct Stepper {
     /// Contacts of the last step (for inspection and tests).
     pub last_contacts: Vec<ContactPoint>,
     pub iterations: u64,
+    /// Steps whose solution was polished on its active set.
+    pub polished_steps: u64,
 }
 
 /// A step that could not be taken.
@@ -86,6 +88,7 @@ impl Stepper {
             solver,
             last_contacts: Vec::new(),
             iterations: 0,
+            polished_steps: 0,
         }
     }
 
@@ -230,6 +233,7 @@ impl Stepper {
         s.t += dt;
         s.step += 1;
         self.iterations += sol.iterations as u64;
+        self.polished_steps += sol.polished as u64;
         self.last_contacts = contacts;
         if !s.q.iter().chain(&s.v).all(|x| x.is_finite()) {
             return Err(StepError::NonFinite {

@@ -11,9 +11,11 @@
 //! ```
 //!
 //! The scaled dual variables are `c dt / s`. Presolve is off; only `Solved` is accepted
-//! (`AlmostSolved` too when the settings allow it).
+//! (`AlmostSolved` too when the settings allow it). The solution is then polished on its
+//! active set (see [`super::polish`]) unless `native.polish = false`.
 
-use super::{ContactSolver, SolveFailure};
+use super::{polish, ContactSolver, SolveFailure};
+use crate::native::problem::SparseRow;
 use crate::native::problem::{StepProblem, StepSolution};
 use crate::native::settings::{Formulation, NativeSettings};
 use clarabel::algebra::CscMatrix;
@@ -27,6 +29,7 @@ pub struct ClarabelSolver {
     formulation: Formulation,
     settings: DefaultSettings<f64>,
     accept_almost: bool,
+    polish: bool,
 }
 
 impl ClarabelSolver {
@@ -48,6 +51,7 @@ impl ClarabelSolver {
             formulation,
             settings,
             accept_almost: s.accept_almost_solved,
+            polish: s.polish,
         }
     }
 
@@ -100,7 +104,37 @@ fn csc(m: usize, n: usize, entries: &BTreeMap<(usize, usize), f64>) -> CscMatrix
     CscMatrix::new(m, n, colptr, rowval, nzval)
 }
 
+/// The primal rows `(nrow ± mu trow)` and offsets `(g_n ± mu g_t)/dt`, two per contact.
+fn edge_rows(pr: &StepProblem) -> (Vec<SparseRow>, Vec<f64>) {
+    let mut rows = Vec::with_capacity(2 * pr.contacts.len());
+    let mut r = Vec::with_capacity(2 * pr.contacts.len());
+    for c in &pr.contacts {
+        for sign in [1.0, -1.0] {
+            let mut row: SparseRow = c.nrow.clone();
+            row.extend(c.trow.iter().map(|&(i, v)| (i, sign * c.mu * v)));
+            rows.push(row);
+            r.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
+        }
+    }
+    (rows, r)
+}
+
 impl ClarabelSolver {
+    /// Replace `u` by its polished value when polishing succeeds; `z` are the edge multipliers.
+    fn polish(&self, pr: &StepProblem, sc: &Scaled, u: &mut Vec<f64>, z: &[f64]) -> bool {
+        if !self.polish {
+            return false;
+        }
+        let (rows, r) = edge_rows(pr);
+        match polish::polish(&sc.p, &sc.q, &rows, &r, z, pr.dt, u) {
+            Some(p) => {
+                *u = p;
+                true
+            }
+            None => false,
+        }
+    }
+
     fn solve_primal(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let n = pr.n_dof();
         let sc = scaled(pr);
@@ -136,7 +170,9 @@ impl ClarabelSolver {
             })?;
         solver.solve();
         self.check(solver.solution.status)?;
-        let dq: Vec<f64> = solver.solution.x.iter().map(|u| u * pr.dt).collect();
+        let mut u = solver.solution.x.clone();
+        let polished = self.polish(pr, &sc, &mut u, &solver.solution.z);
+        let dq: Vec<f64> = u.iter().map(|u| u * pr.dt).collect();
         let zscale = sc.s / pr.dt;
         let (mut normal, mut tangential) = (Vec::new(), Vec::new());
         for (k, c) in pr.contacts.iter().enumerate() {
@@ -152,6 +188,7 @@ impl ClarabelSolver {
             normal,
             tangential,
             iterations: solver.solution.iterations,
+            polished,
         })
     }
 
@@ -223,17 +260,29 @@ impl ClarabelSolver {
                 u[i] += v * c[r];
             }
         }
-        let dq = u
+        for (ui, pi) in u.iter_mut().zip(&sc.p) {
+            *ui /= pi;
+        }
+        // Edge multipliers from (N, T): z± = (N ± T/mu)/2 (z± = N/2 without friction).
+        let z: Vec<f64> = pr
+            .contacts
             .iter()
-            .zip(&sc.p)
-            .map(|(ui, pi)| ui / pi * pr.dt)
+            .enumerate()
+            .flat_map(|(kk, ct)| {
+                let (nn, tt) = (c[2 * kk], c[2 * kk + 1]);
+                let t_mu = if ct.mu > 0.0 { tt / ct.mu } else { 0.0 };
+                [0.5 * (nn + t_mu), 0.5 * (nn - t_mu)]
+            })
             .collect();
+        let polished = self.polish(pr, &sc, &mut u, &z);
+        let dq = u.iter().map(|ui| ui * pr.dt).collect();
         let fscale = sc.s / pr.dt;
         Ok(StepSolution {
             dq,
             normal: (0..k).map(|kk| c[2 * kk] * fscale).collect(),
             tangential: (0..k).map(|kk| c[2 * kk + 1] * fscale).collect(),
             iterations: solver.solution.iterations,
+            polished,
         })
     }
 }
@@ -284,7 +333,7 @@ mod tests {
             let sol = s.solve(&resting_mass()).unwrap();
             assert!(sol.dq.iter().all(|d| d.abs() < 1e-12), "{f:?} {:?}", sol.dq);
             assert!(
-                (sol.normal[0] - 2.0 * 9.81).abs() < 1e-6,
+                (sol.normal[0] / (2.0 * 9.81) - 1.0).abs() < 1e-6,
                 "{f:?} N = {}",
                 sol.normal[0]
             );

@@ -1,6 +1,7 @@
 //! Contact solver back-ends: each solves a [`StepProblem`] and reports its status.
 
 mod clarabel_qp;
+pub mod polish;
 
 pub use clarabel_qp::ClarabelSolver;
 

@@ -1,0 +1,217 @@
+//! The core's acceptance checks: Housner's numbers, the native engine against Housner,
+//! primal against dual, the paper's two-block case, and the two excitation routes.
+
+use rockbench::engines::{engine_by_name, run_timed};
+use rockbench::native::solver::{ClarabelSolver, ContactSolver};
+use rockbench::native::{stepper_for, Formulation};
+use rockbench::scene::{load_scene, load_scene_with_overrides, Scene};
+use rockbench::summary::Summary;
+use std::path::Path;
+
+fn scene(name: &str, set: &[&str]) -> Scene {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/scenes").join(name);
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    load_scene_with_overrides(&p, &set).unwrap()
+}
+
+fn run(engine: &str, s: &Scene) -> (rockbench::engines::RunOutput, Summary) {
+    run_timed(engine_by_name(engine).unwrap().as_ref(), s).unwrap()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn housner_slender_block_matches_the_published_numbers() {
+    let (_, s) = run("housner", &scene("housner-slender.toml", &[]));
+    let b = &s.blocks[0];
+    assert!((b.impacts[0] - 0.4674).abs() < 1e-4, "first impact {}", b.impacts[0]);
+    for (k, want) in [(1, 0.0856), (2, 0.0513), (3, 0.0314)] {
+        let got = b.peaks[k].amplitude;
+        assert_eq!(b.peaks[k].after_impact, k);
+        assert!(rel(got, want) < 3e-3, "amplitude after impact {k}: {got} vs {want}");
+    }
+}
+
+#[test]
+fn housner_square_block_matches_the_published_numbers() {
+    let (_, s) = run("housner", &scene("housner-square.toml", &[]));
+    let b = &s.blocks[0];
+    assert!((b.impacts[0] - 0.2425).abs() < 1e-4, "first impact {}", b.impacts[0]);
+    assert!(rel(b.peaks[1].amplitude, 0.00868) < 5e-3, "{}", b.peaks[1].amplitude);
+    assert!(rel(b.peaks[2].amplitude, 0.00054) < 2e-2, "{}", b.peaks[2].amplitude);
+}
+
+/// Energy is conserved between impacts and multiplied by r^2 at each impact, so the
+/// amplitudes follow in closed form: `cos(alpha - A_k) - cos(alpha) = r^2 (cos(alpha - A_{k-1})
+/// - cos(alpha))`. Check the integrator against this independent calculation.
+#[test]
+fn housner_amplitudes_follow_energy_and_restitution_in_closed_form() {
+    let (_, s) = run("housner", &scene("housner-slender.toml", &[]));
+    let alpha: f64 = (0.5f64 / 1.25).atan();
+    let r = 1.0 - 1.5 * alpha.sin().powi(2);
+    // Potential energy above the rest position, per unit p^2: cos(alpha) - cos(alpha - A).
+    let mut a: f64 = 0.15;
+    for k in 1..=4 {
+        let e = alpha.cos() - (alpha - a).cos();
+        let e_after = r * r * e;
+        a = alpha - (alpha.cos() - e_after).acos();
+        let got = s.blocks[0].peaks[k].amplitude;
+        // The peak is read off the 1 ms output grid: it can fall short by p^2 dt^2 / 8 < 1e-6.
+        assert!((got - a).abs() < 1e-6, "amplitude {k}: engine {got}, closed form {a}");
+    }
+}
+
+#[test]
+fn native_slender_block_agrees_with_housner() {
+    let sc = scene("housner-slender.toml", &["native.theta=0.7", "native.dt=1e-3"]);
+    let (_, h) = run("housner", &sc);
+    let (_, n) = run("native", &sc);
+    let (h, n) = (&h.blocks[0], &n.blocks[0]);
+    assert!(
+        (n.impacts[0] - h.impacts[0]).abs() < 1e-3,
+        "first impact native {} housner {}",
+        n.impacts[0],
+        h.impacts[0]
+    );
+    let e1 = rel(n.peaks[1].amplitude, h.peaks[1].amplitude);
+    assert!(e1 < 0.02, "amplitude after impact 1: native {} housner {}", n.peaks[1].amplitude, h.peaks[1].amplitude);
+    for k in [2, 3] {
+        let e = rel(n.peaks[k].amplitude, h.peaks[k].amplitude);
+        assert!(e < 0.04, "amplitude after impact {k}: native {} housner {}", n.peaks[k].amplitude, h.peaks[k].amplitude);
+    }
+}
+
+/// Both QPs solved on the very problems a 1 s primal run meets, step by step.
+#[test]
+fn primal_and_dual_give_the_same_step_over_one_second() {
+    for name in ["housner-slender.toml", "two-block-free-rocking.toml"] {
+        let sc = scene(name, &["duration=1.0"]);
+        let (mut stepper, mut state) = stepper_for(&sc).unwrap();
+        let mut dual = ClarabelSolver::with_formulation(&sc.native, Formulation::Dual);
+        let mut primal = ClarabelSolver::with_formulation(&sc.native, Formulation::Primal);
+        let mut worst = 0.0f64;
+        for _ in 0..1000 {
+            let pr = stepper.next_problem(&state);
+            let a = primal.solve(&pr).unwrap();
+            let b = dual.solve(&pr).unwrap();
+            for (x, y) in a.dq.iter().zip(&b.dq) {
+                worst = worst.max((x - y).abs());
+            }
+            let taken = stepper.step(&mut state).unwrap();
+            assert_eq!(taken.dq, a.dq, "the stepper solves the same problem");
+        }
+        assert!(worst < 1e-9, "{name}: largest |dq_primal - dq_dual| = {worst:e} m");
+    }
+}
+
+#[test]
+fn dual_formulation_runs_the_same_trajectory() {
+    let a = scene("housner-slender.toml", &["duration=1.0"]);
+    let b = scene("housner-slender.toml", &["duration=1.0", "native.formulation=\"dual\""]);
+    let (ta, _) = run("native", &a);
+    let (tb, _) = run("native", &b);
+    let worst = ta.trajectory.blocks[0]
+        .phi
+        .iter()
+        .zip(&tb.trajectory.blocks[0].phi)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(worst < 1e-7, "rotation difference {worst:e} rad");
+}
+
+#[test]
+fn paper_two_block_case_ground_impact_then_upper_block_rocks() {
+    let sc = scene("two-block-free-rocking.toml", &[]);
+    assert_eq!(sc.duration, 6.0);
+    let (out, s) = run("native", &sc);
+    assert!((out.trajectory.t.last().unwrap() - 6.0).abs() < 1e-9);
+    let lower = &s.blocks[0];
+    let upper = &s.blocks[1];
+    assert_eq!(upper.rotation, "relative to pedestal");
+    let ground = lower.impacts[0];
+    assert!((ground - 0.606).abs() < 3e-3, "stack ground impact {ground}");
+    assert!(upper.impacts.len() >= 4, "upper block impacts {:?}", upper.impacts);
+    assert!(upper.impacts[0] > ground && upper.impacts[0] < ground + 0.03, "{:?}", upper.impacts);
+    // The stack rocks as one body until the ground impact.
+    let k = out.trajectory.t.iter().position(|&t| t >= 0.3).unwrap();
+    let d = (out.trajectory.blocks[0].phi[k] - out.trajectory.blocks[1].phi[k]).abs();
+    assert!(d < 1e-6, "relative rotation before the ground impact {d}");
+}
+
+#[test]
+fn inertial_forces_and_moving_ground_give_the_same_rotation() {
+    let a = scene("support-movement-half-sine.toml", &[]);
+    let b = scene("support-movement-half-sine.toml", &["excitation.applied_as=\"moving-ground\""]);
+    let (ta, sa) = run("native", &a);
+    let (tb, _) = run("native", &b);
+    assert!(sa.blocks[0].max_abs_phi > 0.01, "the pulse rocks the block");
+    let worst = ta.trajectory.blocks[0]
+        .phi
+        .iter()
+        .zip(&tb.trajectory.blocks[0].phi)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(worst < 1e-6, "rotation difference {worst:e} rad");
+}
+
+/// A prescribed displacement history (support movement) through both routes.
+#[test]
+fn displacement_history_gives_the_same_rotation_through_both_routes() {
+    let dir = std::env::temp_dir().join(format!("rb-disp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // d(t) of a half-sine acceleration pulse of 6 m/s^2 over 0.3 s, sampled every 1 ms.
+    let (amp, dur) = (6.0f64, 0.3f64);
+    let mut csv = String::from("time,displacement\n");
+    for k in 0..=2000 {
+        let t = k as f64 * 1e-3;
+        let s = t.min(dur);
+        let pi = std::f64::consts::PI;
+        let d = amp * dur / pi * (s - dur / pi * (pi * s / dur).sin())
+            + 2.0 * amp * dur / pi * (t - s);
+        csv += &format!("{t},{d}\n");
+    }
+    std::fs::write(dir.join("disp.csv"), csv).unwrap();
+    let text = |route: &str| {
+        format!(
+            "name = \"disp\"\nduration = 1.5\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.5\n\
+             [excitation]\napplied_as = \"{route}\"\n[excitation.horizontal]\nkind = \"displacement\"\nfile = \"disp.csv\"\n"
+        )
+    };
+    let mut phis = Vec::new();
+    for route in ["inertial-forces", "moving-ground"] {
+        let p = dir.join(format!("{route}.toml"));
+        std::fs::write(&p, text(route)).unwrap();
+        let (out, s) = run("native", &load_scene(&p).unwrap());
+        assert!(s.blocks[0].max_abs_phi > 0.01, "{route}: the motion rocks the block");
+        phis.push(out.trajectory.blocks[0].phi.clone());
+    }
+    let worst = phis[0].iter().zip(&phis[1]).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(worst < 1e-6, "rotation difference {worst:e} rad");
+}
+
+/// The sign convention of ground acceleration is the same in both engines: a +x pulse throws
+/// the block back (counter-clockwise, on its left corner), to about the same amplitude.
+#[test]
+fn native_and_housner_agree_under_a_ground_pulse() {
+    let sc = scene("support-movement-half-sine.toml", &[]);
+    let (th, h) = run("housner", &sc);
+    let (tn, n) = run("native", &sc);
+    let first_peak = |tr: &rockbench::trajectory::Trajectory| {
+        let phi = &tr.blocks[0].phi;
+        phi[phi.iter().enumerate().fold(0, |m, (i, p)| if p.abs() > phi[m].abs() { i } else { m })]
+    };
+    let (ph, pn) = (first_peak(&th.trajectory), first_peak(&tn.trajectory));
+    assert!(ph > 0.01, "a +x ground pulse tips the block counter-clockwise: {ph}");
+    assert!(rel(pn, ph) < 0.02, "peak native {pn} housner {ph}");
+    assert!((n.blocks[0].impacts[0] - h.blocks[0].impacts[0]).abs() < 2e-3);
+}
+
+#[test]
+fn housner_refuses_stacks_with_a_clear_message() {
+    let e = engine_by_name("housner")
+        .unwrap()
+        .run(&scene("two-block-free-rocking.toml", &[]))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("single block") && e.contains("2 blocks"), "{e}");
+}
