@@ -43,9 +43,10 @@ impl Engine for NativeEngine {
             trajectory: tr,
             settings,
             engine_version: format!(
-                "rockbench {} (clarabel {})",
+                "rockbench {} (clarabel {}, nalgebra {})",
                 env!("CARGO_PKG_VERSION"),
-                clarabel_version()
+                env!("RB_VERSION_CLARABEL"),
+                env!("RB_VERSION_NALGEBRA")
             ),
             steps: n_steps,
             solver_iterations: Some(stepper.iterations),
@@ -56,8 +57,4 @@ impl Engine for NativeEngine {
             )],
         })
     }
-}
-
-fn clarabel_version() -> &'static str {
-    "0.11"
 }
