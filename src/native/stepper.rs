@@ -1,8 +1,19 @@
-//! One step of the theta-method (the paper's position-level scheme).
+//! One step of the theta-method.
 //!
 //! From `(q0, v0)` at `t0`: detect contacts and gaps from the current geometry, assemble
 //! `Mbar dq + A c = fbar0`, solve the QP, then `v = (dq/dt - (1 - theta) v0)/theta`,
 //! `q = q0 + dq`.
+//!
+//! Two contact laws in time (`native.stepper`):
+//! - `position` (the paper's scheme): every contact point gets `g0 + (nrow ± mu trow) dq >= 0`.
+//!   The step that closes a contact returns a rebound `e ~ (1 - theta)/theta`.
+//! - `impact` (impact-consistent, Moreau-Jean style): a point that is closed or closes within
+//!   the step, `g0 + (1 - theta) dt v_n0 <= 0`, gets the velocity-level law on the end-of-step
+//!   relative velocity, `(n ± mu t)·v >= 0` (a plastic impact, no rebound for any theta);
+//!   since `theta dt v = dq - (1 - theta) dt v0` this only changes the row's offset. The other
+//!   points keep the position-level law, under which, by the same condition, they cannot
+//!   rebound. Penetration is bounded by `(1 - theta) dt |v_n|` at an impact (zero at
+//!   theta = 1).
 //!
 //! Ground motion is discretised once per step and shared by both routes, so that inertial
 //! forces and a moving ground give the same relative motion to round-off:
@@ -15,12 +26,16 @@
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
 use super::assembly::{Bodies, contact_rows, poses};
-use super::problem::{StepProblem, StepSolution};
-use super::settings::NativeSettings;
+use super::problem::{SparseRow, StepProblem, StepSolution};
+use super::settings::{NativeSettings, StepperKind};
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
 use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
 use crate::scene::AppliedAs;
+
+fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
+    row.iter().map(|&(i, c)| c * x[i]).sum()
+}
 
 /// State of the native engine between steps.
 #[derive(Debug, Clone)]
@@ -53,8 +68,10 @@ pub struct Stepper {
     /// Contacts of the last step (for inspection and tests).
     pub last_contacts: Vec<ContactPoint>,
     pub iterations: u64,
-    /// Steps whose solution was polished on its active set.
+    /// Sub-steps whose solution was polished on its active set.
     pub polished_steps: u64,
+    /// Steps split at a located impact instant.
+    pub split_steps: u64,
 }
 
 /// A step that could not be taken.
@@ -89,6 +106,7 @@ impl Stepper {
             last_contacts: Vec::new(),
             iterations: 0,
             polished_steps: 0,
+            split_steps: 0,
         }
     }
 
@@ -96,8 +114,7 @@ impl Stepper {
         self.solver.name()
     }
 
-    fn ground_step(&self, s: &NativeState) -> GroundStep {
-        let dt = self.settings.dt;
+    fn ground_step(&self, s: &NativeState, dt: f64) -> GroundStep {
         let th = self.settings.theta;
         let (t0, t1) = (s.t, s.t + dt);
         let comp = |c: Option<&crate::excitation::Component>, w0: f64| -> (f64, f64, f64) {
@@ -167,8 +184,13 @@ impl Stepper {
     }
 
     /// Build the problem of the next step (also returns the ground increment).
-    fn problem(&self, s: &NativeState, contacts: &[ContactPoint]) -> (StepProblem, GroundStep) {
-        let g = self.ground_step(s);
+    fn problem(
+        &self,
+        s: &NativeState,
+        contacts: &[ContactPoint],
+        dt: f64,
+    ) -> (StepProblem, GroundStep) {
+        let g = self.ground_step(s, dt);
         let ps = poses(&s.q);
         let n = self.bodies.len();
         let (ax, az) = match self.applied_as {
@@ -185,14 +207,38 @@ impl Stepper {
             AppliedAs::MovingGround => g.dd,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
+        let th = self.settings.theta;
+        let w0 = match self.applied_as {
+            AppliedAs::MovingGround => s.ground_w,
+            AppliedAs::InertialForces => (0.0, 0.0),
+        };
         let rows = contacts
             .iter()
-            .map(|c| contact_rows(c, &ps, self.bodies.friction(c), ground_step))
+            .map(|c| {
+                let mut r = contact_rows(c, &ps, self.bodies.friction(c), ground_step);
+                if self.settings.stepper == StepperKind::Impact {
+                    // Relative velocity at the start of the step.
+                    let (mut vn, mut vt) = (row_dot(&r.nrow, &s.v), row_dot(&r.trow, &s.v));
+                    if c.a.is_none() {
+                        let n = c.normal;
+                        vn -= n.0 * w0.0 + n.1 * w0.1;
+                        vt -= n.1 * w0.0 - n.0 * w0.1;
+                    }
+                    // Closed or closing within the step: velocity-level law on the end-of-step
+                    // relative velocity, (n ± mu t)·v >= 0, i.e.
+                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - theta) dt (v_n0 ± mu v_t0) >= 0.
+                    if c.gap + (1.0 - th) * dt * vn <= 0.0 {
+                        r.g_n += -c.gap - (1.0 - th) * dt * vn;
+                        r.g_t += -(1.0 - th) * dt * vt;
+                    }
+                }
+                r
+            })
             .collect();
         (
             StepProblem {
                 theta: self.settings.theta,
-                dt: self.settings.dt,
+                dt,
                 mass: self.bodies.mass.clone(),
                 force,
                 v0: s.v.clone(),
@@ -205,13 +251,83 @@ impl Stepper {
     /// The problem the next step would solve (for replay and cross-checks).
     pub fn next_problem(&self, s: &NativeState) -> StepProblem {
         let c = self.detect(s);
-        self.problem(s, &c).0
+        self.problem(s, &c, self.settings.dt).0
     }
 
-    /// Advance one step.
+    /// Normal relative velocity of a contact point at the start of a step (< 0: closing).
+    fn normal_speed(&self, c: &ContactPoint, s: &NativeState) -> f64 {
+        let ps = poses(&s.q);
+        let vel = |i: usize| {
+            let (rx, rz) = (c.point.0 - ps[i].x, c.point.1 - ps[i].z);
+            let om = s.v[3 * i + 2];
+            (s.v[3 * i] - om * rz, s.v[3 * i + 1] + om * rx)
+        };
+        let vb = vel(c.b);
+        let va = match (c.a, self.applied_as) {
+            (Some(a), _) => vel(a),
+            (None, AppliedAs::MovingGround) => s.ground_w,
+            (None, AppliedAs::InertialForces) => (0.0, 0.0),
+        };
+        c.normal.0 * (vb.0 - va.0) + c.normal.1 * (vb.1 - va.1)
+    }
+
+    /// Earliest instant within the next step at which an open point closes, from its gap and
+    /// closing speed (impact location for the impact-consistent stepper).
+    fn impact_instant(&self, contacts: &[ContactPoint], s: &NativeState) -> Option<f64> {
+        let dt = self.settings.dt;
+        contacts
+            .iter()
+            .filter(|c| c.gap > 0.0)
+            .filter_map(|c| {
+                let vn = self.normal_speed(c, s);
+                (vn < 0.0).then(|| c.gap / -vn)
+            })
+            .filter(|&tau| tau > 1e-3 * dt && tau < (1.0 - 1e-3) * dt)
+            .min_by(|a, b| a.total_cmp(b))
+    }
+
+    /// Advance one step. With the impact-consistent stepper and `locate_impacts`, a step in
+    /// which an open point closes is split at the predicted impact instant, so the plastic
+    /// impact is applied at that instant rather than at the end of the step.
     pub fn step(&mut self, s: &mut NativeState) -> Result<StepSolution, StepError> {
+        let dt = self.settings.dt;
         let contacts = self.detect(s);
-        let (pr, g) = self.problem(s, &contacts);
+        let split = match self.settings.stepper {
+            StepperKind::Impact if self.settings.locate_impacts => {
+                self.impact_instant(&contacts, s)
+            }
+            _ => None,
+        };
+        let t_end = s.t + dt;
+        let sol = match split {
+            Some(tau) => {
+                let first = self.sub_step(s, &contacts, tau)?;
+                let rest = self.detect(s);
+                let mut sol = self.sub_step(s, &rest, t_end - s.t)?;
+                sol.iterations += first.iterations;
+                self.split_steps += 1;
+                self.last_contacts = rest;
+                sol
+            }
+            None => {
+                let sol = self.sub_step(s, &contacts, dt)?;
+                self.last_contacts = contacts;
+                sol
+            }
+        };
+        s.t = t_end;
+        s.step += 1;
+        Ok(sol)
+    }
+
+    /// Advance by `h` from the given contacts.
+    fn sub_step(
+        &mut self,
+        s: &mut NativeState,
+        contacts: &[ContactPoint],
+        h: f64,
+    ) -> Result<StepSolution, StepError> {
+        let (pr, g) = self.problem(s, contacts, h);
         let sol = self
             .solver
             .solve(&pr)
@@ -220,24 +336,21 @@ impl Stepper {
                 t: s.t,
                 failure,
             })?;
-        let dt = self.settings.dt;
         let th = self.settings.theta;
         for i in 0..s.q.len() {
-            let v = (sol.dq[i] / dt - (1.0 - th) * s.v[i]) / th;
+            let v = (sol.dq[i] / h - (1.0 - th) * s.v[i]) / th;
             s.v[i] = v;
             s.q[i] += sol.dq[i];
         }
         s.ground_d.0 += g.dd.0;
         s.ground_d.1 += g.dd.1;
         s.ground_w = g.w1;
-        s.t += dt;
-        s.step += 1;
+        s.t += h;
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
-        self.last_contacts = contacts;
         if !s.q.iter().chain(&s.v).all(|x| x.is_finite()) {
             return Err(StepError::NonFinite {
-                step: s.step,
+                step: s.step + 1,
                 t: s.t,
             });
         }
