@@ -55,6 +55,10 @@ pub struct ContactPoint {
     pub normal: (f64, f64),
     /// Signed gap, m (> 0 open).
     pub gap: f64,
+    /// Which feature pair makes the point (stable from step to step while the configuration
+    /// persists): for the ground, the block's vertex; for blocks, the reference owner, face
+    /// and end. Used to warm-start solvers.
+    pub feature: u16,
 }
 
 /// Axis-aligned bounding box of a posed rectangle.
@@ -119,7 +123,7 @@ pub fn ground_contacts(
     reach: &dyn Fn((f64, f64), f64) -> bool,
     out: &mut Vec<ContactPoint>,
 ) {
-    for v in r.vertices(p) {
+    for (k, v) in r.vertices(p).into_iter().enumerate() {
         let gap = v.1 - ground_z;
         if reach(v, gap) {
             out.push(ContactPoint {
@@ -128,6 +132,7 @@ pub fn ground_contacts(
                 point: v,
                 normal: (0.0, 1.0),
                 gap,
+                feature: k as u16,
             });
         }
     }
@@ -195,8 +200,10 @@ pub fn block_contacts(
     let len2 = dot(tan, tan);
     let tol = 1e-9;
     let before = out.len();
+    // Feature ids: reference owner, reference face, incident face, end.
+    let base = (owner * 256 + k * 64 + m * 8) as u16;
     // B's vertices over A's face.
-    for q in [q0, q1] {
+    for (e, q) in [q0, q1].into_iter().enumerate() {
         let s = dot(sub(q, p0), tan) / len2;
         if (-tol..=1.0 + tol).contains(&s) {
             let gap = dot(n, sub(q, p0));
@@ -207,6 +214,7 @@ pub fn block_contacts(
                     point: q,
                     normal: n,
                     gap,
+                    feature: base + e as u16,
                 });
             }
         }
@@ -215,7 +223,7 @@ pub fn block_contacts(
     let d = sub(q1, q0);
     let denom = cross(n, d);
     if denom.abs() > 1e-12 * d.0.hypot(d.1) {
-        for p in [p0, p1] {
+        for (e, p) in [p0, p1].into_iter().enumerate() {
             let lam = cross(sub(q0, p), d) / denom; // p + lam n lies on the line q0-q1
             let hit = (p.0 + lam * n.0, p.1 + lam * n.1);
             let s = dot(sub(hit, q0), d) / dot(d, d);
@@ -230,6 +238,7 @@ pub fn block_contacts(
                         point: p,
                         normal: n,
                         gap: lam,
+                        feature: base + 2 + e as u16,
                     });
                 }
             }

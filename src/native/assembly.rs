@@ -102,7 +102,9 @@ pub fn contact_rows(
             -(t.0 * ground_step.0 + t.1 * ground_step.1),
         ),
     };
+    let key = ((c.a.map_or(0, |a| a + 1) as u64) << 40) | ((c.b as u64) << 16) | c.feature as u64;
     ContactRows {
+        key,
         mu,
         g_n,
         g_t,

@@ -22,6 +22,8 @@ pub type SparseRow = Vec<(usize, f64)>;
 /// One contact point's rows.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ContactRows {
+    /// Identity of the contact point (bodies and feature), stable between steps.
+    pub key: u64,
     pub mu: f64,
     /// Normal gap including the ground increment, m.
     pub g_n: f64,
@@ -47,7 +49,27 @@ pub struct StepProblem {
     pub contacts: Vec<ContactRows>,
 }
 
+/// The primal problem scaled for solvers: unknowns `u = dq/dt`, objective divided by
+/// `s = max(M)/theta`: `min 1/2 u' P u + q' u` with `P = M/(theta s)`,
+/// `q = -(dt f + M v0/theta)/s`; row offsets become `g/dt`.
+#[derive(Debug, Clone)]
+pub struct Scaled {
+    pub p: Vec<f64>,
+    pub q: Vec<f64>,
+    pub s: f64,
+}
+
 impl StepProblem {
+    pub fn scaled(&self) -> Scaled {
+        let n = self.n_dof();
+        let s = self.mass.iter().cloned().fold(0.0, f64::max) / self.theta;
+        let p = self.mass.iter().map(|m| m / (self.theta * s)).collect();
+        let q = (0..n)
+            .map(|i| -(self.dt * self.force[i] + self.mass[i] * self.v0[i] / self.theta) / s)
+            .collect();
+        Scaled { p, q, s }
+    }
+
     pub fn n_dof(&self) -> usize {
         self.mass.len()
     }

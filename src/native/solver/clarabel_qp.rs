@@ -16,7 +16,7 @@
 
 use super::{polish, ContactSolver, SolveFailure};
 use crate::native::problem::SparseRow;
-use crate::native::problem::{StepProblem, StepSolution};
+use crate::native::problem::{Scaled, StepProblem, StepSolution};
 use crate::native::settings::{Formulation, NativeSettings};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -65,23 +65,6 @@ impl ClarabelSolver {
             }),
         }
     }
-}
-
-/// Scaled primal data shared by both formulations.
-struct Scaled {
-    p: Vec<f64>,
-    q: Vec<f64>,
-    s: f64,
-}
-
-fn scaled(pr: &StepProblem) -> Scaled {
-    let n = pr.n_dof();
-    let s = pr.mass.iter().cloned().fold(0.0, f64::max) / pr.theta;
-    let p = pr.mass.iter().map(|m| m / (pr.theta * s)).collect();
-    let q = (0..n)
-        .map(|i| -(pr.dt * pr.force[i] + pr.mass[i] * pr.v0[i] / pr.theta) / s)
-        .collect();
-    Scaled { p, q, s }
 }
 
 /// Build a CSC matrix from (row, col) -> value entries.
@@ -137,7 +120,7 @@ impl ClarabelSolver {
 
     fn solve_primal(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let n = pr.n_dof();
-        let sc = scaled(pr);
+        let sc = pr.scaled();
         let mut pe = BTreeMap::new();
         for (i, &v) in sc.p.iter().enumerate() {
             pe.insert((i, i), v);
@@ -194,7 +177,7 @@ impl ClarabelSolver {
 
     fn solve_dual(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let n = pr.n_dof();
-        let sc = scaled(pr);
+        let sc = pr.scaled();
         let k = pr.contacts.len();
         // Rows of H: 2k (N) and 2k+1 (T).
         let mut rows: Vec<&Vec<(usize, f64)>> = Vec::with_capacity(2 * k);
@@ -317,6 +300,7 @@ mod tests {
             force: vec![0.0, -2.0 * 9.81, 0.0],
             v0: vec![0.0; 3],
             contacts: vec![ContactRows {
+                key: 0,
                 mu: 0.5,
                 g_n: 0.0,
                 g_t: 0.0,
