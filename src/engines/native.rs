@@ -52,8 +52,8 @@ impl Engine for NativeEngine {
             solver_iterations: Some(stepper.iterations),
             exact_impacts: None,
             notes: vec![format!(
-                "{} steps, {} split at a located impact; {} solutions polished on their active set",
-                n_steps, stepper.split_steps, stepper.polished_steps
+                "{} steps, {} split at a located impact; {} solutions polished on their active set; {} steps fell back to Clarabel",
+                n_steps, stepper.split_steps, stepper.polished_steps, stepper.solver_fallbacks()
             )],
         })
     }

@@ -25,9 +25,7 @@ pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> 
         .map(|e| e.applied_as)
         .unwrap_or_default();
     let bodies = assembly::Bodies::of(scene);
-    let solver: Box<dyn solver::ContactSolver> = match scene.native.solver {
-        SolverKind::Clarabel => Box::new(solver::ClarabelSolver::new(&scene.native)),
-    };
+    let solver = solver::solver_for(&scene.native);
     let layout = scene.layout();
     let q = layout
         .blocks

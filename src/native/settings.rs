@@ -33,8 +33,15 @@ pub enum StepperKind {
 #[serde(rename_all = "lowercase")]
 pub enum SolverKind {
     /// Clarabel interior-point QP solver (the reference back-end).
-    #[default]
     Clarabel,
+    /// Dense warm-started active-set solver (small problems), falling back to Clarabel on a
+    /// step it cannot solve.
+    #[serde(rename = "active-set")]
+    ActiveSet,
+    /// The active-set solver for problems up to 60 DOFs (20 blocks), Clarabel above (the
+    /// default: on the two-block case it gives the same impacts as Clarabel, ~35x faster).
+    #[default]
+    Auto,
 }
 
 fn d_theta() -> f64 {
@@ -76,7 +83,7 @@ pub struct NativeSettings {
     /// first amplitude but worsens the second for theta < 1; see docs/method.md).
     #[serde(default)]
     pub locate_impacts: bool,
-    /// Contact solver back-end (default clarabel).
+    /// Contact solver back-end: `auto` (default), `active-set` or `clarabel`.
     #[serde(default)]
     pub solver: SolverKind,
     /// Clarabel's absolute and relative duality-gap and feasibility tolerances on the scaled

@@ -114,6 +114,11 @@ impl Stepper {
         self.solver.name()
     }
 
+    /// Steps the back-end handed to Clarabel.
+    pub fn solver_fallbacks(&self) -> u64 {
+        self.solver.fallbacks()
+    }
+
     fn ground_step(&self, s: &NativeState, dt: f64) -> GroundStep {
         let th = self.settings.theta;
         let (t0, t1) = (s.t, s.t + dt);

@@ -1,0 +1,277 @@
+//! A dense, warm-started primal active-set solver for small problems.
+//!
+//! It solves the scaled primal QP (see [`crate::native::problem::Scaled`])
+//!
+//! ```text
+//! min 1/2 u' P u + q' u   s.t.  D u + r >= 0      (P diagonal, two rows per contact)
+//! ```
+//!
+//! by keeping a working set W of rows held as equalities. For a given W the step is
+//! `u = P^-1 (D_W' l - q)` with `(D_W P^-1 D_W') l = D_W P^-1 q - r_W`, solved by a Cholesky
+//! factorisation with diagonal pivoting that stops at the numerical rank: the rows of a flat
+//! interface are dependent, and the dependent ones get no multiplier. Then the most violated
+//! row outside W is added, or else the row with the most negative multiplier is dropped,
+//! until the KKT conditions hold. W starts from the rows that were active in the previous
+//! step (matched by contact key), so a step whose active set does not change costs one
+//! factorisation of a matrix of the size of W.
+//!
+//! A problem it cannot settle within its move limit, or whose working set turns out
+//! inconsistent, is reported as a failure; the `auto` back-end then falls back to Clarabel.
+
+use super::{ContactSolver, SolveFailure};
+use crate::native::problem::{StepProblem, StepSolution};
+
+/// One primal row: `n ± mu t` over at most six DOFs.
+#[derive(Debug, Clone, Copy, Default)]
+struct EdgeRow {
+    idx: [usize; 6],
+    coef: [f64; 6],
+    len: usize,
+    key: u64,
+}
+
+impl EdgeRow {
+    fn dot(&self, u: &[f64]) -> f64 {
+        (0..self.len).map(|j| self.coef[j] * u[self.idx[j]]).sum()
+    }
+}
+
+#[derive(Default)]
+pub struct ActiveSetSolver {
+    /// Keys of the rows active at the previous solution, sorted.
+    previous: Vec<u64>,
+    rows: Vec<EdgeRow>,
+    r: Vec<f64>,
+    work: Vec<usize>,
+    s: Vec<f64>,
+    rhs: Vec<f64>,
+    lambda: Vec<f64>,
+    perm: Vec<usize>,
+    u: Vec<f64>,
+    pinv: Vec<f64>,
+}
+
+impl ActiveSetSolver {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    fn build_rows(&mut self, pr: &StepProblem) {
+        self.rows.clear();
+        self.r.clear();
+        for c in &pr.contacts {
+            for (e, sign) in [(0u64, 1.0), (1u64, -1.0)] {
+                let mut row = EdgeRow {
+                    key: (c.key << 1) | e,
+                    ..Default::default()
+                };
+                for (j, (&(i, vn), &(it, vt))) in c.nrow.iter().zip(&c.trow).enumerate() {
+                    debug_assert_eq!(i, it);
+                    row.idx[j] = i;
+                    row.coef[j] = vn + sign * c.mu * vt;
+                    row.len = j + 1;
+                }
+                self.rows.push(row);
+                self.r.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
+            }
+        }
+    }
+
+    /// Solve the equality problem on the working set into `self.u` and `self.lambda`
+    /// (indexed like `self.work`). Returns false on a numerical breakdown.
+    fn solve_working_set(&mut self, q: &[f64]) -> bool {
+        let m = self.work.len();
+        let n = q.len();
+        self.s.clear();
+        self.s.resize(m * m, 0.0);
+        self.rhs.clear();
+        for a in 0..m {
+            let ra = &self.rows[self.work[a]];
+            let mut b_a = -self.r[self.work[a]];
+            for j in 0..ra.len {
+                b_a += ra.coef[j] * self.pinv[ra.idx[j]] * q[ra.idx[j]];
+            }
+            self.rhs.push(b_a);
+            for b in 0..=a {
+                let rb = &self.rows[self.work[b]];
+                let mut v = 0.0;
+                for j in 0..ra.len {
+                    for k in 0..rb.len {
+                        if ra.idx[j] == rb.idx[k] {
+                            v += ra.coef[j] * rb.coef[k] * self.pinv[ra.idx[j]];
+                        }
+                    }
+                }
+                self.s[a * m + b] = v;
+                self.s[b * m + a] = v;
+            }
+        }
+        // Cholesky with diagonal pivoting, stopping at the numerical rank.
+        self.perm.clear();
+        self.perm.extend(0..m);
+        let dmax0 = (0..m).map(|i| self.s[i * m + i]).fold(0.0f64, f64::max);
+        let mut rank = 0;
+        for k in 0..m {
+            let (piv, dmax) = (k..m)
+                .map(|i| (i, self.s[self.perm[i] * m + self.perm[i]]))
+                .fold((k, f64::NEG_INFINITY), |b, x| if x.1 > b.1 { x } else { b });
+            if dmax <= 1e-12 * dmax0 || dmax <= 0.0 {
+                break;
+            }
+            self.perm.swap(k, piv);
+            let pk = self.perm[k];
+            let l_kk = dmax.sqrt();
+            self.s[pk * m + pk] = l_kk;
+            for i in k + 1..m {
+                let pi = self.perm[i];
+                self.s[pi * m + pk] /= l_kk;
+            }
+            for i in k + 1..m {
+                let pi = self.perm[i];
+                let lik = self.s[pi * m + pk];
+                for j in k + 1..=i {
+                    let pj = self.perm[j];
+                    let v = self.s[pi * m + pj] - lik * self.s[pj * m + pk];
+                    self.s[pi * m + pj] = v;
+                    if i != j {
+                        self.s[pj * m + pi] = v;
+                    }
+                }
+            }
+            rank = k + 1;
+        }
+        // Forward and back substitution on the leading `rank` pivots; dependent rows get 0.
+        self.lambda.clear();
+        self.lambda.resize(m, 0.0);
+        let mut y = vec![0.0; rank];
+        for k in 0..rank {
+            let pk = self.perm[k];
+            let mut v = self.rhs[pk];
+            for j in 0..k {
+                v -= self.s[pk * m + self.perm[j]] * y[j];
+            }
+            y[k] = v / self.s[pk * m + pk];
+        }
+        for k in (0..rank).rev() {
+            let pk = self.perm[k];
+            let mut v = y[k];
+            for j in k + 1..rank {
+                let pj = self.perm[j];
+                v -= self.s[pj * m + pk] * self.lambda[pj];
+            }
+            self.lambda[pk] = v / self.s[pk * m + pk];
+        }
+        self.u.clear();
+        self.u.extend((0..n).map(|j| -q[j] * self.pinv[j]));
+        for a in 0..m {
+            let row = &self.rows[self.work[a]];
+            for j in 0..row.len {
+                self.u[row.idx[j]] += row.coef[j] * self.lambda[a] * self.pinv[row.idx[j]];
+            }
+        }
+        self.lambda.iter().chain(&self.u).all(|x| x.is_finite())
+    }
+
+    fn fail(status: String) -> SolveFailure {
+        SolveFailure {
+            solver: "active-set",
+            status,
+        }
+    }
+}
+
+impl ContactSolver for ActiveSetSolver {
+    fn name(&self) -> &'static str {
+        "active-set"
+    }
+
+    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let sc = pr.scaled();
+        self.pinv.clear();
+        self.pinv.extend(sc.p.iter().map(|p| 1.0 / p));
+        self.build_rows(pr);
+        let nrows = self.rows.len();
+        self.work.clear();
+        for i in 0..nrows {
+            let warm = if self.previous.is_empty() {
+                self.r[i] <= 0.0
+            } else {
+                self.previous.binary_search(&self.rows[i].key).is_ok()
+            };
+            if warm {
+                self.work.push(i);
+            }
+        }
+        let max_moves = 3 * nrows + 10;
+        let mut moves = 0;
+        loop {
+            if !self.solve_working_set(&sc.q) {
+                self.previous.clear();
+                return Err(Self::fail("non-finite working-set solution".into()));
+            }
+            let lmax = self.lambda.iter().fold(1e-300f64, |a, &b| a.max(b.abs()));
+            // Most violated row outside the working set.
+            let mut worst: Option<(usize, f64)> = None;
+            for i in 0..nrows {
+                let v = self.rows[i].dot(&self.u) + self.r[i];
+                if v < -1e-11 * (1.0 + self.r[i].abs()) && !self.work.contains(&i) {
+                    if worst.is_none_or(|w| v < w.1) {
+                        worst = Some((i, v));
+                    }
+                }
+            }
+            let action = if let Some((i, _)) = worst {
+                Some((true, i))
+            } else {
+                // Most negative multiplier.
+                self.lambda
+                    .iter()
+                    .enumerate()
+                    .filter(|&(_, &l)| l < -1e-10 * lmax)
+                    .min_by(|a, b| a.1.total_cmp(b.1))
+                    .map(|(a, _)| (false, a))
+            };
+            match action {
+                None => break,
+                Some(_) if moves >= max_moves => {
+                    self.previous.clear();
+                    return Err(Self::fail(format!("no optimal working set after {moves} moves")));
+                }
+                Some((true, i)) => self.work.push(i),
+                Some((false, a)) => {
+                    self.work.remove(a);
+                }
+            }
+            moves += 1;
+        }
+        // Every working row must hold (an inconsistent dependent row would not).
+        for &i in &self.work {
+            let v = self.rows[i].dot(&self.u) + self.r[i];
+            if v < -1e-9 * (1.0 + self.r[i].abs()) {
+                self.previous.clear();
+                return Err(Self::fail("inconsistent working set".into()));
+            }
+        }
+        self.previous.clear();
+        self.previous.extend(self.work.iter().map(|&i| self.rows[i].key));
+        self.previous.sort_unstable();
+        let k = pr.contacts.len();
+        let mut z = vec![0.0; 2 * k];
+        let zscale = sc.s / pr.dt;
+        for (a, &i) in self.work.iter().enumerate() {
+            z[i] = self.lambda[a] * zscale;
+        }
+        Ok(StepSolution {
+            dq: self.u.iter().map(|u| u * pr.dt).collect(),
+            normal: (0..k).map(|c| z[2 * c] + z[2 * c + 1]).collect(),
+            tangential: pr
+                .contacts
+                .iter()
+                .enumerate()
+                .map(|(c, ct)| ct.mu * (z[2 * c] - z[2 * c + 1]))
+                .collect(),
+            iterations: moves as u32 + 1,
+            polished: false,
+        })
+    }
+}
