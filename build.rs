@@ -8,14 +8,13 @@ fn main() {
     for line in lock.lines() {
         if let Some(n) = line.strip_prefix("name = ") {
             name = Some(n.trim_matches('"').to_string());
-        } else if let Some(v) = line.strip_prefix("version = ") {
-            if let Some(n) = name.take() {
-                if ["clarabel", "nalgebra", "rapier2d-f64", "pyo3"].contains(&n.as_str()) {
-                    let key = n.to_ascii_uppercase().replace('-', "_");
-                    println!("cargo:rustc-env=RB_VERSION_{key}={}", v.trim_matches('"'));
-                    found.push(key);
-                }
-            }
+        } else if let Some(v) = line.strip_prefix("version = ")
+            && let Some(n) = name.take()
+            && ["clarabel", "nalgebra", "rapier2d-f64", "pyo3"].contains(&n.as_str())
+        {
+            let key = n.to_ascii_uppercase().replace('-', "_");
+            println!("cargo:rustc-env=RB_VERSION_{key}={}", v.trim_matches('"'));
+            found.push(key);
         }
     }
     // Dependencies not in the lock file (a feature turned off) read as "none".

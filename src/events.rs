@@ -203,7 +203,7 @@ mod tests {
         let (over, at) = overturning(&t, &phi, 0.4);
         assert!(over);
         assert!((at.unwrap() - 0.1f64.sqrt()).abs() < 1e-3);
-        let (over, _) = overturning(&t, &vec![0.1; 10], 0.4);
+        let (over, _) = overturning(&t, &[0.1; 10], 0.4);
         assert!(!over);
     }
 }

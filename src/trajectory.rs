@@ -116,7 +116,8 @@ impl Trajectory {
             .split(',')
             .map(str::trim)
             .collect();
-        if header.first() != Some(&"t") || (header.len() - 1) % 6 != 0 || header.len() < 7 {
+        if header.first() != Some(&"t") || !(header.len() - 1).is_multiple_of(6) || header.len() < 7
+        {
             return Err("header must be `t` then six columns per block".into());
         }
         let mut names = Vec::new();

@@ -1,6 +1,6 @@
 //! The fast back-ends against the reference (Clarabel) on whole runs.
 
-use rockbench::engines::{engine_by_name, run_timed, RunOutput};
+use rockbench::engines::{RunOutput, engine_by_name, run_timed};
 use rockbench::native::problem::ContactRows;
 use rockbench::native::solver::{ActiveSetSolver, ClarabelSolver, ContactSolver};
 use rockbench::native::{NativeSettings, StepProblem};
@@ -9,14 +9,20 @@ use rockbench::summary::Summary;
 use std::path::Path;
 
 fn run(scene: &str, solver: &str) -> (RunOutput, Summary) {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/scenes").join(scene);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("validation/scenes")
+        .join(scene);
     let s = load_scene_with_overrides(&p, &[format!("native.solver=\"{solver}\"")]).unwrap();
     run_timed(engine_by_name("native").unwrap().as_ref(), &s).unwrap()
 }
 
 #[test]
 fn active_set_matches_clarabel_up_to_the_first_impact_and_in_impact_times() {
-    for scene in ["two-block-free-rocking.toml", "housner-slender.toml", "housner-square.toml"] {
+    for scene in [
+        "two-block-free-rocking.toml",
+        "housner-slender.toml",
+        "housner-square.toml",
+    ] {
         let (a, sa) = run(scene, "clarabel");
         let (b, sb) = run(scene, "active-set");
         let first = sa.blocks[0].impacts[0];
@@ -28,7 +34,11 @@ fn active_set_matches_clarabel_up_to_the_first_impact_and_in_impact_times() {
                 .zip(ba.phi.iter().zip(&bb.phi))
                 .filter(|(t, _)| **t <= first)
                 .fold(0.0f64, |m, (_, (x, y))| m.max((x - y).abs()));
-            assert!(worst < 1e-6, "{scene} {}: rotation difference {worst:e} rad before the first impact", ba.name);
+            assert!(
+                worst < 1e-6,
+                "{scene} {}: rotation difference {worst:e} rad before the first impact",
+                ba.name
+            );
         }
         for (x, y) in sa.blocks.iter().zip(&sb.blocks) {
             let n = x.impacts.len().min(y.impacts.len()).min(4);
@@ -37,7 +47,9 @@ fn active_set_matches_clarabel_up_to_the_first_impact_and_in_impact_times() {
                 assert!(
                     (x.impacts[k] - y.impacts[k]).abs() <= 1e-3,
                     "{scene} {} impact {k}: clarabel {} active-set {}",
-                    x.name, x.impacts[k], y.impacts[k]
+                    x.name,
+                    x.impacts[k],
+                    y.impacts[k]
                 );
             }
         }
@@ -63,7 +75,9 @@ fn tiny_problem_with_known_answer() {
             trow: vec![(0, 1.0), (1, 0.0), (2, 0.0)],
         }],
     };
-    let a = ClarabelSolver::new(&NativeSettings::default()).solve(&pr).unwrap();
+    let a = ClarabelSolver::new(&NativeSettings::default())
+        .solve(&pr)
+        .unwrap();
     let b = ActiveSetSolver::new().solve(&pr).unwrap();
     for (x, y) in a.dq.iter().zip(&b.dq) {
         assert!((x - y).abs() < 1e-12, "{:?} vs {:?}", a.dq, b.dq);

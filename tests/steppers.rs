@@ -11,12 +11,17 @@ fn summary(engine: &str, set: &[String]) -> Summary {
     let mut set = set.to_vec();
     set.push("duration=0.6".into());
     let s = load_scene_with_overrides(&p, &set).unwrap();
-    run_timed(engine_by_name(engine).unwrap().as_ref(), &s).unwrap().1
+    run_timed(engine_by_name(engine).unwrap().as_ref(), &s)
+        .unwrap()
+        .1
 }
 
 fn amplitudes(s: &Summary) -> (f64, f64) {
     let b = &s.blocks[0];
-    (b.peaks[1].amplitude, b.peaks.get(2).map_or(0.0, |p| p.amplitude))
+    (
+        b.peaks[1].amplitude,
+        b.peaks.get(2).map_or(0.0, |p| p.amplitude),
+    )
 }
 
 fn native(theta: f64, dt: f64, stepper: &str) -> (f64, f64) {
@@ -38,7 +43,11 @@ fn impact_consistent_stepper_first_amplitude_within_3_percent_for_every_theta() 
         for theta in [0.5, 0.7, 1.0] {
             let (a1, _) = native(theta, dt, "impact");
             let e = (a1 / h1 - 1.0).abs();
-            assert!(e < 0.03, "theta {theta} dt {dt}: first amplitude {a1} vs Housner {h1} ({:.1} %)", 100.0 * e);
+            assert!(
+                e < 0.03,
+                "theta {theta} dt {dt}: first amplitude {a1} vs Housner {h1} ({:.1} %)",
+                100.0 * e
+            );
         }
     }
 }
@@ -52,8 +61,14 @@ fn impact_consistent_stepper_removes_the_spurious_rebound() {
         let (_, p2) = native(theta, 1e-3, "position");
         let (_, i2) = native(theta, 1e-3, "impact");
         let (ep, ei) = ((p2 / h2 - 1.0).abs(), (i2 / h2 - 1.0).abs());
-        assert!(ep > 0.3, "theta {theta}: position-level second amplitude {p2} vs {h2}: the known rebound");
-        assert!(ei < 0.1, "theta {theta}: impact-consistent second amplitude {i2} vs {h2}");
+        assert!(
+            ep > 0.3,
+            "theta {theta}: position-level second amplitude {p2} vs {h2}: the known rebound"
+        );
+        assert!(
+            ei < 0.1,
+            "theta {theta}: impact-consistent second amplitude {i2} vs {h2}"
+        );
     }
 }
 

@@ -101,17 +101,28 @@ pub struct HousnerRun {
     pub steps: u64,
 }
 
-/// Integrate from (theta0, omega0) to `duration`, sampling every `output_interval`.
+/// Time span and resolution of an integration.
+#[derive(Debug, Clone, Copy)]
+pub struct Span {
+    pub duration: f64,
+    pub output_interval: f64,
+    pub max_step: f64,
+    pub event_tolerance: f64,
+}
+
+/// Integrate from (theta0, omega0) over `span`, sampling every `span.output_interval`.
 pub fn integrate(
     blk: &HousnerBlock,
     gm: &GroundMotion,
-    theta0: f64,
-    omega0: f64,
-    duration: f64,
-    output_interval: f64,
-    max_step: f64,
-    event_tol: f64,
+    (theta0, omega0): (f64, f64),
+    span: Span,
 ) -> HousnerRun {
+    let Span {
+        duration,
+        output_interval,
+        max_step,
+        event_tolerance: event_tol,
+    } = span;
     let breaks = gm.breakpoints();
     let mut phase = if theta0 == 0.0 && omega0 == 0.0 {
         Phase::Rest
@@ -278,14 +289,15 @@ impl Engine for HousnerEngine {
         let run = integrate(
             &blk,
             &gm,
-            st.phi,
-            st.omega,
-            scene.duration,
-            scene.output_interval,
-            hs.max_step,
-            hs.event_tolerance,
+            (st.phi, st.omega),
+            Span {
+                duration: scene.duration,
+                output_interval: scene.output_interval,
+                max_step: hs.max_step,
+                event_tolerance: hs.event_tolerance,
+            },
         );
-        let mut tr = Trajectory::new(&[b.name.clone()]);
+        let mut tr = Trajectory::new(std::slice::from_ref(&b.name));
         for (t, mut s) in run.trajectory {
             s[0] += b.offset;
             tr.push(t, &[s]);

@@ -53,7 +53,10 @@ impl Engine for NativeEngine {
             exact_impacts: None,
             notes: vec![format!(
                 "{} steps, {} split at a located impact; {} solutions polished on their active set; {} steps fell back to Clarabel",
-                n_steps, stepper.split_steps, stepper.polished_steps, stepper.solver_fallbacks()
+                n_steps,
+                stepper.split_steps,
+                stepper.polished_steps,
+                stepper.solver_fallbacks()
             )],
         })
     }

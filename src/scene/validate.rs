@@ -212,13 +212,13 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
     scene.native.validate(file)?;
     positive("housner.max_step", scene.housner.max_step)?;
     positive("housner.event_tolerance", scene.housner.event_tolerance)?;
-    if let Some(r) = scene.housner.restitution {
-        if !r.is_finite() || !(0.0..=1.0).contains(&r) {
-            return err(
-                "housner.restitution".into(),
-                format!("must be in [0, 1] (got {r})"),
-            );
-        }
+    if let Some(r) = scene.housner.restitution
+        && (!r.is_finite() || !(0.0..=1.0).contains(&r))
+    {
+        return err(
+            "housner.restitution".into(),
+            format!("must be in [0, 1] (got {r})"),
+        );
     }
     Ok(())
 }

@@ -147,8 +147,8 @@ impl ActiveSetSolver {
         for k in 0..rank {
             let pk = self.perm[k];
             let mut v = self.rhs[pk];
-            for j in 0..k {
-                v -= self.s[pk * m + self.perm[j]] * y[j];
+            for (j, yj) in y.iter().enumerate().take(k) {
+                v -= self.s[pk * m + self.perm[j]] * yj;
             }
             y[k] = v / self.s[pk * m + pk];
         }
@@ -214,10 +214,11 @@ impl ContactSolver for ActiveSetSolver {
             let mut worst: Option<(usize, f64)> = None;
             for i in 0..nrows {
                 let v = self.rows[i].dot(&self.u) + self.r[i];
-                if v < -1e-11 * (1.0 + self.r[i].abs()) && !self.work.contains(&i) {
-                    if worst.is_none_or(|w| v < w.1) {
-                        worst = Some((i, v));
-                    }
+                if v < -1e-11 * (1.0 + self.r[i].abs())
+                    && !self.work.contains(&i)
+                    && worst.is_none_or(|w| v < w.1)
+                {
+                    worst = Some((i, v));
                 }
             }
             let action = if let Some((i, _)) = worst {
@@ -235,7 +236,9 @@ impl ContactSolver for ActiveSetSolver {
                 None => break,
                 Some(_) if moves >= max_moves => {
                     self.previous.clear();
-                    return Err(Self::fail(format!("no optimal working set after {moves} moves")));
+                    return Err(Self::fail(format!(
+                        "no optimal working set after {moves} moves"
+                    )));
                 }
                 Some((true, i)) => self.work.push(i),
                 Some((false, a)) => {
@@ -253,7 +256,8 @@ impl ContactSolver for ActiveSetSolver {
             }
         }
         self.previous.clear();
-        self.previous.extend(self.work.iter().map(|&i| self.rows[i].key));
+        self.previous
+            .extend(self.work.iter().map(|&i| self.rows[i].key));
         self.previous.sort_unstable();
         let k = pr.contacts.len();
         let mut z = vec![0.0; 2 * k];

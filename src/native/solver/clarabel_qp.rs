@@ -14,7 +14,7 @@
 //! (`AlmostSolved` too when the settings allow it). The solution is then polished on its
 //! active set (see [`super::polish`]) unless `native.polish = false`.
 
-use super::{polish, ContactSolver, SolveFailure};
+use super::{ContactSolver, SolveFailure, polish};
 use crate::native::problem::SparseRow;
 use crate::native::problem::{Scaled, StepProblem, StepSolution};
 use crate::native::settings::{Formulation, NativeSettings};
@@ -75,7 +75,7 @@ fn csc(m: usize, n: usize, entries: &BTreeMap<(usize, usize), f64>) -> CscMatrix
     // BTreeMap is ordered by (row, col); CSC needs column-major order.
     let mut by_col: Vec<(usize, usize, f64)> =
         entries.iter().map(|(&(r, c), &v)| (c, r, v)).collect();
-    by_col.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+    by_col.sort_by_key(|a| (a.0, a.1));
     for &(c, r, v) in &by_col {
         colptr[c + 1] += 1;
         rowval.push(r);

@@ -44,10 +44,10 @@ impl ContactSolver for WithFallback {
         self.primary.name()
     }
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if problem.n_dof() <= self.max_dofs {
-            if let Ok(s) = self.primary.solve(problem) {
-                return Ok(s);
-            }
+        if problem.n_dof() <= self.max_dofs
+            && let Ok(s) = self.primary.solve(problem)
+        {
+            return Ok(s);
         }
         self.fallbacks += 1;
         self.backup.solve(problem)

@@ -26,7 +26,13 @@ fn row_value(row: &SparseRow, u: &[f64]) -> f64 {
 }
 
 /// Solve the equality QP on working set `w`: returns (u, multipliers of w).
-fn solve_eqp(p: &[f64], q: &[f64], rows: &[SparseRow], r: &[f64], w: &[usize]) -> Option<(Vec<f64>, Vec<f64>)> {
+fn solve_eqp(
+    p: &[f64],
+    q: &[f64],
+    rows: &[SparseRow],
+    r: &[f64],
+    w: &[usize],
+) -> Option<(Vec<f64>, Vec<f64>)> {
     let n = p.len();
     let m = w.len();
     if m == 0 {
@@ -41,7 +47,8 @@ fn solve_eqp(p: &[f64], q: &[f64], rows: &[SparseRow], r: &[f64], w: &[usize]) -
         }
     }
     let s = &dp * d.transpose();
-    let rhs = &dp * DVector::from_column_slice(q) - DVector::from_iterator(m, w.iter().map(|&i| r[i]));
+    let rhs =
+        &dp * DVector::from_column_slice(q) - DVector::from_iterator(m, w.iter().map(|&i| r[i]));
     let eps = 1e-13 * s.amax().max(1e-300);
     let lambda = s.svd(true, true).solve(&rhs, eps).ok()?;
     let dl = d.transpose() * &lambda;
@@ -50,7 +57,15 @@ fn solve_eqp(p: &[f64], q: &[f64], rows: &[SparseRow], r: &[f64], w: &[usize]) -
 }
 
 /// `rows[i] u + r[i] >= 0` are the constraints; `z` the interior-point multipliers.
-pub fn polish(p: &[f64], q: &[f64], rows: &[SparseRow], r: &[f64], z: &[f64], dt: f64, u_ipm: &[f64]) -> Option<Vec<f64>> {
+pub fn polish(
+    p: &[f64],
+    q: &[f64],
+    rows: &[SparseRow],
+    r: &[f64],
+    z: &[f64],
+    dt: f64,
+    u_ipm: &[f64],
+) -> Option<Vec<f64>> {
     let mut w: Vec<usize> = (0..rows.len())
         .filter(|&i| {
             let slack = row_value(&rows[i], u_ipm) + r[i];
@@ -84,7 +99,10 @@ pub fn polish(p: &[f64], q: &[f64], rows: &[SparseRow], r: &[f64], z: &[f64], dt
             continue;
         }
         let scale = 1.0 + u_ipm.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let close = u.iter().zip(u_ipm).all(|(a, b)| (a - b).abs() <= 1e-5 * scale);
+        let close = u
+            .iter()
+            .zip(u_ipm)
+            .all(|(a, b)| (a - b).abs() <= 1e-5 * scale);
         return (close && u.iter().all(|x| x.is_finite())).then_some(u);
     }
     None
