@@ -1,7 +1,11 @@
 //! The native engine: the paper's theta-method with a contact QP per step.
 
 use super::{Engine, EngineError, RunOutput};
+use crate::excitation::GroundMotion;
 use crate::native::stepper_for;
+
+/// How long every block must stay still before `native.stop_at_rest` ends a run, s.
+pub const REST_WINDOW: f64 = 0.05;
 use crate::scene::Scene;
 use crate::trajectory::Trajectory;
 
@@ -20,13 +24,47 @@ impl Engine for NativeEngine {
         let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
         let mut tr = Trajectory::new(&names);
         tr.push(0.0, &stepper.relative_states(&state));
+        // Rest detection: the excitation is over and every block has been still for the
+        // whole window.
+        let excitation_end = GroundMotion::from_scene(scene)?
+            .breakpoints()
+            .last()
+            .copied()
+            .unwrap_or(0.0);
+        let window = (REST_WINDOW / dt).ceil() as u64;
+        let mut still = 0u64;
+        let mut stopped_at = None;
+        let mut computed = n_steps;
         for k in 1..=n_steps {
             stepper.step(&mut state).map_err(|e| EngineError::Failed {
                 engine: "native",
                 message: e.to_string(),
             })?;
+            let states = stepper.relative_states(&state);
             if k % every == 0 || k == n_steps {
-                tr.push(state.t, &stepper.relative_states(&state));
+                tr.push(state.t, &states);
+            }
+            if scene.native.stop_at_rest && state.t > excitation_end {
+                let v = scene.native.rest_velocity;
+                let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
+                    st[3].abs() < v && st[4].abs() < v && (st[5] * b.width.max(b.height)).abs() < v
+                });
+                still = if is_still { still + 1 } else { 0 };
+                if still >= window && k < n_steps {
+                    // Hold the resting state for the remaining samples.
+                    stopped_at = Some(state.t);
+                    computed = k;
+                    let at_rest: Vec<[f64; 6]> = states
+                        .iter()
+                        .map(|st| [st[0], st[1], st[2], 0.0, 0.0, 0.0])
+                        .collect();
+                    for j in k + 1..=n_steps {
+                        if j % every == 0 || j == n_steps {
+                            tr.push(j as f64 * dt, &at_rest);
+                        }
+                    }
+                    break;
+                }
             }
         }
         let mut settings = serde_json::to_value(&scene.native).expect("settings serialise");
@@ -48,16 +86,25 @@ impl Engine for NativeEngine {
                 env!("RB_VERSION_CLARABEL"),
                 env!("RB_VERSION_NALGEBRA")
             ),
-            steps: n_steps,
+            steps: computed,
             solver_iterations: Some(stepper.iterations),
             exact_impacts: None,
-            notes: vec![format!(
-                "{} steps, {} split at a located impact; {} solutions polished on their active set; {} steps fell back to Clarabel",
-                n_steps,
-                stepper.split_steps,
-                stepper.polished_steps,
-                stepper.solver_fallbacks()
-            )],
+            notes: {
+                let mut notes = vec![format!(
+                    "{} steps, {} split at a located impact; {} solutions polished on their active set; {} steps fell back to Clarabel",
+                    computed,
+                    stepper.split_steps,
+                    stepper.polished_steps,
+                    stepper.solver_fallbacks()
+                )];
+                if let Some(t) = stopped_at {
+                    notes.push(format!(
+                        "every block at rest from t = {t:.4} s (speeds below {:e} m/s for {REST_WINDOW} s): the run stopped there and the rest of the trajectory holds that state",
+                        scene.native.rest_velocity
+                    ));
+                }
+                notes
+            },
         })
     }
 }

@@ -103,10 +103,22 @@ pub struct NativeSettings {
     /// within the step and are left out.
     #[serde(default = "d_reach")]
     pub contact_reach: f64,
+    /// End the run once the excitation is over and every block has stayed still for 0.05 s
+    /// (the remaining samples hold the resting state) (default false).
+    #[serde(default)]
+    pub stop_at_rest: bool,
+    /// Speed below which a block counts as still, m/s (rotation: omega times the block's larger
+    /// dimension) (default 1e-9).
+    #[serde(default = "d_rest_velocity")]
+    pub rest_velocity: f64,
     /// Polish each interior-point solution on its active set (default true): takes the step
     /// from the solver tolerance to round-off. See `native::solver::polish`.
     #[serde(default = "d_true")]
     pub polish: bool,
+}
+
+fn d_rest_velocity() -> f64 {
+    1e-9
 }
 
 fn d_true() -> bool {
@@ -127,6 +139,8 @@ impl Default for NativeSettings {
             accept_almost_solved: false,
             contact_reach: d_reach(),
             polish: true,
+            stop_at_rest: false,
+            rest_velocity: d_rest_velocity(),
         }
     }
 }
@@ -147,6 +161,12 @@ impl NativeSettings {
             return e(
                 "tolerance",
                 format!("must be in (0, 1e-2) (got {})", self.tolerance),
+            );
+        }
+        if !self.rest_velocity.is_finite() || self.rest_velocity <= 0.0 {
+            return e(
+                "rest_velocity",
+                format!("must be a positive speed in m/s (got {})", self.rest_velocity),
             );
         }
         if self.max_iterations == 0 {
