@@ -455,3 +455,43 @@ impl Engine for RapierEngine {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `RapierSettings::rapier_defaults()` really is rapier's default configuration.
+    #[test]
+    fn rapier_defaults_are_rapiers() {
+        let s = RapierSettings::rapier_defaults();
+        assert_eq!(integration_parameters(&s), IntegrationParameters::default());
+        let rb = RigidBodyBuilder::dynamic().build();
+        assert_eq!(rb.linear_damping(), s.linear_damping);
+        assert_eq!(rb.angular_damping(), s.angular_damping);
+        assert_eq!(
+            rb.activation().normalized_linear_threshold > 0.0,
+            s.can_sleep
+        );
+        let c = ColliderBuilder::cuboid(1.0, 1.0).build();
+        assert_eq!(c.restitution(), s.restitution);
+        assert_eq!(
+            c.restitution_combine_rule(),
+            combine_rule(s.restitution_rule)
+        );
+        assert_eq!(c.friction_combine_rule(), CoefficientCombineRule::Average);
+    }
+
+    #[test]
+    fn interface_friction_is_keyed_by_the_upper_block() {
+        let h = FrictionHook {
+            below: vec![0.5, 0.6, 0.9],
+            interface: true,
+            min: 0.0,
+        };
+        assert_eq!(h.interface_friction(GROUND_TAG, 0), Some(0.5));
+        assert_eq!(h.interface_friction(2, GROUND_TAG), Some(0.9));
+        assert_eq!(h.interface_friction(0, 1), Some(0.6));
+        assert_eq!(h.interface_friction(2, 1), Some(0.9));
+        assert_eq!(h.interface_friction(GROUND_TAG, GROUND_TAG), None);
+    }
+}
