@@ -113,7 +113,9 @@ fn main() {
             s.stabilization_iterations = 8
         }),
         ("solver_iterations = 4", |s| s.solver_iterations = 4),
+        ("solver_iterations = 12", |s| s.solver_iterations = 12),
         ("solver_iterations = 16", |s| s.solver_iterations = 16),
+        ("solver_iterations = 32", |s| s.solver_iterations = 32),
         ("dt = 2e-3", |s| s.dt = 2e-3),
         ("dt = 5e-4", |s| s.dt = 5e-4),
         ("dt = 2e-4", |s| s.dt = 2e-4),

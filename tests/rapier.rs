@@ -232,7 +232,17 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
     /// 3.92 m/s^2): the inertial-force route against Housner's equation with the same pulse.
     #[test]
     fn pulse_response_matches_housner() {
-        let scene = temp_scene("pulse-h", &route(SLENDER_PULSE, "inertial-forces"), &[]);
+        let plain = route(SLENDER_PULSE, "inertial-forces");
+        let with_vertical = plain.replace(
+            "start = 0.1 }\n",
+            "start = 0.1 }\nvertical = { kind = \"one-sine\", amplitude = 3.0, duration = 0.5, start = 0.05 }\n",
+        );
+        assert_ne!(plain, with_vertical);
+        pulse_case(temp_scene("pulse-h", &plain, &[]));
+        pulse_case(temp_scene("pulse-hv", &with_vertical, &[]));
+    }
+
+    fn pulse_case(scene: Scene) {
         let (ho, hs) = run("housner", &scene);
         let (ro, rs) = run("rapier", &scene);
         let (hb, rb) = (&hs.blocks[0], &rs.blocks[0]);
@@ -245,7 +255,15 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
         );
         let amp = rb.peaks[0].amplitude / hb.peaks[0].amplitude - 1.0;
         eprintln!(
-            "pulse: first peak housner {:.5} rad at {:.3} s, rapier {:.5} rad at {:.3} s ({:+.2} %); first impact housner {:.4} s, rapier {:.4} s; RMS {:.2e} rad",
+            "pulse ({}): first peak housner {:.5} rad at {:.3} s, rapier {:.5} rad at {:.3} s ({:+.2} %); first impact housner {:.4} s, rapier {:.4} s; RMS {:.2e} rad",
+            scene
+                .excitation
+                .as_ref()
+                .unwrap()
+                .vertical
+                .is_some()
+                .then_some("h+v")
+                .unwrap_or("h"),
             hb.peaks[0].amplitude,
             hb.peaks[0].t,
             rb.peaks[0].amplitude,
@@ -262,6 +280,30 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
         assert!(rms < 3e-3, "RMS {rms}");
     }
 
+    /// A longer pulse overturns the slender block in both engines, at the same time.
+    #[test]
+    fn overturning_matches_housner() {
+        let text =
+            route(SLENDER_PULSE, "inertial-forces").replace("duration = 0.4", "duration = 0.6");
+        let scene = temp_scene("overturn", &text, &[]);
+        let (_, hs) = run("housner", &scene);
+        let (ro, rs) = run("rapier", &scene);
+        let (hb, rb) = (&hs.blocks[0], &rs.blocks[0]);
+        let (th, tr) = (
+            hb.overturn_time.unwrap(),
+            rb.overturn_time.unwrap_or(f64::NAN),
+        );
+        let last = *ro.trajectory.blocks[0].phi.last().unwrap();
+        eprintln!(
+            "overturning: housner at {th:.4} s, rapier at {tr:.4} s ({:+.2} ms); rapier ends at phi = {last:.6} rad",
+            1e3 * (tr - th)
+        );
+        assert!(hb.overturned && rb.overturned);
+        assert!((tr - th).abs() < 2e-3);
+        // Lying on its side: a quarter turn, the sign of Housner's.
+        assert!((last - std::f64::consts::FRAC_PI_2 * hb.peaks[0].phi.signum()).abs() < 1e-3);
+    }
+
     /// The inertial-force and moving-ground routes give the same relative motion, for an
     /// analytic pulse and for a prescribed displacement history.
     #[test]
@@ -274,6 +316,13 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
                     r#"horizontal = { kind = "displacement", file = "disp.csv" }"#,
                 ),
                 vec![("disp.csv", displacement_history())],
+            ),
+            (
+                route(SLENDER_PULSE, "ROUTE").replace(
+                    "start = 0.1 }\n",
+                    "start = 0.1 }\nvertical = { kind = \"one-sine\", amplitude = 3.0, duration = 0.5, start = 0.05 }\n",
+                ),
+                vec![],
             ),
         ];
         for (k, (text, files)) in cases.iter().enumerate() {
@@ -291,9 +340,10 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
             let dphi = max_diff(ta, &pa.phi, tb, &pb.phi, 3.0);
             let rms = rms_diff(ta, &pa.phi, tb, &pb.phi, 3.0);
             let dx = max_diff(ta, &pa.x, tb, &pb.x, 3.0);
+            let dz = max_diff(ta, &pa.z, tb, &pb.z, 3.0);
             let (ia, ib) = (&asum.blocks[0].impacts, &bsum.blocks[0].impacts);
             eprintln!(
-                "routes, case {k}: peak |phi| {peak:.4} rad; max |dphi| {dphi:.2e} rad, RMS {rms:.2e} rad, max |dx| {dx:.2e} m; first impacts {:.4} / {:.4} s",
+                "routes, case {k}: peak |phi| {peak:.4} rad; max |dphi| {dphi:.2e} rad, RMS {rms:.2e} rad, max |dx| {dx:.2e} m, max |dz| {dz:.2e} m; first impacts {:.4} / {:.4} s",
                 ia[0], ib[0]
             );
             assert!(
@@ -302,6 +352,10 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
             );
             assert!(dphi < 0.02 * peak, "max |dphi| {dphi} for peak {peak}");
             assert!(rms < 2e-3, "RMS {rms}");
+            assert!(
+                dx < 5e-3 && dz < 1e-3,
+                "relative positions differ: {dx} m, {dz} m"
+            );
             assert!((ia[0] - ib[0]).abs() < 2e-3);
             assert!(
                 bo.settings["excitation_route"]
