@@ -256,14 +256,11 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
         let amp = rb.peaks[0].amplitude / hb.peaks[0].amplitude - 1.0;
         eprintln!(
             "pulse ({}): first peak housner {:.5} rad at {:.3} s, rapier {:.5} rad at {:.3} s ({:+.2} %); first impact housner {:.4} s, rapier {:.4} s; RMS {:.2e} rad",
-            scene
-                .excitation
-                .as_ref()
-                .unwrap()
-                .vertical
-                .is_some()
-                .then_some("h+v")
-                .unwrap_or("h"),
+            if scene.excitation.as_ref().unwrap().vertical.is_some() {
+                "h+v"
+            } else {
+                "h"
+            },
             hb.peaks[0].amplitude,
             hb.peaks[0].t,
             rb.peaks[0].amplitude,
