@@ -398,13 +398,13 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
         s
     }
 
-    /// A wide block launched along the ground stops after `v^2 / (2 mu g)`, with the friction of
-    /// its own interface (0.3), not the scene default (0.7).
+    /// A block launched along its support stops after `v^2 / (2 mu g)` with the friction of its
+    /// own interface: one slab on the ground (interface friction 0.3 against the scene's 0.7,
+    /// through the contact hook; and 0.3 everywhere, through rapier's own combination), and a
+    /// slab sliding on a wider one (0.25) that the ground (0.9) holds still.
     #[test]
-    fn sliding_block_stops_where_coulomb_says() {
-        let scene = temp_scene(
-            "slide",
-            r#"
+    fn sliding_blocks_stop_where_coulomb_says() {
+        let slab = r#"
 name = "slide"
 duration = 0.6
 [[blocks]]
@@ -413,27 +413,71 @@ width = 2.0
 height = 0.4
 [initial.blocks.slab]
 vx = 1.0
+"#;
+        let on_slab = r#"
+name = "slide-on-block"
+duration = 0.6
+[[blocks]]
+name = "base"
+width = 4.0
+height = 0.4
+[[blocks]]
+name = "top"
+width = 1.0
+height = 0.2
+offset = -1.0
+[initial.blocks.top]
+vx = 1.0
 [contact]
-friction = 0.7
-interfaces = { slab = { friction = 0.3 } }
-"#,
-            &[],
-        );
-        let (o, _) = run("rapier", &scene);
-        let b = &o.trajectory.blocks[0];
-        let travel = b.x.last().unwrap() - b.x[0];
-        let want = 1.0 / (2.0 * 0.3 * scene.gravity);
-        let stop = want * 2.0 / 1.0; // stopping time 2 d / v0
-        let rel = travel / want - 1.0;
-        eprintln!(
-            "sliding: travel {travel:.5} m, Coulomb {want:.5} m ({:+.2} %), final vx {:.2e}, max |phi| {:.2e}",
-            100.0 * rel,
-            b.vx.last().unwrap(),
-            b.phi.iter().fold(0.0f64, |m, p| m.max(p.abs()))
-        );
-        assert!(stop < scene.duration);
-        assert!(rel.abs() < 0.01, "travel {travel} vs {want}");
-        assert!(b.vx.last().unwrap().abs() < 1e-3);
+friction = 0.9
+interfaces = { top = { friction = 0.25 } }
+"#;
+        let cases = [
+            (
+                "interface 0.3, scene 0.7",
+                format!(
+                    "{slab}[contact]\nfriction = 0.7\ninterfaces = {{ slab = {{ friction = 0.3 }} }}\n"
+                ),
+                0.3,
+                true,
+            ),
+            (
+                "0.3 everywhere",
+                format!("{slab}[contact]\nfriction = 0.3\n"),
+                0.3,
+                false,
+            ),
+            ("top slab on base", on_slab.to_string(), 0.25, true),
+        ];
+        for (k, (label, text, mu, hooked)) in cases.iter().enumerate() {
+            let scene = temp_scene(&format!("slide{k}"), text, &[]);
+            let (o, _) = run("rapier", &scene);
+            assert_eq!(o.settings["friction_hook"], *hooked, "{label}");
+            let n = scene.blocks.len();
+            let b = &o.trajectory.blocks[n - 1];
+            let travel = b.x.last().unwrap() - b.x[0];
+            let want = 1.0 / (2.0 * mu * scene.gravity);
+            let rel = travel / want - 1.0;
+            let base_drift = if n > 1 {
+                let base = &o.trajectory.blocks[0];
+                (base.x.last().unwrap() - base.x[0]).abs()
+            } else {
+                0.0
+            };
+            eprintln!(
+                "sliding ({label}): travel {travel:.5} m, Coulomb {want:.5} m ({:+.2} %), final vx {:.2e}, max |phi| {:.2e}, support drift {base_drift:.1e} m",
+                100.0 * rel,
+                b.vx.last().unwrap(),
+                b.phi.iter().fold(0.0f64, |m, p| m.max(p.abs()))
+            );
+            assert!(2.0 * want < scene.duration, "it must stop within the run");
+            assert!(rel.abs() < 0.01, "{label}: travel {travel} vs {want}");
+            assert!(b.vx.last().unwrap().abs() < 1e-3, "{label}");
+            assert!(
+                base_drift < 1e-4,
+                "{label}: the support moved {base_drift} m"
+            );
+        }
     }
 
     /// A stack with offsets, an `x`-placed block and per-block initial rotations starts exactly

@@ -33,10 +33,14 @@
 //! `excitation_routes_agree` in `tests/rapier.rs` measures the difference.
 //!
 //! ## Friction
-//! With `friction_rule = "interface"` (default) a contact hook sets every contact pair's
-//! friction to the scene's interface value, exactly as the native engine does (a block on the
-//! ground: the value keyed by that block; two blocks: the value keyed by the later-listed
-//! block), raised to `min_friction`. Rapier's combine rules are available for comparison.
+//! With `friction_rule = "interface"` (default) every contact pair gets the scene's interface
+//! friction, exactly as in the native engine (a block on the ground: the value keyed by that
+//! block; two blocks: the value keyed by the later-listed block), raised to `min_friction`.
+//! When all interfaces share one value, every collider carries it and rapier's own average
+//! gives it; otherwise (or with `min_friction > 0`) a contact hook sets each pair's value, and
+//! rapier then never recycles those pairs' contacts (`contact_recycling` has no effect; the
+//! summary's `settings.friction_hook` says which). Rapier's combine rules are available for
+//! comparison.
 
 use super::rapier_settings::{CombineRule, FrictionRule, RapierSettings};
 use super::{Engine, EngineError, RunOutput};
@@ -140,6 +144,8 @@ fn integration_parameters(s: &RapierSettings) -> IntegrationParameters {
 pub struct RapierSim {
     world: PhysicsWorld,
     hook: FrictionHook,
+    /// Whether the colliders call the friction hook.
+    hooked: bool,
     blocks: Vec<RigidBodyHandle>,
     masses: Vec<f64>,
     ground: RigidBodyHandle,
@@ -169,7 +175,15 @@ impl RapierSim {
         };
         let layout = scene.layout();
         let fr_rule = friction_combine(s.friction_rule).map(combine_rule);
-        let hooks = if fr_rule.is_none() || s.min_friction > 0.0 {
+        // The hook is needed when the interface frictions differ (rapier's own combination of
+        // equal coefficients already gives the interface value) or a minimum applies. Rapier
+        // never recycles the contacts of a hooked pair.
+        let below: Vec<f64> = (0..scene.blocks.len())
+            .map(|i| scene.friction_below(i))
+            .collect();
+        let uniform = below.iter().all(|&mu| mu == scene.contact.friction);
+        let hooked = (fr_rule.is_none() && !uniform) || s.min_friction > 0.0;
+        let hooks = if hooked {
             ActiveHooks::MODIFY_SOLVER_CONTACTS
         } else {
             ActiveHooks::empty()
@@ -235,9 +249,7 @@ impl RapierSim {
             blocks.push(h);
         }
         let hook = FrictionHook {
-            below: (0..scene.blocks.len())
-                .map(|i| scene.friction_below(i))
-                .collect(),
+            below,
             interface: fr_rule.is_none(),
             min: s.min_friction,
         };
@@ -245,6 +257,7 @@ impl RapierSim {
         Ok(RapierSim {
             world,
             hook,
+            hooked,
             blocks,
             masses,
             ground,
@@ -259,6 +272,11 @@ impl RapierSim {
             t: 0.0,
             steps: 0,
         })
+    }
+
+    /// Whether contact pairs go through the friction hook (see the module docs).
+    pub fn friction_hook_active(&self) -> bool {
+        self.hooked
     }
 
     /// Mass of each block as rapier computed it from the collider, kg per metre.
@@ -411,6 +429,7 @@ impl Engine for RapierEngine {
                     .unwrap_or_default(),
             );
             o.insert("output_interval".into(), (every as f64 * dt).into());
+            o.insert("friction_hook".into(), sim.friction_hook_active().into());
             o.insert(
                 "interface_friction".into(),
                 scene
