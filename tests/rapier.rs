@@ -4,9 +4,7 @@
 //! Run in release mode (`cargo test --release --test rapier`); each test takes well under a
 //! second of simulation. Every test prints the numbers it measured (`-- --nocapture`).
 
-#[cfg(not(feature = "rapier"))]
-use rockbench::engines::EngineError;
-use rockbench::engines::engine_by_name;
+use rockbench::engines::{EngineError, engine_by_name};
 use rockbench::scene::{SceneError, load_scene_with_overrides};
 use std::path::{Path, PathBuf};
 
@@ -550,6 +548,33 @@ omega = OMEGA
         );
         assert!(worst.0 < 1e-3, "drift {} m", worst.0);
         assert!(worst.1 < 1e-4, "rotation {} rad", worst.1);
+    }
+
+    /// A state that becomes infinite, and a block that reaches rapier's speed limit (where
+    /// rapier would silently clamp the motion), end the run with an error naming the block.
+    #[test]
+    fn runaway_states_are_errors() {
+        let rec = ("acc.csv", "t,a\n0,0\n0.1,1\n0.2,0\n".to_string());
+        let text = |scale: &str| {
+            format!(
+                "name = \"runaway\"\nduration = 0.5\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[excitation]\nhorizontal = {{ kind = \"record\", file = \"acc.csv\", scale = {scale} }}\n"
+            )
+        };
+        for (k, (scale, want)) in [("1e305", "NaN or infinite"), ("1e4", "max_linear_velocity")]
+            .iter()
+            .enumerate()
+        {
+            let scene = temp_scene(&format!("runaway{k}"), &text(scale), &[rec.clone()]);
+            let e = engine_by_name("rapier").unwrap();
+            let err = run_timed(e.as_ref(), &scene)
+                .err()
+                .expect("the run must fail");
+            let msg = err.to_string();
+            eprintln!("scale {scale}: {msg}");
+            assert!(matches!(err, EngineError::Failed { .. }), "{msg}");
+            assert!(msg.contains(want) && msg.contains("`block`"), "{msg}");
+            assert_eq!(msg.lines().count(), 1);
+        }
     }
 
     /// Rapier's mass and inertia are the scene's (density per area in 2D).

@@ -134,6 +134,7 @@ fn integration_parameters(s: &RapierSettings) -> IntegrationParameters {
     p.normalized_prediction_distance = s.prediction_distance;
     p.normalized_allowed_linear_error = s.allowed_linear_error;
     p.normalized_max_corrective_velocity = s.max_corrective_velocity;
+    p.normalized_max_linear_velocity = s.max_linear_velocity;
     p.warmstart_coefficient = s.warmstart_coefficient;
     p.friction_in_bias_pass = s.friction_in_bias_pass;
     p.length_unit = 1.0;
@@ -147,6 +148,7 @@ pub struct RapierSim {
     /// Whether the colliders call the friction hook.
     hooked: bool,
     blocks: Vec<RigidBodyHandle>,
+    names: Vec<String>,
     masses: Vec<f64>,
     ground: RigidBodyHandle,
     ground_half_height: f64,
@@ -210,8 +212,11 @@ impl RapierSim {
         let extent: f64 = scene.blocks.iter().map(|b| b.width + b.height).sum();
         let ground_hx = 10.0 * (reach + extent) + 10.0;
         let ground_hy = extent.max(1.0);
+        // Initial ground velocity (zero for pulses and records; the first segment's slope for a
+        // displacement history starting at t = 0): the layout's velocities are relative to it.
+        let (gvx, gvz) = if moving { motion.vel(0.0) } else { (0.0, 0.0) };
         let ground_body = if moving {
-            RigidBodyBuilder::kinematic_position_based()
+            RigidBodyBuilder::kinematic_position_based().linvel(Vector::new(gvx, gvz))
         } else {
             RigidBodyBuilder::fixed()
         }
@@ -225,9 +230,6 @@ impl RapierSim {
             .user_data(GROUND_TAG),
         );
 
-        // Initial ground velocity (zero for pulses and records; the first segment's slope for a
-        // displacement history starting at t = 0): the layout's velocities are relative to it.
-        let (gvx, gvz) = if moving { motion.vel(0.0) } else { (0.0, 0.0) };
         let mut blocks = Vec::with_capacity(scene.blocks.len());
         let mut masses = Vec::with_capacity(scene.blocks.len());
         for (i, (b, st)) in scene.blocks.iter().zip(&layout.blocks).enumerate() {
@@ -259,6 +261,7 @@ impl RapierSim {
             hook,
             hooked,
             blocks,
+            names: scene.blocks.iter().map(|b| b.name.clone()).collect(),
             masses,
             ground,
             ground_half_height: ground_hy,
@@ -324,12 +327,25 @@ impl RapierSim {
                 .blocks
                 .iter()
                 .position(|b| b == h)
-                .map(|i| format!("block {i}"))
+                .map(|i| format!("block `{}`", self.names[i]))
                 .unwrap_or_else(|| "the ground".into());
             return Err(EngineError::Failed {
                 engine: "rapier",
                 message: format!("the state of {which} became NaN or infinite at t = {t1:.6} s"),
             });
+        }
+        let cap = self.world.integration_parameters.max_linear_velocity();
+        for (i, h) in self.blocks.iter().enumerate() {
+            let speed = self.world.bodies[*h].linvel().length();
+            if speed >= cap * (1.0 - 1e-9) {
+                return Err(EngineError::Failed {
+                    engine: "rapier",
+                    message: format!(
+                        "block `{}` reached rapier's speed limit rapier.max_linear_velocity = {cap} m/s at t = {t1:.6} s; rapier would clamp its motion",
+                        self.names[i]
+                    ),
+                });
+            }
         }
         for (k, h) in self.blocks.iter().enumerate() {
             let raw = self.world.bodies[*h].rotation().angle();
@@ -374,8 +390,8 @@ impl RapierSim {
             return Err(EngineError::Failed {
                 engine: "rapier",
                 message: format!(
-                    "the state of block {i} became NaN or infinite at t = {:.6} s",
-                    self.t
+                    "the state of block `{}` became NaN or infinite at t = {:.6} s",
+                    self.names[i], self.t
                 ),
             });
         }

@@ -79,6 +79,9 @@ fn d_allowed_linear_error() -> f64 {
 fn d_max_corrective_velocity() -> f64 {
     3.0
 }
+fn d_max_linear_velocity() -> f64 {
+    400.0
+}
 fn d_warmstart() -> f64 {
     1.0
 }
@@ -139,6 +142,11 @@ pub struct RapierSettings {
     /// `normalized_max_corrective_velocity`; default 3, rapier's value).
     #[serde(default = "d_max_corrective_velocity")]
     pub max_corrective_velocity: f64,
+    /// Rapier's speed limit, m/s: it clamps every body's speed to this value after each
+    /// sub-step (`normalized_max_linear_velocity`). A run in which a block reaches it fails
+    /// instead of returning the clamped motion (default 400, rapier's value).
+    #[serde(default = "d_max_linear_velocity")]
+    pub max_linear_velocity: f64,
     /// Fraction of the previous step's contact impulses the solver starts from, in [0, 1]
     /// (default 1, rapier's value).
     #[serde(default = "d_warmstart")]
@@ -193,6 +201,7 @@ impl Default for RapierSettings {
             prediction_distance: d_prediction(),
             allowed_linear_error: d_allowed_linear_error(),
             max_corrective_velocity: d_max_corrective_velocity(),
+            max_linear_velocity: d_max_linear_velocity(),
             warmstart_coefficient: d_warmstart(),
             friction_in_bias_pass: false,
             restitution: 0.0,
@@ -223,6 +232,7 @@ impl RapierSettings {
             prediction_distance: 0.02,
             allowed_linear_error: 0.005,
             max_corrective_velocity: 3.0,
+            max_linear_velocity: 400.0,
             warmstart_coefficient: 1.0,
             friction_in_bias_pass: false,
             restitution: 0.0,
@@ -310,6 +320,7 @@ impl RapierSettings {
             self.max_corrective_velocity,
             " of m/s",
         )?;
+        positive("max_linear_velocity", self.max_linear_velocity, " of m/s")?;
         if !self.warmstart_coefficient.is_finite()
             || !(0.0..=1.0).contains(&self.warmstart_coefficient)
         {
@@ -361,6 +372,7 @@ mod tests {
         bad(|s| s.restitution = 1.5, "restitution");
         bad(|s| s.warmstart_coefficient = 2.0, "warmstart_coefficient");
         bad(|s| s.min_friction = -0.1, "min_friction");
+        bad(|s| s.max_linear_velocity = 0.0, "max_linear_velocity");
         bad(|s| s.angular_damping = -0.1, "angular_damping");
     }
 
