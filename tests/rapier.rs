@@ -564,11 +564,13 @@ omega = OMEGA
             .iter()
             .enumerate()
         {
-            let scene = temp_scene(&format!("runaway{k}"), &text(scale), &[rec.clone()]);
+            let scene = temp_scene(
+                &format!("runaway{k}"),
+                &text(scale),
+                std::slice::from_ref(&rec),
+            );
             let e = engine_by_name("rapier").unwrap();
-            let err = run_timed(e.as_ref(), &scene)
-                .err()
-                .expect("the run must fail");
+            let err = run_timed(e.as_ref(), &scene).expect_err("the run must fail");
             let msg = err.to_string();
             eprintln!("scale {scale}: {msg}");
             assert!(matches!(err, EngineError::Failed { .. }), "{msg}");
