@@ -122,11 +122,14 @@ pub struct RapierSettings {
     /// rapier: 10).
     #[serde(default = "d_damping_ratio")]
     pub contact_damping_ratio: f64,
-    /// Natural frequency of contacts with the ground (a fixed or kinematic body), Hz
-    /// (default 240; rapier: 60).
+    /// Natural frequency of contacts with a fixed body, Hz: the ground of the inertial-force
+    /// route. Rapier does not count a kinematic body as fixed, so with `moving-ground` the
+    /// ground contacts use `contact_frequency` and `contact_damping_ratio` (measured); the
+    /// defaults keep the two equal so both routes see the same contact (default 240;
+    /// rapier: 60).
     #[serde(default = "d_frequency")]
     pub static_contact_frequency: f64,
-    /// Damping ratio of contacts with the ground (default 10; rapier: 10).
+    /// Damping ratio of contacts with a fixed body (default 10; rapier: 10).
     #[serde(default = "d_damping_ratio")]
     pub static_contact_damping_ratio: f64,
     /// Gap, m, below which rapier creates (speculative) contact points before bodies touch
