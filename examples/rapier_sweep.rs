@@ -143,12 +143,22 @@ fn main() {
             s.prediction_distance = 5e-4
         }),
         ("pgs_iterations = 2", |s| s.pgs_iterations = 2),
-        ("allowed_linear_error = 5e-4", |s| s.allowed_linear_error = 5e-4),
+        ("allowed_linear_error = 5e-4", |s| {
+            s.allowed_linear_error = 5e-4
+        }),
         ("allowed_linear_error = 0", |s| s.allowed_linear_error = 0.0),
-        ("max_corrective_velocity = 0.3", |s| s.max_corrective_velocity = 0.3),
-        ("max_corrective_velocity = 30", |s| s.max_corrective_velocity = 30.0),
-        ("warmstart_coefficient = 0", |s| s.warmstart_coefficient = 0.0),
-        ("friction_in_bias_pass = true", |s| s.friction_in_bias_pass = true),
+        ("max_corrective_velocity = 0.3", |s| {
+            s.max_corrective_velocity = 0.3
+        }),
+        ("max_corrective_velocity = 30", |s| {
+            s.max_corrective_velocity = 30.0
+        }),
+        ("warmstart_coefficient = 0", |s| {
+            s.warmstart_coefficient = 0.0
+        }),
+        ("friction_in_bias_pass = true", |s| {
+            s.friction_in_bias_pass = true
+        }),
         ("restitution = 0.25", |s| s.restitution = 0.25),
         ("min_friction = 1", |s| s.min_friction = 1.0),
     ];

@@ -63,10 +63,10 @@ mod with_rapier {
         load_scene_with_overrides(&scene_path(name), &o).unwrap()
     }
 
-    /// A scene written to a fresh temporary directory (with extra files beside it).
+    /// A scene written to its own directory under cargo's test scratch space (with extra
+    /// files beside it).
     fn temp_scene(tag: &str, toml: &str, files: &[(&str, String)]) -> Scene {
-        let dir =
-            std::env::temp_dir().join(format!("rockbench-rapier-{tag}-{}", std::process::id()));
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("rapier-{tag}"));
         std::fs::create_dir_all(&dir).unwrap();
         for (name, text) in files {
             std::fs::write(dir.join(name), text).unwrap();
@@ -614,7 +614,7 @@ omega = OMEGA
     /// `rockbench run --engine rapier` writes the same files, with the same columns, as native.
     #[test]
     fn cli_writes_the_native_files() {
-        let out = std::env::temp_dir().join(format!("rockbench-rapier-cli-{}", std::process::id()));
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("rapier-cli");
         let scene = scene_path("housner-square.toml");
         for engine in ["native", "rapier"] {
             let st = std::process::Command::new(env!("CARGO_BIN_EXE_rockbench"))
