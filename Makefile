@@ -3,7 +3,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 BIN := target/release/rockbench
 
-.PHONY: all build demo test fmt clippy clean
+.PHONY: all build demo test test-no-default-features rapier-sweep fmt clippy clean
 
 all: build
 
@@ -16,10 +16,20 @@ demo: build
 	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine native --out out/demo/two-block/native
 	$(BIN) run validation/scenes/housner-slender.toml --engine housner --out out/demo/housner-slender/housner
 	$(BIN) run validation/scenes/housner-slender.toml --engine native --out out/demo/housner-slender/native
+	$(BIN) run validation/scenes/housner-slender.toml --engine rapier --out out/demo/housner-slender/rapier
+	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine rapier --out out/demo/two-block/rapier
 
-# Every test, numerical ones in release mode.
-test:
+# Every test, numerical ones in release mode: first without the optional engines (the build
+# must work and pass without them), then the default build (last, so target/release holds it).
+test: test-no-default-features
 	$(CARGO) test --release
+
+test-no-default-features:
+	$(CARGO) test --release --no-default-features
+
+# The measurement behind the rapier engine's defaults (docs/engines-rapier.md), ~10 s.
+rapier-sweep:
+	$(CARGO) run --release --example rapier_sweep
 
 fmt:
 	$(CARGO) fmt --all

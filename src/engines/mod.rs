@@ -4,6 +4,9 @@
 
 pub mod housner;
 pub mod native;
+#[cfg(feature = "rapier")]
+pub mod rapier;
+pub mod rapier_settings;
 
 use crate::scene::{Scene, SceneError};
 use crate::summary::Summary;
@@ -41,6 +44,13 @@ pub enum EngineError {
         engine: &'static str,
         message: String,
     },
+    #[error(
+        "engine `{engine}` is not in this build: rebuild with the cargo feature `{feature}` (on by default)"
+    )]
+    NotBuilt {
+        engine: &'static str,
+        feature: &'static str,
+    },
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error("{0}")]
@@ -53,12 +63,22 @@ pub trait Engine: Send + Sync {
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError>;
 }
 
+#[cfg(feature = "rapier")]
+pub const ENGINE_NAMES: &[&str] = &["native", "housner", "rapier"];
+#[cfg(not(feature = "rapier"))]
 pub const ENGINE_NAMES: &[&str] = &["native", "housner"];
 
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     match name {
         "native" => Ok(Box::new(native::NativeEngine)),
         "housner" => Ok(Box::new(housner::HousnerEngine)),
+        #[cfg(feature = "rapier")]
+        "rapier" => Ok(Box::new(rapier::RapierEngine)),
+        #[cfg(not(feature = "rapier"))]
+        "rapier" => Err(EngineError::NotBuilt {
+            engine: "rapier",
+            feature: "rapier",
+        }),
         other => Err(EngineError::Unknown(other.to_string())),
     }
 }

@@ -12,6 +12,7 @@ mod validate;
 pub use layout::{BlockState, Layout};
 pub use load::{apply_override, load_scene, load_scene_with_overrides, parse_scene_str};
 
+use crate::engines::rapier_settings::RapierSettings;
 use crate::native::NativeSettings;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -78,10 +79,12 @@ pub struct Scene {
     /// Settings of the analytical Housner engine.
     #[serde(default)]
     pub housner: HousnerSettings,
-    /// Settings read by engines outside this crate's core (rapier, MuJoCo, PyBullet): kept as
-    /// given and passed to the engine, which validates them.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rapier: Option<serde_json::Value>,
+    /// Settings of the rapier2d engine (parsed and checked in every build, also without the
+    /// `rapier` feature).
+    #[serde(default)]
+    pub rapier: RapierSettings,
+    /// Settings read by engines outside this crate's core (MuJoCo, PyBullet): kept as given and
+    /// passed to the engine, which validates them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mujoco: Option<serde_json::Value>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

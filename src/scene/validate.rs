@@ -210,6 +210,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
     }
 
     scene.native.validate(file)?;
+    scene.rapier.validate(file)?;
     positive("housner.max_step", scene.housner.max_step)?;
     positive("housner.event_tolerance", scene.housner.event_tolerance)?;
     if let Some(r) = scene.housner.restitution
