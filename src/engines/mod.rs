@@ -2,6 +2,7 @@
 //!
 //! `Engine::run` is the only way the harness meets an engine.
 
+pub mod auto;
 pub mod housner;
 pub mod native;
 #[cfg(feature = "rapier")]
@@ -72,6 +73,7 @@ pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     match name {
         "native" => Ok(Box::new(native::NativeEngine)),
         "housner" => Ok(Box::new(housner::HousnerEngine)),
+        "auto" => Ok(Box::new(auto::AutoEngine)),
         #[cfg(feature = "rapier")]
         "rapier" => Ok(Box::new(rapier::RapierEngine)),
         #[cfg(not(feature = "rapier"))]

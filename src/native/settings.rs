@@ -166,7 +166,10 @@ impl NativeSettings {
         if !self.rest_velocity.is_finite() || self.rest_velocity <= 0.0 {
             return e(
                 "rest_velocity",
-                format!("must be a positive speed in m/s (got {})", self.rest_velocity),
+                format!(
+                    "must be a positive speed in m/s (got {})",
+                    self.rest_velocity
+                ),
             );
         }
         if self.max_iterations == 0 {
