@@ -2,6 +2,7 @@
 //!
 //! `Engine::run` is the only way the harness meets an engine.
 
+pub mod external;
 pub mod housner;
 pub mod native;
 
@@ -53,12 +54,15 @@ pub trait Engine: Send + Sync {
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError>;
 }
 
-pub const ENGINE_NAMES: &[&str] = &["native", "housner"];
+pub const ENGINE_NAMES: &[&str] = &["native", "housner", "mujoco", "pybullet"];
 
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     match name {
         "native" => Ok(Box::new(native::NativeEngine)),
         "housner" => Ok(Box::new(housner::HousnerEngine)),
+        "mujoco" | "pybullet" => Ok(Box::new(
+            external::ExternalEngine::new(name).expect("an external engine name"),
+        )),
         other => Err(EngineError::Unknown(other.to_string())),
     }
 }
