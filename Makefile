@@ -3,7 +3,15 @@ SHELL := /bin/bash
 CARGO ?= cargo
 BIN := target/release/rockbench
 
-.PHONY: all build demo test fmt clippy clean
+.PHONY: all build demo test test-rust test-python stubtest fmt clippy clean .venv
+
+# Python: a virtual environment with the pinned packages of python/requirements.txt (MuJoCo,
+# PyBullet, numpy, maturin, pytest, mypy) and the extension rockbench._native built into it.
+# Stamp files keep an unchanged tree from reinstalling or rebuilding.
+PYTHON311 ?= python3.11
+VENV := .venv
+VPY := $(VENV)/bin/python
+RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 all: build
 
@@ -12,14 +20,38 @@ build:
 
 # The main job: the paper's two-block case with the native engine, and the slender block
 # against the Housner engine. Outputs under out/demo/.
-demo: build
+demo: build .venv
 	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine native --out out/demo/two-block/native
+	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine mujoco --out out/demo/two-block/mujoco
+	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine pybullet --out out/demo/two-block/pybullet
 	$(BIN) run validation/scenes/housner-slender.toml --engine housner --out out/demo/housner-slender/housner
 	$(BIN) run validation/scenes/housner-slender.toml --engine native --out out/demo/housner-slender/native
 
-# Every test, numerical ones in release mode.
-test:
+# Every test, numerical ones in release mode: cargo's, then pytest (warnings are errors,
+# see pyproject.toml) including the stub check.
+test: test-rust test-python
+
+test-rust:
 	$(CARGO) test --release
+
+test-python: .venv build
+	$(VPY) -m pytest -q tests/python
+
+# The hand-written stubs against the built extension (also run by pytest).
+stubtest: .venv
+	$(VPY) -m mypy.stubtest rockbench._native
+
+.venv: $(VENV)/.requirements.stamp $(VENV)/.native.stamp
+
+$(VENV)/.requirements.stamp: python/requirements.txt
+	command -v $(PYTHON311) >/dev/null || (apt-get update && apt-get install -y python3.11 python3.11-venv python3.11-dev)
+	test -x $(VPY) || $(PYTHON311) -m venv $(VENV)
+	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements.txt
+	touch $@
+
+$(VENV)/.native.stamp: $(VENV)/.requirements.stamp $(RUST_SOURCES) pyproject.toml
+	cd $(CURDIR) && VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin develop --release --quiet
+	touch $@
 
 fmt:
 	$(CARGO) fmt --all
@@ -28,4 +60,4 @@ clippy:
 	$(CARGO) clippy --release --all-targets -- -D warnings
 
 clean:
-	rm -rf out target
+	rm -rf out target $(VENV) python/rockbench/_native*.so

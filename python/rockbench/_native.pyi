@@ -1,13 +1,15 @@
 """Type stubs of the Rust extension ``rockbench._native`` (checked by ``mypy.stubtest``)."""
 
 import os
-from typing import Any, Sequence
+from typing import Any, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+__all__ = ["__version__", "Scene", "Run", "load_scene", "run", "engine_names"]
 
+@final
 class Scene:
     """A checked scene."""
 
@@ -30,6 +32,7 @@ class Scene:
     def ground_motion(self, t: npt.NDArray[np.float64]) -> dict[str, npt.NDArray[np.float64]]: ...
     def excitation_breakpoints(self) -> list[float]: ...
 
+@final
 class Run:
     """The result of one engine run."""
 
