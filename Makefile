@@ -18,8 +18,8 @@ all: build
 build:
 	$(CARGO) build --release
 
-# The main job: the paper's two-block case with the native engine, and the slender block
-# against the Housner engine. Outputs under out/demo/.
+# The main job: the paper's two-block case with the native, MuJoCo and PyBullet engines, and
+# the slender block against the Housner engine. Outputs under out/demo/.
 demo: build .venv
 	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine native --out out/demo/two-block/native
 	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine mujoco --out out/demo/two-block/mujoco

@@ -121,10 +121,10 @@ fn a_worker_killed_mid_run_is_a_failed_run_and_the_harness_goes_on() {
     let worker = std::thread::spawn(move || eng.run(&scene));
     let deadline = Instant::now() + Duration::from_secs(10);
     let pid = loop {
-        if let Ok(s) = std::fs::read_to_string(&pidfile) {
-            if s.ends_with('\n') {
-                break s.trim().to_string();
-            }
+        if let Ok(s) = std::fs::read_to_string(&pidfile)
+            && s.ends_with('\n')
+        {
+            break s.trim().to_string();
         }
         assert!(Instant::now() < deadline, "the worker never started");
         std::thread::sleep(Duration::from_millis(10));

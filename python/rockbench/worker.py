@@ -15,6 +15,7 @@ engine failure (NaN, instability), 1 for anything else.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import sys
@@ -65,10 +66,7 @@ def load(scene_path: str, source: str | None) -> tuple[Any, dict[str, Any]]:
 def run(engine: str, scene_path: str, out: str, source: str | None) -> dict[str, Any]:
     scene, spec = load(scene_path, source)
     try:
-        if engine == "mujoco":
-            from rockbench.engines import mujoco_engine as mod
-        else:
-            from rockbench.engines import pybullet_engine as mod
+        mod = importlib.import_module(f"rockbench.engines.{engine}_engine")
         getattr(mod, f"import_{engine}")()
     except ModuleNotFoundError as e:
         raise missing(e.name or PACKAGES[engine]) from None

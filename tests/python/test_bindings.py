@@ -177,3 +177,11 @@ def test_stubs_match_the_extension() -> None:
         capture_output=True, text=True, cwd=ROOT,
     )
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_the_package_type_checks() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "python/rockbench"],
+        capture_output=True, text=True, cwd=ROOT,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr

@@ -152,6 +152,17 @@ def mean_ground_acceleration(
     return np.diff(gm["vx"]) / dt, np.diff(gm["vz"]) / dt
 
 
+def excitation_notes(spec: dict[str, Any]) -> list[str]:
+    """Notes on how the scene's excitation was applied."""
+    exc = spec.get("excitation") or {}
+    if exc.get("applied_as") == "moving-ground":
+        return [
+            "excitation.applied_as = moving-ground was applied as inertial forces on every "
+            "block (the same motion relative to the ground)"
+        ]
+    return []
+
+
 @dataclass
 class EngineResult:
     """What an engine run produced: samples, settings as used, and provenance."""

@@ -30,6 +30,7 @@ from rockbench.engines.common import (
     EngineResult,
     Setting,
     SettingsError,
+    excitation_notes,
     mean_ground_acceleration,
     non_negative,
     numbers,
@@ -188,6 +189,7 @@ def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
         settings=settings,
         engine_version=f"mujoco {mujoco.__version__}",
         steps=int(bounds[-1]),
+        notes=excitation_notes(spec),
         extra={"max_out_of_plane_rad": out_of_plane},
     )
 

@@ -39,6 +39,7 @@ from rockbench.engines.common import (
     EngineResult,
     Setting,
     SettingsError,
+    excitation_notes,
     mean_ground_acceleration,
     non_negative,
     optional,
@@ -256,6 +257,7 @@ def _run(p: Any, cid: int, scene: Any, spec: dict[str, Any], s: dict[str, Any]) 
         settings=settings,
         engine_version=f"pybullet {importlib.metadata.version('pybullet')} (API {p.getAPIVersion()})",
         steps=int(bounds[-1]) * s["num_sub_steps"],
+        notes=excitation_notes(spec),
         extra={"max_out_of_plane_rad": out_of_plane},
     )
 
