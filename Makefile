@@ -3,7 +3,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 BIN := target/release/rockbench
 
-.PHONY: all build demo test test-rust test-python stubtest fmt clippy clean .venv
+.PHONY: all build demo test test-rust test-python stubtest settings-sweep fmt clippy clean .venv
 
 # Python: a virtual environment with the pinned packages of python/requirements.txt (MuJoCo,
 # PyBullet, numpy, maturin, pytest, mypy) and the extension rockbench._native built into it.
@@ -36,6 +36,10 @@ test-rust:
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
+
+# The measurement behind the MuJoCo and PyBullet defaults (about a minute).
+settings-sweep: .venv build
+	$(VPY) -m rockbench.settings_sweep --out out/settings-sweep.md
 
 # The hand-written stubs against the built extension (also run by pytest).
 stubtest: .venv

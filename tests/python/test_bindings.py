@@ -26,8 +26,11 @@ def test_public_names_come_from_the_native_module() -> None:
     assert {"native", "housner", "mujoco", "pybullet"} <= set(rockbench.engine_names())
 
 
-def test_run_native_returns_arrays_equal_to_the_cli_output(tmp_path: Path) -> None:
-    r = rockbench.run("validation/scenes/housner-slender.toml" if Path("validation").is_dir() else scene_path("housner-slender"), engine="native")
+def test_run_native_returns_arrays_equal_to_the_cli_output(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(ROOT)
+    r = rockbench.run("validation/scenes/housner-slender.toml", engine="native")
     assert isinstance(r.t, np.ndarray) and r.t.dtype == np.float64
     assert list(r.blocks) == ["block"]
     b = r.blocks["block"]
