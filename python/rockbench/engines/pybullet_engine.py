@@ -237,7 +237,9 @@ def _run(p: Any, cid: int, scene: Any, spec: dict[str, Any], s: dict[str, Any]) 
         b["name"]: mu_blocks[i] for i, b in enumerate(spec["blocks"])
     }
     settings["engine_parameters"] = {
-        k: v for k, v in params.items() if isinstance(v, (int, float, str))
+        k: v
+        for k, v in params.items()
+        if isinstance(v, (int, float, str)) and not k.startswith("gravity")
     }
     settings["excitation"] = (
         f"inertial forces (gravity vector), mean ground acceleration over each {h:.6g} s"
