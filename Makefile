@@ -62,6 +62,7 @@ fmt:
 
 clippy:
 	$(CARGO) clippy --release --all-targets -- -D warnings
+	$(CARGO) clippy --release --lib --features python -- -D warnings
 
 clean:
 	rm -rf out target $(VENV) python/rockbench/_native*.so

@@ -64,6 +64,11 @@ def test_a_scene_dict_loads_like_its_file() -> None:
     assert s2.layout() == s1.layout()
     assert s2.source == "<dict>"
     assert s1.block_names == ["pedestal", "statue"]
+    # A loaded Scene, its dict and its file run identically.
+    h = rockbench.load_scene(scene_path("housner-square"))
+    runs = [rockbench.run(x, engine="housner") for x in (h, h.to_dict(), scene_path("housner-square"))]
+    for r in runs[1:]:
+        np.testing.assert_array_equal(r.blocks["block"]["phi"], runs[0].blocks["block"]["phi"])
 
 
 def test_overrides_apply_to_files() -> None:
