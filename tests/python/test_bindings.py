@@ -160,7 +160,7 @@ def test_runs_release_the_gil() -> None:
 
     def work() -> None:
         try:
-            rockbench.run(scene_path("two-block-free-rocking"), engine="native", overrides=["duration=1.5"])
+            rockbench.run(scene_path("two-block-free-rocking"), engine="native", overrides=["duration=3.0"])
         except BaseException as e:  # pragma: no cover - reported below
             err.append(e)
         done.set()

@@ -125,7 +125,14 @@ def _worker_children() -> list[int]:
             pids += [int(p) for p in (task / "children").read_text().split()]
         except OSError:
             continue
-    return [p for p in pids if b"rockbench.worker" in Path(f"/proc/{p}/cmdline").read_bytes()]
+    workers = []
+    for p in pids:
+        try:
+            if b"rockbench.worker" in Path(f"/proc/{p}/cmdline").read_bytes():
+                workers.append(p)
+        except OSError:  # exited meanwhile
+            continue
+    return workers
 
 
 def test_a_worker_killed_mid_run_is_a_failed_run_and_the_harness_goes_on() -> None:
