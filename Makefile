@@ -3,39 +3,79 @@ SHELL := /bin/bash
 CARGO ?= cargo
 BIN := target/release/rockbench
 
-.PHONY: all build demo test test-no-default-features rapier-sweep fmt clippy clean
+# Python: a virtual environment with the pinned packages of python/requirements.txt (MuJoCo,
+# PyBullet, numpy, pandas, maturin, pytest, mypy) and the extension rockbench._native built
+# into it. Stamp files keep an unchanged tree from reinstalling or rebuilding.
+PYTHON311 ?= python3.11
+VENV := .venv
+VPY := $(VENV)/bin/python
+RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
+
+.PHONY: all build demo test test-rust test-no-default-features test-python stubtest \
+	settings-sweep rapier-sweep gates compare-demo chromium fmt clippy clean .venv
 
 all: build
 
 build:
 	$(CARGO) build --release
 
-# The main job: the paper's two-block case with the native engine, and the slender block
-# against the Housner engine. Outputs under out/demo/.
-demo: build
+# The main job: the paper's two-block case on every engine, and the slender block against the
+# Housner engine. Outputs under out/demo/.
+demo: build .venv
 	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine native --out out/demo/two-block/native
+	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine rapier --out out/demo/two-block/rapier
+	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine mujoco --out out/demo/two-block/mujoco
+	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine pybullet --out out/demo/two-block/pybullet
 	$(BIN) run validation/scenes/housner-slender.toml --engine housner --out out/demo/housner-slender/housner
 	$(BIN) run validation/scenes/housner-slender.toml --engine native --out out/demo/housner-slender/native
-	$(BIN) run validation/scenes/housner-slender.toml --engine rapier --out out/demo/housner-slender/rapier
-	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine rapier --out out/demo/two-block/rapier
 
-# Every test, numerical ones in release mode: first without the optional engines (the build
-# must work and pass without them), then the default build (last, so target/release holds it).
-test: test-no-default-features
-	$(CARGO) test --release
+# Every test, numerical ones in release mode: the build without optional engines, cargo's
+# tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
+test: test-no-default-features test-rust test-python
 
 test-no-default-features:
 	$(CARGO) test --release --no-default-features
 
+test-rust: chromium
+	$(CARGO) test --release
+
+test-python: .venv build
+	$(VPY) -m pytest -q tests/python
+
+# Headless Chromium (Debian's package) for the report-rendering test.
+chromium:
+	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
+
+# The measurement behind the MuJoCo and PyBullet defaults (about a minute).
+settings-sweep: .venv build
+	$(VPY) -m rockbench.settings_sweep --out out/settings-sweep.md
+
 # The measurement behind the rapier engine's defaults (docs/engines-rapier.md), ~10 s.
 rapier-sweep:
 	$(CARGO) run --release --example rapier_sweep
+
+# The hand-written stubs against the built extension (also run by pytest).
+stubtest: .venv
+	$(VPY) -m mypy.stubtest rockbench._native
+
+.venv: $(VENV)/.requirements.stamp $(VENV)/.native.stamp
+
+$(VENV)/.requirements.stamp: python/requirements.txt
+	command -v $(PYTHON311) >/dev/null || (apt-get update && apt-get install -y python3.11 python3.11-venv python3.11-dev)
+	test -x $(VPY) || $(PYTHON311) -m venv $(VENV)
+	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements.txt
+	touch $@
+
+$(VENV)/.native.stamp: $(VENV)/.requirements.stamp $(RUST_SOURCES) pyproject.toml
+	cd $(CURDIR) && VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin develop --release --quiet
+	touch $@
 
 fmt:
 	$(CARGO) fmt --all
 
 clippy:
 	$(CARGO) clippy --release --all-targets -- -D warnings
+	$(CARGO) clippy --release --lib --features python -- -D warnings
 
 clean:
-	rm -rf out target
+	rm -rf out target $(VENV) python/rockbench/_native*.so

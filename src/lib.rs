@@ -30,7 +30,8 @@ pub mod events;
 pub mod excitation;
 pub mod geometry;
 pub mod native;
-
+#[cfg(feature = "python")]
+pub mod python;
 pub mod scene;
 pub mod summary;
 pub mod trajectory;

@@ -3,6 +3,7 @@
 //! `Engine::run` is the only way the harness meets an engine.
 
 pub mod auto;
+pub mod external;
 pub mod housner;
 pub mod native;
 #[cfg(feature = "rapier")]
@@ -65,9 +66,9 @@ pub trait Engine: Send + Sync {
 }
 
 #[cfg(feature = "rapier")]
-pub const ENGINE_NAMES: &[&str] = &["native", "housner", "rapier"];
+pub const ENGINE_NAMES: &[&str] = &["native", "housner", "rapier", "mujoco", "pybullet"];
 #[cfg(not(feature = "rapier"))]
-pub const ENGINE_NAMES: &[&str] = &["native", "housner"];
+pub const ENGINE_NAMES: &[&str] = &["native", "housner", "mujoco", "pybullet"];
 
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     match name {
@@ -81,6 +82,9 @@ pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
             engine: "rapier",
             feature: "rapier",
         }),
+        "mujoco" | "pybullet" => Ok(Box::new(
+            external::ExternalEngine::new(name).expect("an external engine name"),
+        )),
         other => Err(EngineError::Unknown(other.to_string())),
     }
 }

@@ -320,6 +320,11 @@ impl Scene {
         self.blocks.iter().position(|b| b.name == name)
     }
 
+    /// Check every field (what [`load_scene`] does after parsing): for scenes built in memory.
+    pub fn check(&self) -> Result<(), SceneError> {
+        validate::validate(self)
+    }
+
     /// The initial configuration (positions, velocities, supports).
     pub fn layout(&self) -> Layout {
         Layout::of(self)

@@ -1,0 +1,10 @@
+"""rockbench: rigid-block rocking dynamics and a cross-validation harness.
+
+The Rust core is the private extension ``rockbench._native``; this package re-exports its
+public names. ``rockbench.engines`` holds the MuJoCo and PyBullet engines, run by the Rust
+harness as worker processes (``python -m rockbench.worker``).
+"""
+
+from rockbench._native import Run, Scene, __version__, engine_names, load_scene, run
+
+__all__ = ["Run", "Scene", "__version__", "engine_names", "load_scene", "run"]

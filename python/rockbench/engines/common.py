@@ -1,0 +1,190 @@
+"""What the MuJoCo and PyBullet engines share: settings tables, the time grid, ground
+excitation and the trajectory they return.
+
+Sign conventions are the crate's (``src/lib.rs``): x horizontal, z up, rotations
+counter-clockwise positive in the x-z plane (a rotation about -y in a right-handed x-y-z frame),
+a positive horizontal ground acceleration moves the ground towards +x. Both engines apply the
+ground motion as inertial forces ``-m a_g`` on every block (a time-varying gravity vector), so
+the trajectory is relative to the ground as in ``src/trajectory.rs``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import numpy.typing as npt
+
+FIELDS = ("x", "z", "phi", "vx", "vz", "omega")
+
+
+class SettingsError(ValueError):
+    """A bad ``[mujoco]`` / ``[pybullet]`` setting: one line naming the field."""
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One named engine setting: default, check and meaning."""
+
+    default: Any
+    check: Callable[[str, Any], Any]
+    doc: str
+
+
+def positive(name: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise SettingsError(f"{name}: must be a positive number (got {v!r})")
+    return float(v)
+
+
+def non_negative(name: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+        raise SettingsError(f"{name}: must be a number >= 0 (got {v!r})")
+    return float(v)
+
+
+def positive_int(name: str, v: Any) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise SettingsError(f"{name}: must be a whole number >= 1 (got {v!r})")
+    return v
+
+
+def one_of(*choices: str) -> Callable[[str, Any], str]:
+    def check(name: str, v: Any) -> str:
+        if v not in choices:
+            raise SettingsError(f"{name}: must be one of {', '.join(choices)} (got {v!r})")
+        return str(v)
+
+    return check
+
+
+def optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
+    def inner(name: str, v: Any) -> Any:
+        return None if v is None else check(name, v)
+
+    return inner
+
+
+def numbers(*lengths: int) -> Callable[[str, Any], list[float]]:
+    """A list of finite numbers (or a string of numbers separated by spaces, MuJoCo style)."""
+
+    def check(name: str, v: Any) -> list[float]:
+        items = v.split() if isinstance(v, str) else v
+        try:
+            out = [float(x) for x in items]
+        except (TypeError, ValueError):
+            raise SettingsError(f"{name}: must be a list of numbers (got {v!r})") from None
+        if isinstance(v, (int, float)) or len(out) not in lengths or not all(map(math.isfinite, out)):
+            want = " or ".join(str(n) for n in lengths)
+            raise SettingsError(f"{name}: must be {want} finite numbers (got {v!r})")
+        return out
+
+    return check
+
+
+def read_settings(table: str, given: Any, spec: dict[str, Setting]) -> dict[str, Any]:
+    """Check a scene's ``[table]`` against ``spec``; return every setting with defaults filled."""
+    if given is None:
+        given = {}
+    if not isinstance(given, dict):
+        raise SettingsError(f"{table}: must be a table of settings (got {given!r})")
+    unknown = sorted(set(given) - set(spec))
+    if unknown:
+        raise SettingsError(
+            f"{table}.{unknown[0]}: unknown setting (known: {', '.join(sorted(spec))})"
+        )
+    out = {}
+    for name, s in spec.items():
+        v = given.get(name, s.default)
+        out[name] = s.check(f"{table}.{name}", v) if name in given else v
+    return out
+
+
+# Settings every external engine has: how the harness runs the worker.
+HARNESS_SETTINGS = {
+    "timeout": Setting(
+        600.0,
+        positive,
+        "Wall-clock limit of one worker run, s: past it the harness kills the worker and "
+        "reports a failed run (read by the Rust harness, recorded here).",
+    ),
+}
+
+
+@dataclass
+class TimeGrid:
+    """Engine steps of length ``step``: sample and excitation-update boundaries as step indices."""
+
+    step: float
+    sample_steps: list[int]
+    boundaries: list[int]
+
+    @property
+    def sample_times(self) -> npt.NDArray[np.float64]:
+        return np.array(self.sample_steps, dtype=float) * self.step
+
+
+def time_grid(
+    duration: float, output_interval: float, step: float, update_interval: float | None
+) -> TimeGrid:
+    """Samples every ``output_interval`` (rounded to whole steps, at least one step) up to
+    ``duration``; excitation updates every ``update_interval`` too (None: only at samples)."""
+    n_total = max(1, round(duration / step))
+    every = max(1, round(output_interval / step))
+    samples = list(range(0, n_total, every)) + [n_total]
+    bounds = set(samples)
+    if update_interval is not None:
+        chunk = max(1, round(update_interval / step))
+        bounds.update(range(0, n_total, chunk))
+    return TimeGrid(step, samples, sorted(bounds))
+
+
+def mean_ground_acceleration(
+    scene: Any, times: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Exact mean ground acceleration (x, z) over each interval ``[times[k], times[k+1]]``: the
+    change of the ground velocity divided by the interval, so the velocity the blocks receive
+    over each interval is exact whatever the pulse shape or record (``src/excitation``)."""
+    gm = scene.ground_motion(np.ascontiguousarray(times, dtype=float))
+    dt = np.diff(times)
+    return np.diff(gm["vx"]) / dt, np.diff(gm["vz"]) / dt
+
+
+def excitation_notes(spec: dict[str, Any]) -> list[str]:
+    """Notes on how the scene's excitation was applied."""
+    exc = spec.get("excitation") or {}
+    if exc.get("applied_as") == "moving-ground":
+        return [
+            "excitation.applied_as = moving-ground was applied as inertial forces on every "
+            "block (the same motion relative to the ground)"
+        ]
+    return []
+
+
+@dataclass
+class EngineResult:
+    """What an engine run produced: samples, settings as used, and provenance."""
+
+    t: npt.NDArray[np.float64]
+    names: list[str]
+    # shape (samples, blocks, 6): x, z, phi, vx, vz, omega
+    states: npt.NDArray[np.float64]
+    settings: dict[str, Any]
+    engine_version: str
+    steps: int
+    notes: list[str] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def write_csv(self, path: str) -> None:
+        """``trajectory.csv`` with the columns of ``src/trajectory.rs``."""
+        header = ["t"] + [f"{n}_{f}" for n in self.names for f in FIELDS]
+        data = np.column_stack([self.t, self.states.reshape(len(self.t), -1)])
+        np.savetxt(path, data, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+
+
+def first_non_finite(t: npt.NDArray[np.float64], states: npt.NDArray[np.float64]) -> float | None:
+    """Time of the first sample with a NaN or infinite value, if any."""
+    bad = ~np.isfinite(states.reshape(len(t), -1)).all(axis=1)
+    return float(t[np.argmax(bad)]) if bad.any() else None

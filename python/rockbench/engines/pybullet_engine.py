@@ -1,0 +1,267 @@
+"""The PyBullet engine: a rockbench scene as planar PyBullet multibodies on a box ground.
+
+Each block is a multibody with a fixed massless base and three links at the block's centroid:
+prismatic x and prismatic z (massless, no shape), then revolute about -y carrying the block's
+box (so the joint angle is the counter-clockwise rotation ``phi``), motors disabled (velocity
+control with force 0), joint, linear and angular damping 0. The motion is therefore exactly
+planar. The ground is a static box whose top face is z = 0 (not GEOM_PLANE: on a plane the
+contact points are added one at a time and blocks roll out of plane).
+
+Bullet combines two bodies' friction coefficients by multiplying them and restitution likewise;
+restitution is 0 on every body. ``lateral_friction`` null (default) reproduces the scene's
+interface friction on every initial support: the ground gets ``ground_friction`` and each block
+``mu / (friction of its support)``; a number sets every body's coefficient to it. Ground motion
+is applied as inertial forces on every block through the gravity vector, updated at every
+``stepSimulation`` call (each ``fixed_time_step``) with the exact mean ground acceleration over
+it.
+
+Settings (the ``[pybullet]`` table; defaults measured against Housner's solution, see
+ENGINES.md): ``fixed_time_step`` 1e-3 s with ``num_sub_steps`` 10 (internal step 1e-4 s);
+``num_solver_iterations`` 50; ``lateral_friction`` null; ``ground_friction`` 1; ``erp``,
+``contact_erp``, ``friction_erp`` 0.2, 0.2, 0.2 (Bullet's defaults, recorded);
+``depth`` 1 m; ``ground_half_size`` 50 m; ``timeout`` 600 s (harness).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import importlib.metadata
+import math
+import os
+import sys
+from typing import Any, Iterator
+
+import numpy as np
+
+from rockbench.engines.common import (
+    HARNESS_SETTINGS,
+    EngineResult,
+    Setting,
+    SettingsError,
+    excitation_notes,
+    mean_ground_acceleration,
+    non_negative,
+    optional,
+    positive,
+    positive_int,
+    read_settings,
+    time_grid,
+)
+
+SETTINGS: dict[str, Setting] = {
+    "fixed_time_step": Setting(1e-3, positive, "Time advanced by one stepSimulation call, s."),
+    "num_sub_steps": Setting(
+        10, positive_int, "Internal sub-steps per call (internal step = fixed_time_step / this)."
+    ),
+    "num_solver_iterations": Setting(50, positive_int, "Constraint solver iterations."),
+    "lateral_friction": Setting(
+        None,
+        optional(non_negative),
+        "Friction coefficient of every body; null: the scene's interface friction on every "
+        "initial support (Bullet multiplies the two bodies' coefficients).",
+    ),
+    "ground_friction": Setting(
+        1.0, positive, "The ground's own coefficient when lateral_friction is null."
+    ),
+    "erp": Setting(0.2, non_negative, "Error reduction parameter of joints."),
+    "contact_erp": Setting(0.2, non_negative, "Error reduction parameter of contacts."),
+    "friction_erp": Setting(0.2, non_negative, "Error reduction parameter of friction."),
+    "depth": Setting(1.0, positive, "Out-of-plane size of the blocks, m."),
+    "ground_half_size": Setting(50.0, positive, "Half length of the ground box, m."),
+    **HARNESS_SETTINGS,
+}
+
+
+@contextlib.contextmanager
+def quiet_stdout() -> Iterator[None]:
+    """PyBullet prints its build time on import; keep the worker's stdout clean."""
+    sys.stdout.flush()
+    fd = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+            ctypes.CDLL(None).fflush(None)  # C stdio buffers its output
+    finally:
+        os.dup2(fd, 1)
+        os.close(fd)
+
+
+def import_pybullet() -> Any:
+    with quiet_stdout():
+        import pybullet
+
+    return pybullet
+
+
+def frictions(scene: Any, layout: list[dict[str, Any]], s: dict[str, Any]) -> tuple[float, list[float]]:
+    """Ground and per-block coefficients such that every initial support's product is the
+    scene's interface friction."""
+    if s["lateral_friction"] is not None:
+        mu = s["lateral_friction"]
+        return mu, [mu] * len(layout)
+    names = [b["name"] for b in layout]
+    ground = s["ground_friction"]
+    per: list[float] = []
+    for i, b in enumerate(layout):
+        below = None if b["support"] is None else names.index(b["support"])
+        f_below = ground if below is None else per[below]
+        per.append(scene.friction_between(below, i) / f_below)
+    return ground, per
+
+
+def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
+    """Run a checked scene (``rockbench.Scene``) whose dict form is ``spec``."""
+    s = read_settings("pybullet", spec.get("pybullet"), SETTINGS)
+    p = import_pybullet()
+    client = p.connect(p.DIRECT)
+    try:
+        return _run(p, client, scene, spec, s)
+    finally:
+        p.disconnect(physicsClientId=client)
+
+
+def _run(p: Any, cid: int, scene: Any, spec: dict[str, Any], s: dict[str, Any]) -> EngineResult:
+    h = s["fixed_time_step"]
+    g = spec["gravity"]
+    p.setGravity(0, 0, -g, physicsClientId=cid)
+    p.setPhysicsEngineParameter(
+        fixedTimeStep=h,
+        numSubSteps=s["num_sub_steps"],
+        numSolverIterations=s["num_solver_iterations"],
+        erp=s["erp"],
+        contactERP=s["contact_erp"],
+        frictionERP=s["friction_erp"],
+        restitutionVelocityThreshold=0,
+        physicsClientId=cid,
+    )
+    layout = scene.layout()
+    n = len(layout)
+    mu_ground, mu_blocks = frictions(scene, layout, s)
+    depth = s["depth"]
+    half = s["ground_half_size"]
+    thick = 0.5
+    gshape = p.createCollisionShape(
+        p.GEOM_BOX, halfExtents=[half, depth, thick], physicsClientId=cid
+    )
+    ground = p.createMultiBody(
+        baseMass=0,
+        baseCollisionShapeIndex=gshape,
+        basePosition=[0, 0, -thick],
+        physicsClientId=cid,
+    )
+    p.changeDynamics(
+        ground, -1, lateralFriction=mu_ground, restitution=0, rollingFriction=0,
+        spinningFriction=0, physicsClientId=cid,
+    )
+    bodies = []
+    for i, b in enumerate(spec["blocks"]):
+        shape = p.createCollisionShape(
+            p.GEOM_BOX,
+            halfExtents=[b["width"] / 2, depth / 2, b["height"] / 2],
+            physicsClientId=cid,
+        )
+        mass = b["density"] * b["width"] * b["height"] * depth
+        zero = [0.0, 0.0, 0.0]
+        ident = [0.0, 0.0, 0.0, 1.0]
+        body = p.createMultiBody(
+            baseMass=0,
+            baseCollisionShapeIndex=-1,
+            baseVisualShapeIndex=-1,
+            basePosition=zero,
+            linkMasses=[0.0, 0.0, mass],
+            linkCollisionShapeIndices=[-1, -1, shape],
+            linkVisualShapeIndices=[-1, -1, -1],
+            linkPositions=[zero, zero, zero],
+            linkOrientations=[ident, ident, ident],
+            linkInertialFramePositions=[zero, zero, zero],
+            linkInertialFrameOrientations=[ident, ident, ident],
+            linkParentIndices=[0, 1, 2],
+            linkJointTypes=[p.JOINT_PRISMATIC, p.JOINT_PRISMATIC, p.JOINT_REVOLUTE],
+            linkJointAxis=[[1, 0, 0], [0, 0, 1], [0, -1, 0]],
+            physicsClientId=cid,
+        )
+        p.changeDynamics(body, -1, linearDamping=0, angularDamping=0, physicsClientId=cid)
+        for link in range(3):
+            p.changeDynamics(
+                body, link, lateralFriction=mu_blocks[i], restitution=0, rollingFriction=0,
+                spinningFriction=0, linearDamping=0, angularDamping=0, jointDamping=0,
+                physicsClientId=cid,
+            )
+        p.setJointMotorControlArray(
+            body, [0, 1, 2], p.VELOCITY_CONTROL, targetVelocities=[0, 0, 0], forces=[0, 0, 0],
+            physicsClientId=cid,
+        )
+        st = layout[i]
+        for j, (q, v) in enumerate(
+            [(st["x"], st["vx"]), (st["z"], st["vz"]), (st["phi"], st["omega"])]
+        ):
+            p.resetJointState(body, j, q, targetVelocity=v, physicsClientId=cid)
+        bodies.append(body)
+
+    excited = "excitation" in spec
+    grid = time_grid(spec["duration"], spec["output_interval"], h, h if excited else None)
+    bounds = np.array(grid.boundaries)
+    if excited:
+        ax, az = mean_ground_acceleration(scene, bounds * h)
+    sample_at = set(grid.sample_steps)
+    states = np.empty((len(grid.sample_steps), n, 6))
+    out_of_plane = 0.0
+    k = 0
+
+    def record() -> None:
+        nonlocal k, out_of_plane
+        for i, body in enumerate(bodies):
+            js = p.getJointStates(body, [0, 1, 2], physicsClientId=cid)
+            states[k, i, :3] = [j[0] for j in js]
+            states[k, i, 3:] = [j[1] for j in js]
+            orn = p.getLinkState(body, 2, physicsClientId=cid)[5]
+            m = p.getMatrixFromQuaternion(orn)
+            # Angle between the block's own y axis and the world's y axis.
+            out_of_plane = max(out_of_plane, math.atan2(math.hypot(m[1], m[7]), abs(m[4])))
+        k += 1
+
+    record()
+    for c in range(len(bounds) - 1):
+        if excited:
+            p.setGravity(-ax[c], 0, -(g + az[c]), physicsClientId=cid)
+        for _ in range(int(bounds[c + 1] - bounds[c])):
+            p.stepSimulation(physicsClientId=cid)
+        if int(bounds[c + 1]) in sample_at:
+            record()
+
+    params = p.getPhysicsEngineParameters(physicsClientId=cid)
+    settings = dict(s)
+    settings["lateral_friction_used"] = {"ground": mu_ground} | {
+        b["name"]: mu_blocks[i] for i, b in enumerate(spec["blocks"])
+    }
+    settings["engine_parameters"] = {
+        k: v
+        for k, v in params.items()
+        if isinstance(v, (int, float, str)) and not k.startswith("gravity")
+    }
+    settings["excitation"] = (
+        f"inertial forces (gravity vector), mean ground acceleration over each {h:.6g} s"
+        if excited
+        else "none"
+    )
+    settings["ground"] = "box"
+    settings["model"] = (
+        "planar multibody per block: fixed massless base, prismatic x, prismatic z, revolute -y"
+    )
+    settings["restitution"] = 0.0
+    settings["damping"] = 0.0
+    return EngineResult(
+        t=grid.sample_times,
+        names=[b["name"] for b in spec["blocks"]],
+        states=states,
+        settings=settings,
+        engine_version=f"pybullet {importlib.metadata.version('pybullet')} (API {p.getAPIVersion()})",
+        steps=int(bounds[-1]) * s["num_sub_steps"],
+        notes=excitation_notes(spec),
+        extra={"max_out_of_plane_rad": out_of_plane},
+    )
+
+
+__all__ = ["SETTINGS", "SettingsError", "frictions", "run"]

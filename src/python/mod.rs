@@ -1,0 +1,297 @@
+//! Python bindings (`rockbench._native`, feature `python`): thin wrappers over the crate.
+//!
+//! - `load_scene(path | dict, overrides=())` reads and checks a scene; a bad scene raises
+//!   `ValueError` with the one-line [`SceneError`](crate::scene::SceneError) message.
+//! - `run(scene, engine="native", overrides=())` runs any engine of
+//!   [`engine_by_name`](crate::engines::engine_by_name) with the GIL released and returns a
+//!   `Run`: sample times and per-block histories as numpy arrays, and the summary as a dict.
+//!   A failed run raises `RuntimeError` with the engine's one-line reason.
+//! - `Scene.layout()` and `Scene.ground_motion(t)` expose the crate's single definitions of the
+//!   initial configuration and of the ground motion to the Python engines.
+//!
+//! The public Python package `rockbench` re-exports these names; the stubs are
+//! `python/rockbench/_native.pyi`.
+
+mod convert;
+
+use crate::engines::{ENGINE_NAMES, EngineError, engine_by_name, run_timed};
+use crate::excitation::GroundMotion;
+use crate::scene::{self, Scene as CoreScene};
+use numpy::{PyArray1, PyReadonlyArray1};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::PathBuf;
+
+/// A checked scene.
+#[pyclass(frozen, module = "rockbench._native", name = "Scene")]
+pub struct PyScene {
+    inner: CoreScene,
+}
+
+#[pymethods]
+impl PyScene {
+    /// Scene name.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name.clone()
+    }
+
+    /// Simulated duration, s.
+    #[getter]
+    fn duration(&self) -> f64 {
+        self.inner.duration
+    }
+
+    /// Interval between trajectory samples, s.
+    #[getter]
+    fn output_interval(&self) -> f64 {
+        self.inner.output_interval
+    }
+
+    /// Gravitational acceleration, m/s^2.
+    #[getter]
+    fn gravity(&self) -> f64 {
+        self.inner.gravity
+    }
+
+    /// Block names, bottom to top.
+    #[getter]
+    fn block_names(&self) -> Vec<String> {
+        self.inner.blocks.iter().map(|b| b.name.clone()).collect()
+    }
+
+    /// The file the scene was read from (`<dict>` for a scene given as a dict).
+    #[getter]
+    fn source(&self) -> String {
+        self.inner.source.clone()
+    }
+
+    /// The scene as a dict (record paths made absolute): the form handed to external engines.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        convert::json_to_py(py, &self.inner.to_json())
+    }
+
+    /// The scene as a JSON string (same content as `to_dict`).
+    fn to_json(&self) -> String {
+        serde_json::to_string_pretty(&self.inner.to_json()).expect("scenes serialise")
+    }
+
+    /// Initial state of every block: dicts with `name`, `support` (name or None), `x`, `z`,
+    /// `phi`, `vx`, `vz`, `omega` (centroid, SI units, rotation counter-clockwise).
+    fn layout<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let layout = self.inner.layout();
+        let list = PyList::empty(py);
+        for (i, (b, s)) in self.inner.blocks.iter().zip(&layout.blocks).enumerate() {
+            let d = PyDict::new(py);
+            d.set_item("name", &b.name)?;
+            d.set_item(
+                "support",
+                layout.supports[i].map(|j| self.inner.blocks[j].name.clone()),
+            )?;
+            for (k, v) in [
+                ("x", s.x),
+                ("z", s.z),
+                ("phi", s.phi),
+                ("vx", s.vx),
+                ("vz", s.vz),
+                ("omega", s.omega),
+            ] {
+                d.set_item(k, v)?;
+            }
+            list.append(d)?;
+        }
+        Ok(list)
+    }
+
+    /// Friction coefficient of the interface between `lower` (a block index, or None for the
+    /// ground) and block `upper`.
+    #[pyo3(signature = (lower, upper))]
+    fn friction_between(&self, lower: Option<usize>, upper: usize) -> PyResult<f64> {
+        let n = self.inner.blocks.len();
+        if upper >= n || lower.is_some_and(|l| l >= n) {
+            return Err(PyValueError::new_err(format!(
+                "block index out of range (the scene has {n} blocks)"
+            )));
+        }
+        Ok(self.inner.friction_between(lower, upper))
+    }
+
+    /// Ground motion at the times `t`: a dict of arrays `ax`, `az` (m/s^2), `vx`, `vz` (m/s),
+    /// `dx`, `dz` (m), from the same definitions the Rust engines use (zero without
+    /// excitation).
+    fn ground_motion<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let gm = GroundMotion::from_scene(&self.inner)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let t = t.as_slice()?;
+        let mut cols: [Vec<f64>; 6] = Default::default();
+        for &ti in t {
+            let (ax, az) = gm.acc(ti);
+            let (vx, vz) = gm.vel(ti);
+            let (dx, dz) = gm.disp(ti);
+            for (c, v) in cols.iter_mut().zip([ax, az, vx, vz, dx, dz]) {
+                c.push(v);
+            }
+        }
+        let d = PyDict::new(py);
+        for (k, c) in ["ax", "az", "vx", "vz", "dx", "dz"].into_iter().zip(cols) {
+            d.set_item(k, PyArray1::from_vec(py, c))?;
+        }
+        Ok(d)
+    }
+
+    /// Instants where the ground acceleration is not smooth, sorted.
+    fn excitation_breakpoints(&self) -> PyResult<Vec<f64>> {
+        let gm = GroundMotion::from_scene(&self.inner)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(gm.breakpoints())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene(name={:?}, blocks={:?}, duration={})",
+            self.inner.name,
+            self.block_names(),
+            self.inner.duration
+        )
+    }
+}
+
+/// The result of one engine run.
+#[pyclass(frozen, module = "rockbench._native", name = "Run")]
+pub struct PyRun {
+    /// Engine name.
+    #[pyo3(get)]
+    engine: String,
+    /// Sample times, s.
+    #[pyo3(get)]
+    t: Py<PyArray1<f64>>,
+    /// Per block name: dict of arrays `x`, `z`, `phi`, `vx`, `vz`, `omega`.
+    #[pyo3(get)]
+    blocks: Py<PyDict>,
+    /// The run's summary.json content.
+    #[pyo3(get)]
+    summary: Py<PyAny>,
+}
+
+#[pymethods]
+impl PyRun {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "Run(engine={:?}, samples={}, blocks={:?})",
+            self.engine,
+            self.t.bind(py).len().unwrap_or_default(),
+            self.blocks
+                .bind(py)
+                .keys()
+                .iter()
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+        )
+    }
+}
+
+/// A scene from a path (str or os.PathLike) or a dict (same fields as the TOML file).
+fn scene_from(obj: &Bound<'_, PyAny>, overrides: &[String]) -> PyResult<CoreScene> {
+    if let Ok(s) = obj.cast::<PyScene>() {
+        if !overrides.is_empty() {
+            return Err(PyValueError::new_err(
+                "overrides apply to a scene file or dict, not to a loaded Scene",
+            ));
+        }
+        return Ok(s.get().inner.clone());
+    }
+    let err = |e: scene::SceneError| PyValueError::new_err(e.to_string());
+    if obj.cast::<PyDict>().is_ok() {
+        let json: String = obj
+            .py()
+            .import("json")?
+            .call_method1("dumps", (obj,))
+            .map_err(|e| PyValueError::new_err(format!("<dict>: (file): not JSON data: {e}")))?
+            .extract()?;
+        let s = scene::parse_scene_str(&json, true, "<dict>", overrides).map_err(err)?;
+        s.check().map_err(err)?;
+        return Ok(s);
+    }
+    let path: PathBuf = obj.extract().map_err(|_| {
+        PyValueError::new_err(format!(
+            "a scene is a path (str or os.PathLike), a dict or a Scene, not {}",
+            obj.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        ))
+    })?;
+    scene::load_scene_with_overrides(&path, overrides).map_err(err)
+}
+
+/// Read and check a scene.
+#[pyfunction]
+#[pyo3(signature = (source, overrides = Vec::new()))]
+fn load_scene(source: &Bound<'_, PyAny>, overrides: Vec<String>) -> PyResult<PyScene> {
+    Ok(PyScene {
+        inner: scene_from(source, &overrides)?,
+    })
+}
+
+/// Run an engine on a scene, with the GIL released during the run.
+#[pyfunction]
+#[pyo3(signature = (scene, engine = "native", overrides = Vec::new()))]
+fn run(
+    py: Python<'_>,
+    scene: &Bound<'_, PyAny>,
+    engine: &str,
+    overrides: Vec<String>,
+) -> PyResult<PyRun> {
+    let scene = scene_from(scene, &overrides)?;
+    let eng = engine_by_name(engine).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let result = py.detach(move || run_timed(eng.as_ref(), &scene));
+    let (out, summary) = result.map_err(|e| match e {
+        EngineError::Failed { .. } | EngineError::Io(_) => PyRuntimeError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    })?;
+    let blocks = PyDict::new(py);
+    for b in out.trajectory.blocks {
+        let d = PyDict::new(py);
+        for (k, v) in [
+            ("x", b.x),
+            ("z", b.z),
+            ("phi", b.phi),
+            ("vx", b.vx),
+            ("vz", b.vz),
+            ("omega", b.omega),
+        ] {
+            d.set_item(k, PyArray1::from_vec(py, v))?;
+        }
+        blocks.set_item(b.name, d)?;
+    }
+    let summary = serde_json::to_value(&summary).expect("summaries serialise");
+    Ok(PyRun {
+        engine: engine.to_string(),
+        t: PyArray1::from_vec(py, out.trajectory.t).unbind(),
+        blocks: blocks.unbind(),
+        summary: convert::json_to_py(py, &summary)?.unbind(),
+    })
+}
+
+/// Names of the engines `run` accepts.
+#[pyfunction]
+fn engine_names() -> Vec<&'static str> {
+    ENGINE_NAMES.to_vec()
+}
+
+#[pymodule]
+#[pyo3(name = "_native")]
+fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<PyScene>()?;
+    m.add_class::<PyRun>()?;
+    m.add_function(wrap_pyfunction!(load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(engine_names, m)?)?;
+    Ok(())
+}

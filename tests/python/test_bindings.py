@@ -1,0 +1,195 @@
+"""The Rust core from Python: scenes, runs, layout and ground motion."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rockbench
+from conftest import ROOT, scene_path
+from rockbench.engines.common import mean_ground_acceleration
+
+FIELDS = ("x", "z", "phi", "vx", "vz", "omega")
+
+
+def test_public_names_come_from_the_native_module() -> None:
+    assert set(rockbench.__all__) == {"Run", "Scene", "__version__", "engine_names", "load_scene", "run"}
+    for name in rockbench.__all__:
+        assert getattr(rockbench, name) is getattr(rockbench._native, name)
+    assert {"native", "housner", "mujoco", "pybullet"} <= set(rockbench.engine_names())
+
+
+def test_run_native_returns_arrays_equal_to_the_cli_output(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(ROOT)
+    r = rockbench.run("validation/scenes/housner-slender.toml", engine="native")
+    assert isinstance(r.t, np.ndarray) and r.t.dtype == np.float64
+    assert list(r.blocks) == ["block"]
+    b = r.blocks["block"]
+    assert set(b) == set(FIELDS)
+    for f in FIELDS:
+        assert isinstance(b[f], np.ndarray) and b[f].shape == r.t.shape
+    assert r.t[0] == 0.0 and r.t[-1] == pytest.approx(4.0)
+    assert b["phi"][0] == pytest.approx(0.15, abs=1e-12)
+    s = r.summary
+    assert s["engine"] == "native" and s["samples"] == len(r.t)
+    assert s["settings"]["dt"] > 0
+    assert len(s["blocks"][0]["impacts"]) >= 3
+    # The same run through the command line writes the same numbers.
+    out = tmp_path / "cli"
+    subprocess.run(
+        [str(ROOT / "target/release/rockbench"), "run", scene_path("housner-slender"),
+         "--engine", "native", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    with open(out / "trajectory.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == len(r.t)
+    phi = np.array([float(x["block_phi"]) for x in rows])
+    np.testing.assert_array_equal(phi, b["phi"])
+
+
+def test_a_scene_dict_loads_like_its_file() -> None:
+    s1 = rockbench.load_scene(scene_path("two-block-free-rocking"))
+    s2 = rockbench.load_scene(s1.to_dict())
+    assert s2.to_dict() == s1.to_dict()
+    assert s2.layout() == s1.layout()
+    assert s2.source == "<dict>"
+    assert s1.block_names == ["pedestal", "statue"]
+    # A loaded Scene, its dict and its file run identically.
+    h = rockbench.load_scene(scene_path("housner-square"))
+    runs = [rockbench.run(x, engine="housner") for x in (h, h.to_dict(), scene_path("housner-square"))]
+    for r in runs[1:]:
+        np.testing.assert_array_equal(r.blocks["block"]["phi"], runs[0].blocks["block"]["phi"])
+
+
+def test_overrides_apply_to_files() -> None:
+    s = rockbench.load_scene(scene_path("housner-slender"), ["duration=0.5", "mujoco.timestep=2e-4"])
+    assert s.duration == 0.5
+    assert s.to_dict()["mujoco"] == {"timestep": 2e-4}
+
+
+def test_a_bad_scene_raises_value_error_with_one_line_naming_the_field(tmp_path: Path) -> None:
+    d = rockbench.load_scene(scene_path("housner-square")).to_dict()
+    d["duration"] = -1.0
+    with pytest.raises(ValueError) as e:
+        rockbench.load_scene(d)
+    assert str(e.value) == "<dict>: duration: must be a positive number (got -1)"
+    p = tmp_path / "bad.toml"
+    p.write_text('name = "b"\nduration = 1\n[[blocks]]\nname = "a"\nwidth = "wide"\nheight = 1\n')
+    with pytest.raises(ValueError) as e:
+        rockbench.load_scene(p)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(f"{p}: blocks[0].width:"), msg
+    with pytest.raises(ValueError, match="cannot read"):
+        rockbench.run(tmp_path / "missing.toml")
+    with pytest.raises(ValueError, match="unknown engine `nope`"):
+        rockbench.run(scene_path("housner-square"), engine="nope")
+
+
+def test_layout_puts_the_stack_on_its_pivot_corners() -> None:
+    """The tilted two-block stack: the pedestal's left corner on the ground, the statue's left
+    corner on the pedestal's top face, both rotated by the tilt (geometry checked here)."""
+    s = rockbench.load_scene(scene_path("two-block-free-rocking"))
+    lay = {b["name"]: b for b in s.layout()}
+
+    def corner(b: dict, w: float, h: float, sx: float, sz: float) -> np.ndarray:
+        c, si = np.cos(b["phi"]), np.sin(b["phi"])
+        lx, lz = sx * w / 2, sz * h / 2
+        return np.array([b["x"] + c * lx - si * lz, b["z"] + si * lx + c * lz])
+
+    ped, sta = lay["pedestal"], lay["statue"]
+    assert ped["support"] is None and sta["support"] == "pedestal"
+    assert ped["phi"] == pytest.approx(0.15) and sta["phi"] == pytest.approx(0.15)
+    assert corner(ped, 1.25, 1.25, -1, -1) == pytest.approx([-0.625, 0.0], abs=1e-12)
+    # Statue (1.0 wide) centred on the pedestal: its bottom-left corner lies on the pedestal's
+    # top face, 0.125 m in from the pedestal's top-left corner.
+    top_left = corner(ped, 1.25, 1.25, -1, 1)
+    along = np.array([np.cos(0.15), np.sin(0.15)])
+    assert corner(sta, 1.0, 2.5, -1, -1) == pytest.approx(top_left + 0.125 * along, abs=1e-12)
+    assert all(lay[n][k] == 0.0 for n in lay for k in ("vx", "vz", "omega"))
+
+
+def _pulse_scene(kind: str) -> rockbench.Scene:
+    d = rockbench.load_scene(scene_path("housner-slender")).to_dict()
+    d["excitation"] = {"horizontal": {"kind": kind, "amplitude": 2.0, "duration": 0.4, "start": 0.1}}
+    return rockbench.load_scene(d)
+
+
+@pytest.mark.parametrize("kind", ["half-sine", "one-sine", "rectangular"])
+def test_ground_motion_is_the_closed_form_pulse(kind: str) -> None:
+    t = np.linspace(0.0, 1.0, 1001)
+    gm = _pulse_scene(kind).ground_motion(t)
+    s = t - 0.1
+    inside = (s >= 0) & (s <= 0.4)
+    shape = {
+        "half-sine": np.sin(np.pi * s / 0.4),
+        "one-sine": np.sin(2 * np.pi * s / 0.4),
+        "rectangular": np.ones_like(s),
+    }[kind]
+    np.testing.assert_allclose(gm["ax"], np.where(inside, 2.0 * shape, 0.0), atol=1e-12)
+    # Velocity is the integral of the acceleration (trapezoid on a fine grid).
+    tf = np.linspace(0.0, 1.0, 200_001)
+    af = rockbench.load_scene(_pulse_scene(kind).to_dict()).ground_motion(tf)["ax"]
+    v = np.concatenate([[0.0], np.cumsum(0.5 * (af[1:] + af[:-1]) * np.diff(tf))])
+    np.testing.assert_allclose(gm["vx"], v[::200], atol=2e-4)
+    assert not gm["az"].any() and not gm["dz"].any()
+
+
+def test_mean_ground_acceleration_gives_the_exact_velocity_change() -> None:
+    sc = _pulse_scene("half-sine")
+    bounds = np.arange(0, 1001) * 1e-3
+    ax, az = mean_ground_acceleration(sc, bounds)
+    v = sc.ground_motion(bounds)["vx"]
+    np.testing.assert_allclose(np.cumsum(ax * 1e-3), v[1:], atol=1e-12)
+    assert v[-1] == pytest.approx(2.0 * 0.4 * 2 / np.pi)  # A T 2/pi for a half-sine
+
+
+def test_runs_release_the_gil() -> None:
+    """While a native run is in progress on another thread, this thread keeps running."""
+    done = threading.Event()
+    err: list[BaseException] = []
+
+    def work() -> None:
+        try:
+            rockbench.run(scene_path("two-block-free-rocking"), engine="native", overrides=["duration=3.0"])
+        except BaseException as e:  # pragma: no cover - reported below
+            err.append(e)
+        done.set()
+
+    th = threading.Thread(target=work)
+    th.start()
+    time.sleep(0.05)
+    n = 0
+    start = time.perf_counter()
+    while not done.is_set():
+        n += 1
+    took = time.perf_counter() - start
+    th.join()
+    assert not err, err
+    assert took > 0.1, f"the run finished too fast to tell ({took:.3f} s)"
+    assert n > 10_000, f"only {n} iterations in {took:.3f} s: the GIL was held"
+
+
+def test_stubs_match_the_extension() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "mypy.stubtest", "rockbench._native"],
+        capture_output=True, text=True, cwd=ROOT,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_the_package_type_checks() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "python/rockbench"],
+        capture_output=True, text=True, cwd=ROOT,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
