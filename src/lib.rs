@@ -25,11 +25,14 @@
 //! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`].
 
 pub mod cli;
+pub mod compare;
 pub mod engines;
 pub mod events;
 pub mod excitation;
 pub mod geometry;
+pub mod metrics;
 pub mod native;
+pub mod report;
 
 pub mod scene;
 pub mod summary;
