@@ -470,3 +470,13 @@ pub fn write_comparison(dir: &Path, c: &Comparison, command: &str) -> Result<(),
     .map_err(|e| io(&p, e))?;
     crate::report::write_report(dir, c, command)
 }
+
+/// The summary paragraphs of the report, as printed by `rockbench compare`.
+pub fn summary_paragraphs_for(c: &Comparison) -> Vec<String> {
+    let own = c
+        .reference_run
+        .as_ref()
+        .and_then(|r| metrics::compare_runs(&c.scene, r, r, &c.settings).ok())
+        .unwrap_or_default();
+    crate::report::summary_paragraphs(c, &own)
+}

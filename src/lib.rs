@@ -29,6 +29,7 @@ pub mod compare;
 pub mod engines;
 pub mod events;
 pub mod excitation;
+pub mod gates;
 pub mod geometry;
 pub mod metrics;
 pub mod native;

@@ -223,10 +223,40 @@ pub fn summary_paragraphs(c: &Comparison, own: &[MetricRow]) -> Vec<String> {
     }
     if engines.is_empty() {
         first.push_str(" No engine other than the reference ran, so nothing is compared.");
-        out.push(first);
-        return out;
     }
     out.push(first);
+    // What the reference itself shows.
+    let mut facts = Vec::new();
+    for s in &series {
+        let b = s.label.as_str();
+        let kind = if s.is_interface() { "interface" } else { "block" };
+        let mut f = Vec::new();
+        if s.measured {
+            let n = rows.count(None, b, "impact_time_");
+            match rows.r(b, "impact_time_1") {
+                Some(t1) => f.push(format!("{n} impacts, the first at {t1:.4} s")),
+                None => f.push("no impact".into()),
+            }
+        }
+        let rest: Vec<String> = REST_THRESHOLDS
+            .iter()
+            .map(|(key, _)| format!("{} s at {key} rad", secs(rows.r(b, &format!("rest_time_{key}")))))
+            .collect();
+        f.push(format!("at rest from {}", rest.join(", ")));
+        if rows.r(b, "overturned") == Some(1.0) {
+            f.push(format!("overturns at {} s", secs(rows.r(b, "overturn_time"))));
+        }
+        facts.push(format!("{kind} `{b}`: {}", f.join("; ")));
+    }
+    out.push(format!(
+        "The reference `{}` shows: {}. A rest time is the time after which |φ| stays below the \
+         threshold; it depends strongly on the threshold.",
+        c.reference,
+        facts.join("; ")
+    ));
+    if engines.is_empty() {
+        return out;
+    }
     for e in &engines {
         let mut agree = Vec::new();
         let mut differ = Vec::new();
@@ -255,26 +285,26 @@ pub fn summary_paragraphs(c: &Comparison, own: &[MetricRow]) -> Vec<String> {
                     .and_then(|r| r.reference)
                     .unwrap_or(0.0),
             );
-            let dmax = rows.v(e, b, "impact_time_max_abs_diff");
+            let dmax = 1e3 * rows.v(e, b, "impact_time_max_abs_diff").unwrap_or(0.0);
+            let first = match (rows.v(e, b, "impact_time_1"), rows.r(b, "impact_time_1")) {
+                (Some(x), Some(y)) => format!("; first impact {x:.4} s vs {y:.4} s"),
+                _ => String::new(),
+            };
             if ni == nr && ni > 0.0 {
-                let txt = format!(
-                    "all {ni} impacts of {what} matched, the largest time difference {:.1} ms",
-                    1e3 * dmax.unwrap_or(0.0)
-                );
-                if dmax.unwrap_or(0.0) <= WORDING_IMPACT_TIME_S {
-                    agree.push(txt);
+                if dmax <= 1e3 * WORDING_IMPACT_TIME_S {
+                    agree.push(format!(
+                        "the impact times of {what} (all {ni:.0} matched within {dmax:.1} ms{first})"
+                    ));
                 } else {
-                    differ.push(txt);
+                    differ.push(format!(
+                        "the impact times of {what} (all {ni:.0} matched, but up to {dmax:.1} ms apart{first})"
+                    ));
                 }
             } else if ni != nr {
-                let d1 = match (rows.v(e, b, "impact_time_1"), rows.r(b, "impact_time_1")) {
-                    (Some(x), Some(y)) => {
-                        format!(", first impact {:.4} s vs {:.4} s", x, y)
-                    }
-                    _ => String::new(),
-                };
                 differ.push(format!(
-                    "{what} has {ni} impacts against the reference's {nr}{d1}"
+                    "the number of impacts of {what} ({ni:.0} against the reference's {nr:.0}; \
+                     the first {:.0} in order up to {dmax:.1} ms apart{first})",
+                    ni.min(nr)
                 ));
             }
         }
@@ -695,16 +725,11 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
             }
             trs.push(row);
         }
-        let mut count = vec![
-            "count".to_string(),
-            opt(rows.r(b, "impact_count")),
-        ];
+        let int = |x: Option<f64>| x.map(|v| format!("{v:.0}")).unwrap_or_else(|| "-".into());
+        let mut count = vec!["count".to_string(), int(rows.r(b, "impact_count"))];
         for e in &engines {
-            count.push(opt(rows.v(e, b, "impact_count")));
-            count.push(format!(
-                "{} unmatched",
-                opt(rows.v(e, b, "impacts_unmatched"))
-            ));
+            count.push(int(rows.v(e, b, "impact_count")));
+            count.push(format!("{} unmatched", int(rows.v(e, b, "impacts_unmatched"))));
         }
         trs.push(count);
         d.h(3, &format!("`{b}`"));
