@@ -38,7 +38,7 @@ pub fn gate_cmd(a: GateArgs) -> Result<()> {
         println!("{}: {}: {}", r.outcome.word(), r.gate.name, r.message);
     }
     println!(
-        "runs: {} from the cache, {} run{}",
+        "engine runs: {} from the cache, {} run now{}",
         stats.hits,
         stats.runs,
         if a.no_cache {
