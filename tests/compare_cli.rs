@@ -34,7 +34,15 @@ fn csv_rows(p: &Path) -> Vec<Vec<String>> {
     let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
     assert_eq!(
         h,
-        ["scene", "engine", "block", "metric", "value", "reference", "unit"]
+        [
+            "scene",
+            "engine",
+            "block",
+            "metric",
+            "value",
+            "reference",
+            "unit"
+        ]
     );
     r.records()
         .map(|x| x.unwrap().iter().map(String::from).collect())
@@ -84,10 +92,7 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
     assert_eq!(status("native").0, "ok");
     for e in ["rapier", "mujoco", "pybullet"] {
         let (s, why) = status(e);
-        assert!(
-            s == "skipped" || s == "ok" || s == "failed",
-            "{e}: {s}"
-        );
+        assert!(s == "skipped" || s == "ok" || s == "failed", "{e}: {s}");
         if s == "skipped" {
             assert!(why.contains(e), "{e}: {why}");
         }
@@ -167,7 +172,10 @@ fn bad_reference_file_is_one_line_naming_it() {
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("--reference") && err.contains("bad.csv"), "{err}");
+    assert!(
+        err.contains("--reference") && err.contains("bad.csv"),
+        "{err}"
+    );
 }
 
 /// Slender block, native against Housner: the rows carry Housner's exact first impact as
@@ -175,20 +183,22 @@ fn bad_reference_file_is_one_line_naming_it() {
 #[test]
 fn slender_report_renders_in_headless_chromium() {
     let out = tmp("slender");
-    run_ok(bin().args([
-        "compare",
-        root()
-            .join("validation/scenes/housner-slender.toml")
-            .to_str()
-            .unwrap(),
-        "--engines",
-        "native,housner",
-        "--reference",
-        "housner",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]));
+    run_ok(
+        bin().args([
+            "compare",
+            root()
+                .join("validation/scenes/housner-slender.toml")
+                .to_str()
+                .unwrap(),
+            "--engines",
+            "native,housner",
+            "--reference",
+            "housner",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]),
+    );
     let rows = csv_rows(&out.join("metrics.csv"));
     let r = rows
         .iter()
@@ -247,7 +257,10 @@ fn slender_report_renders_in_headless_chromium() {
         .collect();
     let mean = lum.iter().sum::<f64>() / lum.len() as f64;
     let var = lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64;
-    assert!(var > 100.0, "screenshot looks blank (luminance variance {var})");
+    assert!(
+        var > 100.0,
+        "screenshot looks blank (luminance variance {var})"
+    );
     // The native curve's blue (#1f77b4) is drawn: the plot rendered, not only the text.
     let blue = px
         .iter()
@@ -257,6 +270,9 @@ fn slender_report_renders_in_headless_chromium() {
                 && (p[2] as i32 - 0xb4).abs() < 40
         })
         .count();
-    assert!(blue > 200, "no plotted curve in the screenshot ({blue} blue pixels)");
+    assert!(
+        blue > 200,
+        "no plotted curve in the screenshot ({blue} blue pixels)"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }

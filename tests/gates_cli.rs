@@ -1,7 +1,7 @@
 //! `rockbench gate`: failing and passing gates, known failures, JUnit XML, the run cache and
 //! one-line errors for bad gate files.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn root() -> PathBuf {
@@ -22,7 +22,7 @@ fn slender() -> String {
         .to_string()
 }
 
-fn gate(dir: &PathBuf, file_text: &str) -> (Output, String, String) {
+fn gate(dir: &Path, file_text: &str) -> (Output, String, String) {
     let f = dir.join("gates.toml");
     std::fs::write(&f, file_text).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_rockbench"))
@@ -126,7 +126,10 @@ fn known_failures_pass_while_failing_and_fail_when_they_start_passing() {
     );
     let (o, so, se) = gate(&dir, &fixed);
     assert_eq!(o.status.code(), Some(1), "{so}\n{se}");
-    assert!(se.contains("now-fixed") && se.contains("unexpected pass"), "{se}");
+    assert!(
+        se.contains("now-fixed") && se.contains("unexpected pass"),
+        "{se}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -138,8 +141,14 @@ fn bad_gate_files_are_one_line_naming_the_field() {
             gate_toml("a", "impact_time_1", 1e-3, "").replace("tolerance", "tolerence"),
             "tolerence",
         ),
-        (gate_toml("a", "impact_time_1", -1.0, ""), "gate[0] (a).tolerance"),
-        (gate_toml("a", "impact_tme_1", 1e-3, ""), "gate[0] (a).metric"),
+        (
+            gate_toml("a", "impact_time_1", -1.0, ""),
+            "gate[0] (a).tolerance",
+        ),
+        (
+            gate_toml("a", "impact_tme_1", 1e-3, ""),
+            "gate[0] (a).metric",
+        ),
         (
             gate_toml("a", "impact_time_1", 1e-3, "expect = \"known-failure\""),
             "gate[0] (a).reason",
@@ -170,7 +179,10 @@ fn bad_gate_files_are_one_line_naming_the_field() {
         let (o, so, se) = gate(&dir, &text);
         assert_eq!(o.status.code(), Some(1), "{text}\n{so}{se}");
         assert_eq!(se.trim().lines().count(), 1, "{se}");
-        assert!(se.contains("gates.toml") && se.contains(field), "want {field}: {se}");
+        assert!(
+            se.contains("gates.toml") && se.contains(field),
+            "want {field}: {se}"
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

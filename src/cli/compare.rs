@@ -49,7 +49,10 @@ pub struct CompareArgs {
 
 pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     if !(a.grid_dt > 0.0 && a.grid_dt.is_finite()) {
-        bail!("--grid-dt: must be a positive number of seconds (got {})", a.grid_dt);
+        bail!(
+            "--grid-dt: must be a positive number of seconds (got {})",
+            a.grid_dt
+        );
     }
     if a.up_to_impacts.contains(&0) {
         bail!("--up-to-impacts: impacts are counted from 1");
@@ -59,8 +62,12 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     opts.metrics.grid_dt = a.grid_dt;
     opts.metrics.up_to_impacts = a.up_to_impacts.clone();
     if let Some(w) = &a.window {
-        if !(w[1] > w[0]) {
-            bail!("--window: T1 must be greater than T0 (got {},{})", w[0], w[1]);
+        if w[1] <= w[0] || w.iter().any(|x| !x.is_finite()) {
+            bail!(
+                "--window: T1 must be greater than T0 (got {},{})",
+                w[0],
+                w[1]
+            );
         }
         opts.metrics.window = Some((w[0], w[1]));
     }

@@ -164,3 +164,50 @@ fn store(entry: &Path, engine: &str, scene: &Scene, r: &EngineRun) -> std::io::R
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    const SCENE: &str = "name = \"k\"\nduration = 1.0\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.0\n";
+
+    #[test]
+    fn the_key_changes_with_scene_settings_and_engine_only() {
+        let s = |o: &[String]| parse_scene_str(SCENE, false, "k.toml", o).unwrap();
+        let base = run_key("native", &s(&[]));
+        assert_eq!(base, run_key("native", &s(&[])));
+        assert_eq!(base.len(), 64);
+        assert_ne!(base, run_key("housner", &s(&[])));
+        assert_ne!(base, run_key("native", &s(&["native.dt=5e-4".into()])));
+        assert_ne!(base, run_key("native", &s(&["initial.tilt=0.1".into()])));
+        // A comment or the file name does not change what is run.
+        let c = parse_scene_str(&format!("# note\n{SCENE}"), false, "other.toml", &[]).unwrap();
+        assert_eq!(base, run_key("native", &c));
+    }
+
+    #[test]
+    fn a_stored_run_is_served_back_identically() {
+        let dir = std::env::temp_dir().join(format!("rb-cache-unit-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = parse_scene_str(
+            &SCENE.replace("[[blocks]]", "[initial]\ntilt = 0.1\n[[blocks]]"),
+            false,
+            "k.toml",
+            &[],
+        )
+        .unwrap();
+        let cache = RunCache::new(Some(dir.clone()));
+        let first = cache.run("housner", &scene);
+        assert_eq!(first.status, Status::Ok);
+        assert!(!first.cached);
+        let again = cache.run("housner", &scene);
+        assert!(again.cached);
+        assert_eq!(cache.stats(), crate::gates::CacheStats { hits: 1, runs: 1 });
+        let (a, b) = (first.output.unwrap(), again.output.unwrap());
+        assert_eq!(a.trajectory, b.trajectory);
+        assert_eq!(a.exact_impacts, b.exact_impacts);
+        assert_eq!(first.summary, again.summary);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -49,14 +49,26 @@ pub fn junit_xml(results: &[GateResult], suite: &str) -> String {
             g.reference_label(),
             r.block.as_deref().unwrap_or("-"),
             g.metric,
-            r.value.map(|v| format!("{v:e}")).unwrap_or_else(|| "none".into()),
-            r.reference.map(|v| format!("{v:e}")).unwrap_or_else(|| "none".into()),
+            r.value
+                .map(|v| format!("{v:e}"))
+                .unwrap_or_else(|| "none".into()),
+            r.reference
+                .map(|v| format!("{v:e}"))
+                .unwrap_or_else(|| "none".into()),
             g.tolerance,
-            if r.cached { ", run served from the cache" } else { "" }
+            if r.cached {
+                ", run served from the cache"
+            } else {
+                ""
+            }
         );
         match r.outcome {
             Outcome::Pass => {
-                let _ = writeln!(x, ">\n      <system-out>{}</system-out>\n    </testcase>", attr(&detail));
+                let _ = writeln!(
+                    x,
+                    ">\n      <system-out>{}</system-out>\n    </testcase>",
+                    attr(&detail)
+                );
             }
             Outcome::Fail | Outcome::UnexpectedPass => {
                 let _ = writeln!(

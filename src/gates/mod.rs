@@ -135,12 +135,20 @@ pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
     let table: toml::Table = toml::from_str(&text).map_err(|e| {
         let line = e
             .span()
-            .map(|s| format!("line {}", text[..s.start.min(text.len())].lines().count().max(1)))
+            .map(|s| {
+                format!(
+                    "line {}",
+                    text[..s.start.min(text.len())].lines().count().max(1)
+                )
+            })
             .unwrap_or_else(|| "(file)".into());
-        err(line, format!("invalid TOML: {}", e.message().replace('\n', " ")))
+        err(
+            line,
+            format!("invalid TOML: {}", e.message().replace('\n', " ")),
+        )
     })?;
-    let raw: GateFileRaw = serde_path_to_error::deserialize(toml::Value::Table(table))
-        .map_err(|e| {
+    let raw: GateFileRaw =
+        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
             let p = e.path().to_string();
             err(
                 if p == "." { "(top level)".into() } else { p },
@@ -173,7 +181,10 @@ pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
         if !metrics::is_known_metric(&g.metric) {
             return Err(err(
                 at("metric"),
-                format!("`{}` is not a metric rockbench computes (see metrics.csv)", g.metric),
+                format!(
+                    "`{}` is not a metric rockbench computes (see metrics.csv)",
+                    g.metric
+                ),
             ));
         }
         if !(g.tolerance.is_finite() && g.tolerance >= 0.0) {
@@ -466,14 +477,12 @@ fn evaluate(g: &Gate, rows: &[MetricRow], run: Option<&EngineRun>) -> GateResult
         (Expect::KnownFailure, false) => Outcome::KnownFailure,
         (Expect::KnownFailure, true) => Outcome::UnexpectedPass,
     };
-    let shown = |x: Option<f64>| x.map(|v| format!("{v:.6e}")).unwrap_or_else(|| "none".into());
+    let shown = |x: Option<f64>| {
+        x.map(|v| format!("{v:.6e}"))
+            .unwrap_or_else(|| "none".into())
+    };
     let message = match outcome {
-        Outcome::Pass => format!(
-            "{} = {} <= {}",
-            check.word(),
-            shown(checked),
-            g.tolerance
-        ),
+        Outcome::Pass => format!("{} = {} <= {}", check.word(), shown(checked), g.tolerance),
         Outcome::Fail => format!(
             "{} = {} exceeds the tolerance {} (value {}, reference {})",
             check.word(),
@@ -516,8 +525,18 @@ fn evaluate(g: &Gate, rows: &[MetricRow], run: Option<&EngineRun>) -> GateResult
 /// The results as a text table.
 pub fn table(results: &[GateResult]) -> String {
     let head = [
-        "gate", "engine", "reference", "block", "metric", "value", "ref value", "checked",
-        "tolerance", "expected", "result", "run",
+        "gate",
+        "engine",
+        "reference",
+        "block",
+        "metric",
+        "value",
+        "ref value",
+        "checked",
+        "tolerance",
+        "expected",
+        "result",
+        "run",
     ];
     let f = |x: Option<f64>| x.map(|v| format!("{v:.4e}")).unwrap_or_else(|| "-".into());
     let rows: Vec<Vec<String>> = results
@@ -538,7 +557,11 @@ pub fn table(results: &[GateResult]) -> String {
                     Expect::KnownFailure => "known failure".into(),
                 },
                 r.outcome.word().into(),
-                if r.cached { "cached".into() } else { "ran".into() },
+                if r.cached {
+                    "cached".into()
+                } else {
+                    "ran".into()
+                },
             ]
         })
         .collect();

@@ -2,7 +2,7 @@
 
 /// Uniform grid `t0, t0 + dt, ...` up to `t1` (inclusive within 1e-9 dt).
 pub fn uniform_grid(t0: f64, t1: f64, dt: f64) -> Vec<f64> {
-    if !(t1 >= t0) || !(dt > 0.0) {
+    if t1.is_nan() || t0.is_nan() || t1 < t0 || dt.is_nan() || dt <= 0.0 {
         return Vec::new();
     }
     let n = ((t1 - t0) / dt + 1e-9).floor() as usize + 1;

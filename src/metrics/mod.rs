@@ -307,7 +307,12 @@ pub fn check_run(scene: &Scene, run: &Run) -> Result<(), MetricsError> {
             expected,
         });
     }
-    if let Some(k) = run.trajectory.t.windows(2).position(|w| !(w[1] >= w[0])) {
+    if let Some(k) = run
+        .trajectory
+        .t
+        .windows(2)
+        .position(|w| w[1].is_nan() || w[1] < w[0])
+    {
         return Err(MetricsError::Times {
             run: run.name.clone(),
             index: k + 1,
@@ -334,7 +339,7 @@ pub fn common_window(
         t0 = t0.max(w0);
         t1 = t1.min(w1);
     }
-    if !(t1 > t0) {
+    if t1.is_nan() || t0.is_nan() || t1 <= t0 {
         return Err(no());
     }
     Ok((t0, t1))
@@ -441,8 +446,20 @@ pub fn compare_runs(
         let norm = |x: f64| (scale > 0.0).then(|| x / scale);
         let mut err_rows = |suffix: &str, n: usize| {
             let (rms, max) = grid::rms_and_max(a, r, n);
-            push(lab, format!("rotation_rms_error{suffix}"), Some(rms), None, "rad");
-            push(lab, format!("rotation_max_error{suffix}"), Some(max), None, "rad");
+            push(
+                lab,
+                format!("rotation_rms_error{suffix}"),
+                Some(rms),
+                None,
+                "rad",
+            );
+            push(
+                lab,
+                format!("rotation_max_error{suffix}"),
+                Some(max),
+                None,
+                "rad",
+            );
             push(
                 lab,
                 format!("rotation_rms_error_normalised{suffix}"),
@@ -582,7 +599,13 @@ pub fn compare_runs(
         }
     }
     let c = (&run.cost, &reference.cost);
-    push(RUN_ROW, "wall_time".into(), c.0.wall_time_s, c.1.wall_time_s, "s");
+    push(
+        RUN_ROW,
+        "wall_time".into(),
+        c.0.wall_time_s,
+        c.1.wall_time_s,
+        "s",
+    );
     let u = |x: Option<u64>| x.map(|v| v as f64);
     push(RUN_ROW, "steps".into(), u(c.0.steps), u(c.1.steps), "1");
     push(

@@ -63,7 +63,10 @@ fn get(rows: &[MetricRow], block: &str, metric: &str) -> (Option<f64>, Option<f6
 }
 
 fn close(a: f64, b: f64, tol: f64, what: &str) {
-    assert!((a - b).abs() <= tol, "{what}: {a} vs expected {b} (tol {tol})");
+    assert!(
+        (a - b).abs() <= tol,
+        "{what}: {a} vs expected {b} (tol {tol})"
+    );
 }
 
 #[test]
@@ -233,7 +236,12 @@ fn decaying_sequence_restitution_and_rest_times() {
     for k in 1..=12 {
         let (v, rr) = get(&rows, "block", &format!("restitution_{k}"));
         close(v.unwrap(), r, 1e-6, &format!("restitution {k}"));
-        close(rr.unwrap(), 0.7, 1e-6, &format!("reference restitution {k}"));
+        close(
+            rr.unwrap(),
+            0.7,
+            1e-6,
+            &format!("reference restitution {k}"),
+        );
     }
     close(
         get(&rows, "block", "housner_restitution").0.unwrap(),
@@ -372,7 +380,9 @@ fn housner_output_gives_housners_numbers() {
     );
     for (k, a) in [(1, 0.0856), (2, 0.0513), (3, 0.0314)] {
         close(
-            get(&rows, "block", &format!("peak_amplitude_{k}")).0.unwrap(),
+            get(&rows, "block", &format!("peak_amplitude_{k}"))
+                .0
+                .unwrap(),
             a,
             1e-4,
             &format!("amplitude after impact {k}"),
@@ -452,7 +462,12 @@ fn known_metric_names() {
     ] {
         assert!(is_known_metric(m), "{m}");
     }
-    for m in ["rest_time_5e-2", "impact_time_", "rotation_rms", "peak_amplitude_x"] {
+    for m in [
+        "rest_time_5e-2",
+        "impact_time_",
+        "rotation_rms",
+        "peak_amplitude_x",
+    ] {
         assert!(!is_known_metric(m), "{m}");
     }
 }

@@ -80,7 +80,10 @@ impl Doc {
         let _ = writeln!(
             self.md,
             "| {} |",
-            head.iter().map(|h| md_cell(h)).collect::<Vec<_>>().join(" | ")
+            head.iter()
+                .map(|h| md_cell(h))
+                .collect::<Vec<_>>()
+                .join(" | ")
         );
         let _ = writeln!(self.md, "|{}", "---|".repeat(head.len()));
         for r in rows {
@@ -229,7 +232,11 @@ pub fn summary_paragraphs(c: &Comparison, own: &[MetricRow]) -> Vec<String> {
     let mut facts = Vec::new();
     for s in &series {
         let b = s.label.as_str();
-        let kind = if s.is_interface() { "interface" } else { "block" };
+        let kind = if s.is_interface() {
+            "interface"
+        } else {
+            "block"
+        };
         let mut f = Vec::new();
         if s.measured {
             let n = rows.count(None, b, "impact_time_");
@@ -240,11 +247,19 @@ pub fn summary_paragraphs(c: &Comparison, own: &[MetricRow]) -> Vec<String> {
         }
         let rest: Vec<String> = REST_THRESHOLDS
             .iter()
-            .map(|(key, _)| format!("{} s at {key} rad", secs(rows.r(b, &format!("rest_time_{key}")))))
+            .map(|(key, _)| {
+                format!(
+                    "{} s at {key} rad",
+                    secs(rows.r(b, &format!("rest_time_{key}")))
+                )
+            })
             .collect();
         f.push(format!("at rest from {}", rest.join(", ")));
         if rows.r(b, "overturned") == Some(1.0) {
-            f.push(format!("overturns at {} s", secs(rows.r(b, "overturn_time"))));
+            f.push(format!(
+                "overturns at {} s",
+                secs(rows.r(b, "overturn_time"))
+            ));
         }
         facts.push(format!("{kind} `{b}`: {}", f.join("; ")));
     }
@@ -408,9 +423,12 @@ pub fn write_report(dir: &Path, c: &Comparison, command: &str) -> Result<(), Str
 
 /// The report as (HTML, Markdown, plots).
 pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String, String)>) {
-    let reference = c.reference_run.as_ref().expect("a comparison has a reference");
-    let own = metrics::compare_runs(&c.scene, reference, reference, &c.settings)
-        .unwrap_or_default();
+    let reference = c
+        .reference_run
+        .as_ref()
+        .expect("a comparison has a reference");
+    let own =
+        metrics::compare_runs(&c.scene, reference, reference, &c.settings).unwrap_or_default();
     let rows = Rows::new(&c.rows, &own);
     let series = metrics::series_of(&c.scene);
     let engines = compared(c);
@@ -565,12 +583,14 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
     let eh: Vec<(String, Option<metrics::ErrorHistory>)> = engines
         .iter()
         .map(|e| {
-            let run = c.runs.iter().find(|r| &r.engine == e).and_then(|r| r.as_run());
+            let run = c
+                .runs
+                .iter()
+                .find(|r| &r.engine == e)
+                .and_then(|r| r.as_run());
             (
                 e.clone(),
-                run.and_then(|r| {
-                    metrics::error_history(&c.scene, &r, reference, &c.settings).ok()
-                }),
+                run.and_then(|r| metrics::error_history(&c.scene, &r, reference, &c.settings).ok()),
             )
         })
         .collect();
@@ -628,7 +648,13 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
         for (e, run) in &runs_data {
             add(&mut plot, e.clone(), color(e), false, run);
         }
-        add(&mut plot, ref_name.clone(), "#000000".into(), true, reference);
+        add(
+            &mut plot,
+            ref_name.clone(),
+            "#000000".into(),
+            true,
+            reference,
+        );
         let slug = s.label.replace('/', "-on-");
         d.plot(&format!("rotation-{slug}.svg"), &plot);
         if eh.iter().any(|(_, h)| h.is_some()) {
@@ -679,9 +705,11 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
             for (suf, _) in &suffixes {
                 row.push(opt(rows.v(e, b, &format!("rotation_rms_error{suf}"))));
                 row.push(opt(rows.v(e, b, &format!("rotation_max_error{suf}"))));
-                row.push(pct(
-                    rows.v(e, b, &format!("rotation_rms_error_normalised{suf}")),
-                ));
+                row.push(pct(rows.v(
+                    e,
+                    b,
+                    &format!("rotation_rms_error_normalised{suf}"),
+                )));
             }
             trs.push(row);
         }
@@ -729,7 +757,10 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
         let mut count = vec!["count".to_string(), int(rows.r(b, "impact_count"))];
         for e in &engines {
             count.push(int(rows.v(e, b, "impact_count")));
-            count.push(format!("{} unmatched", int(rows.v(e, b, "impacts_unmatched"))));
+            count.push(format!(
+                "{} unmatched",
+                int(rows.v(e, b, "impacts_unmatched"))
+            ));
         }
         trs.push(count);
         d.h(3, &format!("`{b}`"));
@@ -776,10 +807,13 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
             }
             trs.push(row);
         }
-        d.h(3, &format!(
-            "`{b}` (Housner's r = {})",
-            opt(rows.r(b, "housner_restitution"))
-        ));
+        d.h(
+            3,
+            &format!(
+                "`{b}` (Housner's r = {})",
+                opt(rows.r(b, "housner_restitution"))
+            ),
+        );
         d.table(&head, &trs);
     }
 
@@ -790,7 +824,11 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
          run (\"-\": not at rest by the end). It depends strongly on ε, so it is given at four \
          thresholds.",
     );
-    let mut head = vec!["series".to_string(), "ε (rad)".to_string(), format!("{ref_name} (s)")];
+    let mut head = vec![
+        "series".to_string(),
+        "ε (rad)".to_string(),
+        format!("{ref_name} (s)"),
+    ];
     for e in &engines {
         head.push(format!("{e} (s)"));
         head.push(format!("{e} Δ (s)"));
@@ -895,7 +933,10 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
     ];
     for r in c.ok_runs() {
         if let Some(s) = &r.summary {
-            versions.push(vec![format!("engine `{}`", r.engine), s.engine_version.clone()]);
+            versions.push(vec![
+                format!("engine `{}`", r.engine),
+                s.engine_version.clone(),
+            ]);
         }
     }
     versions.push(vec!["machine".into(), prov.hostname.clone()]);

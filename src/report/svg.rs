@@ -41,7 +41,7 @@ const BOTTOM: f64 = 50.0;
 
 /// "Nice" tick positions covering `[lo, hi]`.
 pub fn ticks(lo: f64, hi: f64, target: usize) -> Vec<f64> {
-    if !(hi > lo) || !lo.is_finite() || !hi.is_finite() {
+    if !lo.is_finite() || !hi.is_finite() || hi <= lo {
         return vec![lo];
     }
     let raw = (hi - lo) / target.max(1) as f64;
@@ -73,7 +73,8 @@ fn fmt_tick(v: f64, step: f64) -> String {
     let decimals = if step >= 1.0 {
         0
     } else {
-        (-step.log10().floor()) as usize + usize::from(step * 10f64.powf(-step.log10().floor()) % 1.0 > 1e-6)
+        (-step.log10().floor()) as usize
+            + usize::from(step * 10f64.powf(-step.log10().floor()) % 1.0 > 1e-6)
     };
     format!("{v:.decimals$}")
 }
@@ -104,7 +105,11 @@ pub fn decimate(x: &[f64], y: &[f64], buckets: usize) -> (Vec<f64>, Vec<f64>) {
                 imax = k;
             }
         }
-        for k in if imin <= imax { [imin, imax] } else { [imax, imin] } {
+        for k in if imin <= imax {
+            [imin, imax]
+        } else {
+            [imax, imin]
+        } {
             if ox.last() != Some(&x[k]) {
                 ox.push(x[k]);
                 oy.push(y[k]);
