@@ -308,9 +308,9 @@ mod tests {
     #[test]
     fn ticks_are_round_and_cover_the_range() {
         assert_eq!(ticks(0.0, 6.0, 6), vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
-        let t = ticks(-0.153, 0.151, 6);
-        assert_eq!(t.first(), Some(&-0.15));
-        assert_eq!(t.last(), Some(&0.15));
+        // Range 0.304 / 6 = 0.051 per tick: the next round step is 0.1.
+        assert_eq!(ticks(-0.153, 0.151, 6), vec![-0.1, 0.0, 0.1]);
+        assert_eq!(ticks(0.0, 0.004, 4), vec![0.0, 0.001, 0.002, 0.003, 0.004]);
     }
 
     #[test]
