@@ -54,6 +54,9 @@ pub struct CompareOptions {
     pub jobs: usize,
     /// Show a progress indicator on stderr.
     pub progress: bool,
+    /// Each engine is run this many times and its wall time is the median (default 1: a
+    /// single run). The trajectory is the first run's.
+    pub timing_runs: usize,
 }
 
 impl CompareOptions {
@@ -64,6 +67,7 @@ impl CompareOptions {
             metrics: MetricSettings::default(),
             jobs: default_jobs(),
             progress: false,
+            timing_runs: 1,
         }
     }
 }
@@ -148,6 +152,8 @@ pub struct Comparison {
     pub notes: Vec<String>,
     /// How many engines ran at once.
     pub jobs: usize,
+    /// Runs per engine behind each wall time (median).
+    pub timing_runs: usize,
 }
 
 impl Comparison {
@@ -294,6 +300,7 @@ pub fn compare_with(
         settings: opts.metrics.clone(),
         notes,
         jobs: opts.jobs.max(1),
+        timing_runs: opts.timing_runs.max(1),
     })
 }
 
@@ -339,7 +346,10 @@ fn run_all(
                         r.push(name.clone());
                         bar.set_message(format!("running {}", r.join(", ")));
                     }
-                    let er = runner(name, scene);
+                    let mut er = runner(name, scene);
+                    if opts.timing_runs > 1 && !er.cached {
+                        median_wall_time(&mut er, scene, opts.timing_runs);
+                    }
                     {
                         let mut r = running.lock().expect("lock");
                         r.retain(|x| x != name);
@@ -376,6 +386,38 @@ fn run_all(
         .into_iter()
         .map(|r| r.expect("every engine ran"))
         .collect()
+}
+
+/// Re-run a successful engine `n - 1` more times and record the median wall time.
+fn median_wall_time(er: &mut EngineRun, scene: &Scene, n: usize) {
+    let Some(first) = er.summary.as_ref().map(|s| s.wall_time_s) else {
+        return;
+    };
+    let Ok(engine) = engine_by_name(&er.engine) else {
+        return;
+    };
+    let mut walls = vec![first];
+    for _ in 1..n {
+        match run_timed(engine.as_ref(), scene) {
+            Ok((_, s)) => walls.push(s.wall_time_s),
+            Err(_) => return,
+        }
+    }
+    walls.sort_by(f64::total_cmp);
+    let m = walls.len();
+    let median = if m % 2 == 1 {
+        walls[m / 2]
+    } else {
+        0.5 * (walls[m / 2 - 1] + walls[m / 2])
+    };
+    if let Some(s) = er.summary.as_mut() {
+        s.wall_time_s = median;
+        s.notes.push(format!(
+            "wall time: median of {m} runs (min {:.4} s, max {:.4} s)",
+            walls[0],
+            walls[m - 1]
+        ));
+    }
 }
 
 /// `metrics.json`: the rows with the runs and settings behind them.
@@ -479,4 +521,102 @@ pub fn summary_paragraphs_for(c: &Comparison) -> Vec<String> {
         .and_then(|r| metrics::compare_runs(&c.scene, r, r, &c.settings).ok())
         .unwrap_or_default();
     crate::report::summary_paragraphs(c, &own)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    const SLENDER: &str = "name = \"s\"\nduration = 2.0\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[initial]\ntilt = 0.15\n";
+
+    fn scene() -> Scene {
+        parse_scene_str(SLENDER, false, "s.toml", &[]).unwrap()
+    }
+
+    #[test]
+    fn failing_and_unknown_engines_are_listed_and_the_rest_compared() {
+        // A runner in which `broken` fails; `nosuch` is not an engine at all.
+        let runner = |name: &str, sc: &Scene| {
+            if name == "broken" {
+                EngineRun {
+                    engine: name.into(),
+                    status: classify(&EngineError::Failed {
+                        engine: "broken",
+                        message: "diverged at step 7".into(),
+                    }),
+                    output: None,
+                    summary: None,
+                    cached: false,
+                }
+            } else {
+                run_engine(name, sc)
+            }
+        };
+        let opts = CompareOptions::new(
+            vec!["broken".into(), "nosuch".into(), "housner".into()],
+            ReferenceSpec::Engine("housner".into()),
+        );
+        let c = compare_with(&scene(), &opts, &runner).unwrap();
+        let st = |e: &str| {
+            c.runs
+                .iter()
+                .find(|r| r.engine == e)
+                .unwrap()
+                .status
+                .clone()
+        };
+        assert!(matches!(st("broken"), Status::Failed(r) if r.contains("diverged at step 7")));
+        assert!(matches!(st("nosuch"), Status::Skipped(r) if r.contains("not available")));
+        assert_eq!(st("housner"), Status::Ok);
+        // Nothing but the reference ran, so there are no rows, and the summary says why.
+        assert!(c.rows.is_empty());
+        let text = summary_paragraphs_for(&c).join(" ");
+        assert!(text.contains("diverged at step 7") && text.contains("nothing is compared"));
+    }
+
+    #[test]
+    fn a_failing_reference_engine_stops_the_comparison_with_its_reason() {
+        let opts = CompareOptions::new(vec!["housner".into()], ReferenceSpec::Engine("x".into()));
+        let e = compare(&scene(), &opts).unwrap_err();
+        assert!(e.to_string().contains("reference engine `x`"), "{e}");
+    }
+
+    #[test]
+    fn wall_time_is_the_median_of_the_timing_runs() {
+        let mut opts = CompareOptions::new(
+            vec!["housner".into(), "native".into()],
+            ReferenceSpec::Engine("housner".into()),
+        );
+        opts.timing_runs = 3;
+        let c = compare(&scene(), &opts).unwrap();
+        for r in &c.runs {
+            let notes = &r.summary.as_ref().unwrap().notes;
+            assert!(
+                notes
+                    .iter()
+                    .any(|n| n.starts_with("wall time: median of 3 runs")),
+                "{notes:?}"
+            );
+        }
+        // native was compared with housner: rows exist and name the engine.
+        assert!(c.rows.iter().all(|r| r.engine == "native"));
+        assert!(c.rows.iter().any(|r| r.metric == "impact_time_1"));
+    }
+
+    #[test]
+    fn reference_spec_parsing() {
+        assert_eq!(
+            ReferenceSpec::parse("native"),
+            ReferenceSpec::Engine("native".into())
+        );
+        assert!(matches!(
+            ReferenceSpec::parse("out/x/trajectory.csv"),
+            ReferenceSpec::File(_)
+        ));
+        assert!(matches!(
+            ReferenceSpec::parse("ref.csv"),
+            ReferenceSpec::File(_)
+        ));
+    }
 }

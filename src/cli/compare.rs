@@ -42,6 +42,10 @@ pub struct CompareArgs {
     /// that are not disturbed by another engine running.
     #[arg(long)]
     jobs: Option<usize>,
+    /// Run each engine this many times and report the median wall time (the trajectory is
+    /// the first run's). Combine with --jobs 1 for comparable timings.
+    #[arg(long, default_value_t = 1)]
+    timing_runs: usize,
     /// No progress indicator on stderr.
     #[arg(long)]
     quiet: bool,
@@ -73,6 +77,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     }
     opts.jobs = a.jobs.unwrap_or_else(default_jobs).max(1);
     opts.progress = !a.quiet;
+    opts.timing_runs = a.timing_runs.max(1);
     let c = compare(&scene, &opts)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     write_comparison(&a.out, &c, &command).map_err(anyhow::Error::msg)?;

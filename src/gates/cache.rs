@@ -170,7 +170,8 @@ mod tests {
     use super::*;
     use crate::scene::parse_scene_str;
 
-    const SCENE: &str = "name = \"k\"\nduration = 1.0\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.0\n";
+    const SCENE: &str =
+        "name = \"k\"\nduration = 1.0\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.0\n";
 
     #[test]
     fn the_key_changes_with_scene_settings_and_engine_only() {

@@ -567,11 +567,19 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
         ]);
     }
     d.table(&head, &trs);
-    d.p(&format!(
-        "Wall times are single runs with up to {} engine(s) running at once on {} core(s): \
-         indicative, not medians of repeated runs.",
-        c.jobs, prov.cores
-    ));
+    d.p(&if c.timing_runs > 1 {
+        format!(
+            "Wall times are medians of {} runs, with up to {} engine(s) running at once on {} \
+             core(s).",
+            c.timing_runs, c.jobs, prov.cores
+        )
+    } else {
+        format!(
+            "Wall times are single runs with up to {} engine(s) running at once on {} core(s): \
+             indicative, not medians of repeated runs (see --timing-runs and --jobs 1).",
+            c.jobs, prov.cores
+        )
+    });
 
     // Histories and errors.
     d.h(2, "Rotation histories");
