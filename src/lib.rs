@@ -22,7 +22,9 @@
 //! ## Layout
 //! [`scene`] (files, checks, initial layout) · [`excitation`] (pulses, records) ·
 //! [`geometry`] (contact detection) · [`native`] (the theta step and its QP solvers) ·
-//! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`].
+//! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`] ·
+//! [`metrics`] (comparing two trajectories) · [`compare`] (running engines against a reference)
+//! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML).
 
 pub mod cli;
 pub mod compare;

@@ -109,6 +109,17 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
         assert!(text.contains("rotation φ (rad)") || text.contains("rest"));
     }
     assert!(html.contains("<svg") && !html.contains("<script") && !html.contains("src=\"http"));
+    // Provenance: versions, machine, the exact command.
+    for text in [&md, &html] {
+        assert!(text.contains(concat!("rockbench ", env!("CARGO_PKG_VERSION"))));
+        assert!(text.contains("git commit") && text.contains("CPU") && text.contains("OS"));
+        assert!(text.contains("--engines native,rapier,mujoco,pybullet,housner"));
+    }
+    // Every plot in the Markdown twin exists as a file.
+    for line in md.lines().filter(|l| l.starts_with("![")) {
+        let file = line.rsplit_once("](").unwrap().1.trim_end_matches(')');
+        assert!(out.join(file).is_file(), "{file}");
+    }
     // The summary names the statue's rest at the four thresholds.
     assert!(md.contains("interface `pedestal/statue`") && md.contains("at 3e-2 rad"));
 
