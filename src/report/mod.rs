@@ -612,6 +612,17 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
                 .map(|r| (e.clone(), r))
         })
         .collect();
+    // Impacts of every series of every run, over each run's own time range.
+    let all_events = |run: &metrics::Run| {
+        let w = (
+            run.trajectory.t.first().copied().unwrap_or(0.0),
+            run.trajectory.t.last().copied().unwrap_or(0.0),
+        );
+        metrics::run_events(&c.scene, run, &c.settings, w)
+    };
+    let events: Vec<Vec<metrics::SeriesEvents>> =
+        runs_data.iter().map(|(_, r)| all_events(r)).collect();
+    let ref_events = all_events(reference);
     for (si, s) in series.iter().enumerate() {
         d.h(3, &series_title(s));
         let mut plot = Plot {
@@ -625,19 +636,15 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
             marker_label: Some("impacts".into()),
             ..Default::default()
         };
-        let impacts_of = |run: &metrics::Run| -> Vec<f64> {
-            let w = (
-                run.trajectory.t.first().copied().unwrap_or(0.0),
-                run.trajectory.t.last().copied().unwrap_or(0.0),
-            );
-            metrics::run_events(&c.scene, run, &c.settings, w)[si]
-                .impacts
-                .clone()
-        };
-        let add = |plot: &mut Plot, name: String, col: String, dashed: bool, run: &metrics::Run| {
+        let add = |plot: &mut Plot,
+                   name: String,
+                   col: String,
+                   dashed: bool,
+                   run: &metrics::Run,
+                   ev: &[metrics::SeriesEvents]| {
             let rot = s.rotation(&run.trajectory);
-            let imp = impacts_of(run);
-            let ys = metrics::grid::interpolate(&run.trajectory.t, &rot, &imp);
+            let imp = &ev[si].impacts;
+            let ys = metrics::grid::interpolate(&run.trajectory.t, &rot, imp);
             for (x, y) in imp.iter().zip(ys) {
                 plot.markers.push(Marker {
                     x: *x,
@@ -653,8 +660,8 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
                 y: rot,
             });
         };
-        for (e, run) in &runs_data {
-            add(&mut plot, e.clone(), color(e), false, run);
+        for ((e, run), ev) in runs_data.iter().zip(&events) {
+            add(&mut plot, e.clone(), color(e), false, run, ev);
         }
         add(
             &mut plot,
@@ -662,6 +669,7 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
             "#000000".into(),
             true,
             reference,
+            &ref_events,
         );
         let slug = s.label.replace('/', "-on-");
         d.plot(&format!("rotation-{slug}.svg"), &plot);
