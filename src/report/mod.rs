@@ -980,3 +980,82 @@ font-size:0.88em}th,td{border:1px solid #ccc;padding:3px 7px;text-align:right}\
 th{background:#f2f2f2}td:first-child,th:first-child{text-align:left}code{background:#f4f4f4;\
 padding:0 3px}pre{background:#f7f7f7;padding:0.6em;overflow-x:auto;font-size:0.85em}\
 figure{margin:0.5em 0}h2{border-bottom:1px solid #ddd;padding-bottom:0.2em;margin-top:1.6em}";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compare::{CompareOptions, EngineRun, ReferenceSpec, compare_with, run_engine};
+    use crate::scene::{Scene, parse_scene_str};
+
+    const SLENDER: &str = "name = \"s\"\nduration = 3.0\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[initial]\ntilt = 0.15\n";
+
+    /// `housner` and `lossy` (Housner with restitution 0.6): identical until the first impact,
+    /// then the lossy block loses more energy at every impact.
+    fn comparison() -> Comparison {
+        let scene = parse_scene_str(SLENDER, false, "s.toml", &[]).unwrap();
+        let runner = |name: &str, sc: &Scene| -> EngineRun {
+            if name == "lossy" {
+                let mut s = sc.clone();
+                s.housner.restitution = Some(0.6);
+                let mut r = run_engine("housner", &s);
+                r.engine = "lossy".into();
+                r
+            } else {
+                run_engine(name, sc)
+            }
+        };
+        let opts = CompareOptions::new(
+            vec!["lossy".into(), "housner".into()],
+            ReferenceSpec::Engine("housner".into()),
+        );
+        compare_with(&scene, &opts, &runner).unwrap()
+    }
+
+    #[test]
+    fn the_summary_says_what_agrees_and_what_does_not() {
+        let c = comparison();
+        let text = crate::compare::summary_paragraphs_for(&c).join("\n");
+        let lossy = text
+            .lines()
+            .find(|l| l.starts_with("`lossy` against `housner`"))
+            .unwrap();
+        let (agrees, differs) = lossy.split_once("It differs on").unwrap();
+        assert!(
+            agrees.contains("block `block` before the first impact"),
+            "{lossy}"
+        );
+        // Rest at 1e-4 rad comes much earlier with restitution 0.6 than 0.79.
+        assert!(differs.contains("rest times of block `block`"), "{lossy}");
+        assert!(differs.contains("at 1e-4 rad"), "{lossy}");
+    }
+
+    #[test]
+    fn html_and_markdown_are_twins() {
+        let c = comparison();
+        let prov = Provenance::collect("rockbench compare s.toml");
+        let (html, md, plots) = render(&c, &prov);
+        // One inline SVG per plot file, each referenced from the Markdown.
+        assert_eq!(html.matches("<svg").count(), plots.len());
+        assert_eq!(plots.len(), 2);
+        for (name, svg) in &plots {
+            assert!(md.contains(&format!("(plots/{name})")));
+            assert!(svg.contains("lossy"), "{name}");
+            if name.starts_with("rotation-") {
+                assert!(svg.contains("housner (reference)"), "{name}");
+            }
+        }
+        // The same headings in both.
+        let md_heads: Vec<String> = md
+            .lines()
+            .filter(|l| l.starts_with('#'))
+            .map(|l| l.trim_start_matches('#').trim().replace('`', ""))
+            .collect();
+        let html_heads = html.matches("<h").count()
+            - html.matches("<head").count()
+            - html.matches("<html").count();
+        assert_eq!(md_heads.len(), html_heads);
+        // Restitution column: Housner's r for the reference, 0.6 for the lossy engine.
+        assert!(md.contains("| 1 | 0.08560 | 0.7931 |"), "{md}");
+        assert!(md.contains("| 0.6000 |"));
+    }
+}
