@@ -454,7 +454,17 @@ pub fn write_metrics_csv(path: &Path, rows: &[MetricRow]) -> std::io::Result<()>
         "reference",
         "unit",
     ])?;
-    let f = |x: Option<f64>| x.map(|v| format!("{v:e}")).unwrap_or_default();
+    // Whole numbers (counts, steps) as integers; everything else in shortest round-trip form.
+    let f = |x: Option<f64>| {
+        x.map(|v| {
+            if v.fract() == 0.0 && v.abs() < 1e15 {
+                format!("{}", v as i64)
+            } else {
+                format!("{v:e}")
+            }
+        })
+        .unwrap_or_default()
+    };
     for r in rows {
         w.write_record([
             r.scene.as_str(),
