@@ -38,6 +38,7 @@ test-no-default-features:
 
 test-rust: chromium
 	$(CARGO) test --release
+	$(MAKE) gates
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
@@ -45,6 +46,16 @@ test-python: .venv build
 # Headless Chromium (Debian's package) for the report-rendering test.
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
+
+# Accuracy gates (validation/gates.toml); runs are cached in .cache/rockbench/.
+gates: build
+	$(BIN) gate validation/gates.toml --junit out/gates/junit.xml --quiet
+
+# Cross-validation reports of the validation scenes.
+compare-demo: build .venv
+	$(BIN) compare validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet,housner --reference housner --out out/compare/housner-slender
+	$(BIN) compare validation/scenes/housner-square.toml --engines native,rapier,mujoco,pybullet,housner --reference housner --out out/compare/housner-square
+	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet,housner --reference native --out out/compare/two-block-free-rocking
 
 # The measurement behind the MuJoCo and PyBullet defaults (about a minute).
 settings-sweep: .venv build

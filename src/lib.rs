@@ -22,16 +22,22 @@
 //! ## Layout
 //! [`scene`] (files, checks, initial layout) · [`excitation`] (pulses, records) ·
 //! [`geometry`] (contact detection) · [`native`] (the theta step and its QP solvers) ·
-//! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`].
+//! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`] ·
+//! [`metrics`] (comparing two trajectories) · [`compare`] (running engines against a reference)
+//! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML).
 
 pub mod cli;
+pub mod compare;
 pub mod engines;
 pub mod events;
 pub mod excitation;
+pub mod gates;
 pub mod geometry;
+pub mod metrics;
 pub mod native;
 #[cfg(feature = "python")]
 pub mod python;
+pub mod report;
 pub mod scene;
 pub mod summary;
 pub mod trajectory;

@@ -1,6 +1,8 @@
 //! The `rockbench` command line: one file per subcommand.
 
 mod check;
+mod compare;
+mod gate;
 mod run;
 
 use anyhow::Result;
@@ -23,6 +25,12 @@ enum Command {
     Run(run::RunArgs),
     /// Check a scene file without running it.
     Check(check::CheckArgs),
+    /// Run several engines on a scene and compare them with a reference; writes metrics and
+    /// a report (DIR/report.html, DIR/report.md).
+    Compare(compare::CompareArgs),
+    /// Evaluate accuracy gates (GATES.toml); exits 1 when a gate fails or a known failure
+    /// starts passing.
+    Gate(gate::GateArgs),
 }
 
 /// Parse the command line and run it.
@@ -31,5 +39,7 @@ pub fn main() -> Result<()> {
     match cli.command {
         Command::Run(a) => run::run(a),
         Command::Check(a) => check::check(a),
+        Command::Compare(a) => compare::compare_cmd(a),
+        Command::Gate(a) => gate::gate_cmd(a),
     }
 }

@@ -1,0 +1,93 @@
+//! `rockbench compare SCENE --engines a,b,c --reference ENGINE|FILE --out DIR`: run every
+//! engine once, compare each with the reference, write the metrics and the report.
+
+use crate::compare::{
+    CompareOptions, ReferenceSpec, compare, default_jobs, summary_paragraphs_for, write_comparison,
+};
+use crate::scene::load_scene_with_overrides;
+use anyhow::{Result, bail};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct CompareArgs {
+    /// Scene file (TOML or JSON).
+    scene: PathBuf,
+    /// Engines to run, comma-separated. Engines not built into this rockbench, or that cannot
+    /// model the scene, are listed as skipped with the reason.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "native,rapier,mujoco,pybullet,housner"
+    )]
+    engines: Vec<String>,
+    /// The reference: an engine name (run too if not in --engines) or a trajectory.csv file.
+    #[arg(long, default_value = "native")]
+    reference: String,
+    /// Output directory.
+    #[arg(long, default_value = "out/compare")]
+    out: PathBuf,
+    /// Override a scene field, e.g. --set native.dt=5e-4 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Spacing of the common grid for rotation errors, s.
+    #[arg(long, default_value_t = 1e-3)]
+    grid_dt: f64,
+    /// Rotation errors are also reported up to the reference's K-th impact for these K.
+    #[arg(long, value_delimiter = ',', default_value = "1,3")]
+    up_to_impacts: Vec<usize>,
+    /// Compare only on this window, s (`T0,T1`).
+    #[arg(long, value_delimiter = ',', num_args = 2, value_name = "T0,T1")]
+    window: Option<Vec<f64>>,
+    /// Engines run at once (default: the number of cores, at most 2). Use 1 for wall times
+    /// that are not disturbed by another engine running.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Run each engine this many times and report the median wall time (the trajectory is
+    /// the first run's). Combine with --jobs 1 for comparable timings.
+    #[arg(long, default_value_t = 1)]
+    timing_runs: usize,
+    /// No progress indicator on stderr.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub fn compare_cmd(a: CompareArgs) -> Result<()> {
+    if !(a.grid_dt > 0.0 && a.grid_dt.is_finite()) {
+        bail!(
+            "--grid-dt: must be a positive number of seconds (got {})",
+            a.grid_dt
+        );
+    }
+    if a.up_to_impacts.contains(&0) {
+        bail!("--up-to-impacts: impacts are counted from 1");
+    }
+    let scene = load_scene_with_overrides(&a.scene, &a.set)?;
+    let mut opts = CompareOptions::new(a.engines.clone(), ReferenceSpec::parse(&a.reference));
+    opts.metrics.grid_dt = a.grid_dt;
+    opts.metrics.up_to_impacts = a.up_to_impacts.clone();
+    if let Some(w) = &a.window {
+        if w[1] <= w[0] || w.iter().any(|x| !x.is_finite()) {
+            bail!(
+                "--window: T1 must be greater than T0 (got {},{})",
+                w[0],
+                w[1]
+            );
+        }
+        opts.metrics.window = Some((w[0], w[1]));
+    }
+    opts.jobs = a.jobs.unwrap_or_else(default_jobs).max(1);
+    opts.progress = !a.quiet;
+    opts.timing_runs = a.timing_runs.max(1);
+    let c = compare(&scene, &opts)?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    write_comparison(&a.out, &c, &command).map_err(anyhow::Error::msg)?;
+    for p in summary_paragraphs_for(&c) {
+        println!("{p}\n");
+    }
+    println!(
+        "wrote {}/{{metrics.csv, metrics.json, report.md, report.html}} ({} metric rows)",
+        a.out.display(),
+        c.rows.len()
+    );
+    Ok(())
+}

@@ -1,0 +1,632 @@
+//! Cross-validation of engines on one scene: run every engine once (in parallel where they
+//! are independent), compare each with the reference ([`crate::metrics`]) and write the
+//! metrics, the trajectories, the summaries and the report.
+//!
+//! [`compare`] returns the metric rows as data ([`Comparison::rows`]) so that other front
+//! ends (the Python bindings) can wrap it; [`write_comparison`] writes the files.
+
+use crate::engines::{EngineError, RunOutput, engine_by_name, run_timed, write_outputs};
+use crate::metrics::{self, Cost, MetricRow, MetricSettings, Run};
+use crate::scene::Scene;
+use crate::summary::Summary;
+use crate::trajectory::Trajectory;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Where the reference comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReferenceSpec {
+    /// An engine run on the same scene.
+    Engine(String),
+    /// A `trajectory.csv` (any engine's output, or a published reference converted to it).
+    File(PathBuf),
+}
+
+impl ReferenceSpec {
+    /// A path to an existing file, or anything that looks like a path (contains `/` or ends
+    /// in `.csv`), is a file; anything else an engine name.
+    pub fn parse(s: &str) -> ReferenceSpec {
+        let p = Path::new(s);
+        if p.is_file() || s.contains('/') || s.ends_with(".csv") {
+            ReferenceSpec::File(p.to_path_buf())
+        } else {
+            ReferenceSpec::Engine(s.to_string())
+        }
+    }
+
+    pub fn label(&self) -> String {
+        match self {
+            ReferenceSpec::Engine(e) => e.clone(),
+            ReferenceSpec::File(p) => p.display().to_string(),
+        }
+    }
+}
+
+/// What to compare, and how.
+#[derive(Debug, Clone)]
+pub struct CompareOptions {
+    /// Engines to run, in report order.
+    pub engines: Vec<String>,
+    pub reference: ReferenceSpec,
+    pub metrics: MetricSettings,
+    /// How many engines run at once (default: the number of cores, at most 2).
+    pub jobs: usize,
+    /// Show a progress indicator on stderr.
+    pub progress: bool,
+    /// Each engine is run this many times and its wall time is the median (default 1: a
+    /// single run). The trajectory is the first run's.
+    pub timing_runs: usize,
+}
+
+impl CompareOptions {
+    pub fn new(engines: Vec<String>, reference: ReferenceSpec) -> Self {
+        CompareOptions {
+            engines,
+            reference,
+            metrics: MetricSettings::default(),
+            jobs: default_jobs(),
+            progress: false,
+            timing_runs: 1,
+        }
+    }
+}
+
+pub fn default_jobs() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .clamp(1, 2)
+}
+
+/// Outcome of one engine.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "status", content = "reason", rename_all = "lowercase")]
+pub enum Status {
+    Ok,
+    /// The engine is not available in this build, or cannot run this kind of scene.
+    Skipped(String),
+    /// The engine ran and failed.
+    Failed(String),
+}
+
+impl Status {
+    pub fn word(&self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Skipped(_) => "skipped",
+            Status::Failed(_) => "failed",
+        }
+    }
+    pub fn reason(&self) -> Option<&str> {
+        match self {
+            Status::Ok => None,
+            Status::Skipped(r) | Status::Failed(r) => Some(r),
+        }
+    }
+}
+
+/// One engine's run.
+#[derive(Debug, Clone)]
+pub struct EngineRun {
+    pub engine: String,
+    pub status: Status,
+    pub output: Option<RunOutput>,
+    pub summary: Option<Summary>,
+    /// Served from a run cache (gates).
+    pub cached: bool,
+}
+
+impl EngineRun {
+    /// The run as a metrics input.
+    pub fn as_run(&self) -> Option<Run> {
+        let (out, s) = (self.output.as_ref()?, self.summary.as_ref()?);
+        Some(Run {
+            name: self.engine.clone(),
+            trajectory: out.trajectory.clone(),
+            exact_impacts: out.exact_impacts.clone(),
+            cost: Cost {
+                wall_time_s: Some(s.wall_time_s),
+                steps: Some(s.steps),
+                solver_iterations: s.solver_iterations,
+            },
+        })
+    }
+}
+
+/// Everything a comparison produced.
+#[derive(Debug, Clone)]
+pub struct Comparison {
+    pub scene: Scene,
+    /// Name of the reference (engine name or file path).
+    pub reference: String,
+    pub reference_is_file: bool,
+    /// The reference as compared (absent if its engine failed).
+    pub reference_run: Option<Run>,
+    /// Engine runs in the order asked for (the reference engine included).
+    pub runs: Vec<EngineRun>,
+    /// Metrics of every engine that ran against the reference.
+    pub rows: Vec<MetricRow>,
+    pub settings: MetricSettings,
+    /// Engines that ran but could not be compared, and why.
+    pub notes: Vec<String>,
+    /// How many engines ran at once.
+    pub jobs: usize,
+    /// Runs per engine behind each wall time (median).
+    pub timing_runs: usize,
+}
+
+impl Comparison {
+    /// Runs that produced a trajectory.
+    pub fn ok_runs(&self) -> impl Iterator<Item = &EngineRun> {
+        self.runs.iter().filter(|r| r.status == Status::Ok)
+    }
+}
+
+/// Errors that stop a comparison before any engine runs.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("--engines: {0}")]
+    Engines(String),
+    #[error("--reference {file}: {message}")]
+    ReferenceFile { file: String, message: String },
+    #[error("reference engine `{engine}` did not run: {reason}")]
+    ReferenceFailed { engine: String, reason: String },
+}
+
+/// How an engine is run: normally [`run_engine`]; the gates put a cache in front of it.
+pub type Runner<'a> = dyn Fn(&str, &Scene) -> EngineRun + Sync + 'a;
+
+/// Run one engine, classifying the outcome.
+pub fn run_engine(name: &str, scene: &Scene) -> EngineRun {
+    let result = engine_by_name(name).and_then(|e| run_timed(e.as_ref(), scene));
+    match result {
+        Ok((out, summary)) => EngineRun {
+            engine: name.to_string(),
+            status: Status::Ok,
+            output: Some(out),
+            summary: Some(summary),
+            cached: false,
+        },
+        Err(e) => EngineRun {
+            engine: name.to_string(),
+            status: classify(&e),
+            output: None,
+            summary: None,
+            cached: false,
+        },
+    }
+}
+
+/// Engines not built in, and scenes an engine cannot model, are skipped; the rest failed.
+pub fn classify(e: &EngineError) -> Status {
+    let line = e.to_string().replace('\n', " ");
+    match e {
+        EngineError::Unknown(_) => Status::Skipped(format!("not available in this build: {line}")),
+        EngineError::Unsupported { .. } => Status::Skipped(line),
+        _ => Status::Failed(line),
+    }
+}
+
+/// Run the engines and compare them with the reference.
+pub fn compare(scene: &Scene, opts: &CompareOptions) -> Result<Comparison, CompareError> {
+    compare_with(scene, opts, &run_engine)
+}
+
+/// [`compare`] with a given way of running an engine.
+pub fn compare_with(
+    scene: &Scene,
+    opts: &CompareOptions,
+    runner: &Runner<'_>,
+) -> Result<Comparison, CompareError> {
+    let mut names: Vec<String> = Vec::new();
+    for e in &opts.engines {
+        let e = e.trim();
+        if e.is_empty() {
+            return Err(CompareError::Engines("an empty engine name".into()));
+        }
+        if !names.iter().any(|n| n == e) {
+            names.push(e.to_string());
+        }
+    }
+    if let ReferenceSpec::Engine(r) = &opts.reference
+        && !names.contains(r)
+    {
+        names.push(r.clone());
+    }
+    if names.is_empty() {
+        return Err(CompareError::Engines("no engine given".into()));
+    }
+    // A reference file is read (and checked) before any engine runs.
+    let file_ref = match &opts.reference {
+        ReferenceSpec::File(p) => {
+            let err = |message: String| CompareError::ReferenceFile {
+                file: p.display().to_string(),
+                message,
+            };
+            let tr = Trajectory::read_csv(p).map_err(|m| {
+                err(m
+                    .strip_prefix(&format!("{}: ", p.display()))
+                    .unwrap_or(&m)
+                    .to_string())
+            })?;
+            let run = Run {
+                name: p.display().to_string(),
+                trajectory: tr,
+                exact_impacts: None,
+                cost: Cost::default(),
+            };
+            metrics::check_run(scene, &run).map_err(|e| err(e.to_string()))?;
+            Some(run)
+        }
+        ReferenceSpec::Engine(_) => None,
+    };
+
+    let runs = run_all(scene, &names, opts, runner);
+
+    let (reference_run, reference) = match &opts.reference {
+        ReferenceSpec::File(p) => (file_ref, p.display().to_string()),
+        ReferenceSpec::Engine(r) => {
+            let er = runs.iter().find(|x| &x.engine == r).expect("reference ran");
+            if let Some(reason) = er.status.reason() {
+                return Err(CompareError::ReferenceFailed {
+                    engine: r.clone(),
+                    reason: reason.to_string(),
+                });
+            }
+            (er.as_run(), r.clone())
+        }
+    };
+    let reference_run = reference_run.expect("reference available");
+    let mut rows = Vec::new();
+    let mut notes = Vec::new();
+    for er in &runs {
+        if matches!(&opts.reference, ReferenceSpec::Engine(r) if *r == er.engine) {
+            continue;
+        }
+        let Some(run) = er.as_run() else { continue };
+        match metrics::compare_runs(scene, &run, &reference_run, &opts.metrics) {
+            Ok(r) => rows.extend(r),
+            Err(e) => notes.push(format!("{}: not compared: {e}", er.engine)),
+        }
+    }
+    Ok(Comparison {
+        scene: scene.clone(),
+        reference,
+        reference_is_file: matches!(opts.reference, ReferenceSpec::File(_)),
+        reference_run: Some(reference_run),
+        runs,
+        rows,
+        settings: opts.metrics.clone(),
+        notes,
+        jobs: opts.jobs.max(1),
+        timing_runs: opts.timing_runs.max(1),
+    })
+}
+
+/// Run every engine, `opts.jobs` at a time, with a progress indicator.
+fn run_all(
+    scene: &Scene,
+    names: &[String],
+    opts: &CompareOptions,
+    runner: &Runner<'_>,
+) -> Vec<EngineRun> {
+    let bar = if opts.progress {
+        let pb = indicatif::ProgressBar::new(names.len() as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:24} {pos}/{len} engines  {msg}",
+            )
+            .expect("valid template"),
+        );
+        pb.enable_steady_tick(std::time::Duration::from_millis(120));
+        pb
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let next = Mutex::new(0usize);
+    let running: Mutex<Vec<String>> = Mutex::new(Vec::new());
+    let results: Mutex<Vec<Option<EngineRun>>> = Mutex::new(vec![None; names.len()]);
+    let jobs = opts.jobs.clamp(1, names.len().max(1));
+    std::thread::scope(|s| {
+        for _ in 0..jobs {
+            s.spawn(|| {
+                loop {
+                    let i = {
+                        let mut n = next.lock().expect("lock");
+                        if *n >= names.len() {
+                            break;
+                        }
+                        *n += 1;
+                        *n - 1
+                    };
+                    let name = &names[i];
+                    {
+                        let mut r = running.lock().expect("lock");
+                        r.push(name.clone());
+                        bar.set_message(format!("running {}", r.join(", ")));
+                    }
+                    let mut er = runner(name, scene);
+                    if opts.timing_runs > 1 && !er.cached {
+                        median_wall_time(&mut er, scene, opts.timing_runs);
+                    }
+                    {
+                        let mut r = running.lock().expect("lock");
+                        r.retain(|x| x != name);
+                        let line = match (&er.status, &er.summary) {
+                            (Status::Ok, Some(s)) => format!(
+                                "{name}: ok, {} steps, {:.2} s wall{}",
+                                s.steps,
+                                s.wall_time_s,
+                                if er.cached { " (cached)" } else { "" }
+                            ),
+                            (st, _) => {
+                                format!("{name}: {}: {}", st.word(), st.reason().unwrap_or(""))
+                            }
+                        };
+                        if opts.progress {
+                            bar.suspend(|| eprintln!("{line}"));
+                        }
+                        bar.inc(1);
+                        bar.set_message(if r.is_empty() {
+                            String::new()
+                        } else {
+                            format!("running {}", r.join(", "))
+                        });
+                    }
+                    results.lock().expect("lock")[i] = Some(er);
+                }
+            });
+        }
+    });
+    bar.finish_and_clear();
+    results
+        .into_inner()
+        .expect("lock")
+        .into_iter()
+        .map(|r| r.expect("every engine ran"))
+        .collect()
+}
+
+/// Re-run a successful engine `n - 1` more times and record the median wall time.
+fn median_wall_time(er: &mut EngineRun, scene: &Scene, n: usize) {
+    let Some(first) = er.summary.as_ref().map(|s| s.wall_time_s) else {
+        return;
+    };
+    let Ok(engine) = engine_by_name(&er.engine) else {
+        return;
+    };
+    let mut walls = vec![first];
+    for _ in 1..n {
+        match run_timed(engine.as_ref(), scene) {
+            Ok((_, s)) => walls.push(s.wall_time_s),
+            Err(_) => return,
+        }
+    }
+    walls.sort_by(f64::total_cmp);
+    let m = walls.len();
+    let median = if m % 2 == 1 {
+        walls[m / 2]
+    } else {
+        0.5 * (walls[m / 2 - 1] + walls[m / 2])
+    };
+    if let Some(s) = er.summary.as_mut() {
+        s.wall_time_s = median;
+        s.notes.push(format!(
+            "wall time: median of {m} runs (min {:.4} s, max {:.4} s)",
+            walls[0],
+            walls[m - 1]
+        ));
+    }
+}
+
+/// `metrics.json`: the rows with the runs and settings behind them.
+#[derive(Serialize)]
+struct MetricsJson<'a> {
+    scene: &'a str,
+    scene_file: &'a str,
+    reference: &'a str,
+    settings: &'a MetricSettings,
+    runs: Vec<RunJson<'a>>,
+    notes: &'a [String],
+    rows: &'a [MetricRow],
+}
+
+#[derive(Serialize)]
+struct RunJson<'a> {
+    engine: &'a str,
+    #[serde(flatten)]
+    status: &'a Status,
+    engine_version: Option<&'a str>,
+    wall_time_s: Option<f64>,
+    steps: Option<u64>,
+}
+
+/// Write `metrics.csv` (long format).
+pub fn write_metrics_csv(path: &Path, rows: &[MetricRow]) -> std::io::Result<()> {
+    let mut w = csv::Writer::from_path(path)?;
+    w.write_record([
+        "scene",
+        "engine",
+        "block",
+        "metric",
+        "value",
+        "reference",
+        "unit",
+    ])?;
+    // Whole numbers (counts, steps) as integers; everything else in shortest round-trip form.
+    let f = |x: Option<f64>| {
+        x.map(|v| {
+            if v.fract() == 0.0 && v.abs() < 1e15 {
+                format!("{}", v as i64)
+            } else {
+                format!("{v:e}")
+            }
+        })
+        .unwrap_or_default()
+    };
+    for r in rows {
+        w.write_record([
+            r.scene.as_str(),
+            &r.engine,
+            &r.block,
+            &r.metric,
+            &f(r.value),
+            &f(r.reference),
+            &r.unit,
+        ])?;
+    }
+    w.flush()
+}
+
+/// Write every file of a comparison into `dir`: `metrics.csv`, `metrics.json`,
+/// `<engine>/trajectory.csv` and `<engine>/summary.json` for every engine that ran,
+/// `report.md`, `report.html` and the plots under `plots/`.
+pub fn write_comparison(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
+    let io = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    for er in c.ok_runs() {
+        if let (Some(out), Some(s)) = (&er.output, &er.summary) {
+            let mut s = s.clone();
+            s.command = Some(command.to_string());
+            write_outputs(&dir.join(&er.engine), out, &s).map_err(|e| e.to_string())?;
+        }
+    }
+    let p = dir.join("metrics.csv");
+    write_metrics_csv(&p, &c.rows).map_err(|e| io(&p, e))?;
+    let runs = c
+        .runs
+        .iter()
+        .map(|r| RunJson {
+            engine: &r.engine,
+            status: &r.status,
+            engine_version: r.summary.as_ref().map(|s| s.engine_version.as_str()),
+            wall_time_s: r.summary.as_ref().map(|s| s.wall_time_s),
+            steps: r.summary.as_ref().map(|s| s.steps),
+        })
+        .collect();
+    let json = MetricsJson {
+        scene: &c.scene.name,
+        scene_file: &c.scene.source,
+        reference: &c.reference,
+        settings: &c.settings,
+        runs,
+        notes: &c.notes,
+        rows: &c.rows,
+    };
+    let p = dir.join("metrics.json");
+    std::fs::write(
+        &p,
+        serde_json::to_string_pretty(&json).expect("metrics serialise") + "\n",
+    )
+    .map_err(|e| io(&p, e))?;
+    crate::report::write_report(dir, c, command)
+}
+
+/// The summary paragraphs of the report, as printed by `rockbench compare`.
+pub fn summary_paragraphs_for(c: &Comparison) -> Vec<String> {
+    let own = c
+        .reference_run
+        .as_ref()
+        .and_then(|r| metrics::compare_runs(&c.scene, r, r, &c.settings).ok())
+        .unwrap_or_default();
+    crate::report::summary_paragraphs(c, &own)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    const SLENDER: &str = "name = \"s\"\nduration = 2.0\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[initial]\ntilt = 0.15\n";
+
+    fn scene() -> Scene {
+        parse_scene_str(SLENDER, false, "s.toml", &[]).unwrap()
+    }
+
+    #[test]
+    fn failing_and_unknown_engines_are_listed_and_the_rest_compared() {
+        // A runner in which `broken` fails; `nosuch` is not an engine at all.
+        let runner = |name: &str, sc: &Scene| {
+            if name == "broken" {
+                EngineRun {
+                    engine: name.into(),
+                    status: classify(&EngineError::Failed {
+                        engine: "broken",
+                        message: "diverged at step 7".into(),
+                    }),
+                    output: None,
+                    summary: None,
+                    cached: false,
+                }
+            } else {
+                run_engine(name, sc)
+            }
+        };
+        let opts = CompareOptions::new(
+            vec!["broken".into(), "nosuch".into(), "housner".into()],
+            ReferenceSpec::Engine("housner".into()),
+        );
+        let c = compare_with(&scene(), &opts, &runner).unwrap();
+        let st = |e: &str| {
+            c.runs
+                .iter()
+                .find(|r| r.engine == e)
+                .unwrap()
+                .status
+                .clone()
+        };
+        assert!(matches!(st("broken"), Status::Failed(r) if r.contains("diverged at step 7")));
+        assert!(matches!(st("nosuch"), Status::Skipped(r) if r.contains("not available")));
+        assert_eq!(st("housner"), Status::Ok);
+        // Nothing but the reference ran, so there are no rows, and the summary says why.
+        assert!(c.rows.is_empty());
+        let text = summary_paragraphs_for(&c).join(" ");
+        assert!(text.contains("diverged at step 7") && text.contains("nothing is compared"));
+    }
+
+    #[test]
+    fn a_failing_reference_engine_stops_the_comparison_with_its_reason() {
+        let opts = CompareOptions::new(vec!["housner".into()], ReferenceSpec::Engine("x".into()));
+        let e = compare(&scene(), &opts).unwrap_err();
+        assert!(e.to_string().contains("reference engine `x`"), "{e}");
+    }
+
+    #[test]
+    fn wall_time_is_the_median_of_the_timing_runs() {
+        let mut opts = CompareOptions::new(
+            vec!["housner".into(), "native".into()],
+            ReferenceSpec::Engine("housner".into()),
+        );
+        opts.timing_runs = 3;
+        let c = compare(&scene(), &opts).unwrap();
+        for r in &c.runs {
+            let notes = &r.summary.as_ref().unwrap().notes;
+            assert!(
+                notes
+                    .iter()
+                    .any(|n| n.starts_with("wall time: median of 3 runs")),
+                "{notes:?}"
+            );
+        }
+        // native was compared with housner: rows exist and name the engine.
+        assert!(c.rows.iter().all(|r| r.engine == "native"));
+        assert!(c.rows.iter().any(|r| r.metric == "impact_time_1"));
+    }
+
+    #[test]
+    fn reference_spec_parsing() {
+        assert_eq!(
+            ReferenceSpec::parse("native"),
+            ReferenceSpec::Engine("native".into())
+        );
+        assert!(matches!(
+            ReferenceSpec::parse("out/x/trajectory.csv"),
+            ReferenceSpec::File(_)
+        ));
+        assert!(matches!(
+            ReferenceSpec::parse("ref.csv"),
+            ReferenceSpec::File(_)
+        ));
+    }
+}

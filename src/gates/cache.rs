@@ -1,0 +1,214 @@
+//! The run cache of the gates: one directory per run, named by a content hash.
+
+use crate::compare::{EngineRun, Status, run_engine};
+use crate::engines::RunOutput;
+use crate::scene::{MotionSpec, Scene};
+use crate::summary::Summary;
+use crate::trajectory::Trajectory;
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Bumped when the layout of a cache entry changes.
+const CACHE_FORMAT: u32 = 1;
+
+pub struct RunCache {
+    dir: Option<PathBuf>,
+    hits: AtomicUsize,
+    runs: AtomicUsize,
+}
+
+/// Hash of the running executable (computed once).
+fn build_id() -> &'static str {
+    static ID: OnceLock<String> = OnceLock::new();
+    ID.get_or_init(|| {
+        std::env::current_exe()
+            .and_then(std::fs::read)
+            .map(|b| hex(&Sha256::digest(&b)))
+            .unwrap_or_else(|_| "unknown".into())
+    })
+}
+
+fn hex(b: &[u8]) -> String {
+    b.iter().map(|x| format!("{x:02x}")).collect()
+}
+
+/// The inputs that determine a run, as hashed (also written to `key.json` in the entry).
+pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
+    let mut records = serde_json::Map::new();
+    if let Some(exc) = &scene.excitation {
+        for m in [exc.horizontal.as_ref(), exc.vertical.as_ref()]
+            .into_iter()
+            .flatten()
+        {
+            if let MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } = m {
+                let p = scene.base_dir.join(file);
+                let h = std::fs::read(&p)
+                    .map(|b| hex(&Sha256::digest(&b)))
+                    .unwrap_or_else(|e| format!("unreadable: {e}"));
+                records.insert(p.display().to_string(), h.into());
+            }
+        }
+    }
+    serde_json::json!({
+        "format": CACHE_FORMAT,
+        "engine": engine,
+        "scene": scene.to_json(),
+        "record_files": records,
+        "rockbench_version": env!("CARGO_PKG_VERSION"),
+        "rockbench_build": build_id(),
+    })
+}
+
+/// The content hash of a run.
+pub fn run_key(engine: &str, scene: &Scene) -> String {
+    let text = serde_json::to_string(&key_json(engine, scene)).expect("keys serialise");
+    hex(&Sha256::digest(text.as_bytes()))
+}
+
+impl RunCache {
+    pub fn new(dir: Option<PathBuf>) -> Self {
+        RunCache {
+            dir,
+            hits: AtomicUsize::new(0),
+            runs: AtomicUsize::new(0),
+        }
+    }
+
+    pub fn stats(&self) -> super::CacheStats {
+        super::CacheStats {
+            hits: self.hits.load(Ordering::Relaxed),
+            runs: self.runs.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Serve a run from the cache, or run the engine and store the result. Only successful
+    /// runs are stored (a failure may come from the environment and is retried).
+    pub fn run(&self, engine: &str, scene: &Scene) -> EngineRun {
+        let Some(dir) = &self.dir else {
+            self.runs.fetch_add(1, Ordering::Relaxed);
+            return run_engine(engine, scene);
+        };
+        let key = run_key(engine, scene);
+        let entry = dir.join(&key);
+        if let Some(r) = load(&entry, engine) {
+            self.hits.fetch_add(1, Ordering::Relaxed);
+            return r;
+        }
+        self.runs.fetch_add(1, Ordering::Relaxed);
+        let r = run_engine(engine, scene);
+        if r.status == Status::Ok {
+            // A cache that cannot be written only costs a re-run next time.
+            let _ = store(&entry, engine, scene, &r);
+        }
+        r
+    }
+}
+
+fn load(entry: &Path, engine: &str) -> Option<EngineRun> {
+    let summary: Summary =
+        serde_json::from_str(&std::fs::read_to_string(entry.join("summary.json")).ok()?).ok()?;
+    let trajectory = Trajectory::read_csv(&entry.join("trajectory.csv")).ok()?;
+    let exact_impacts: Option<Vec<Vec<f64>>> =
+        serde_json::from_str(&std::fs::read_to_string(entry.join("exact_impacts.json")).ok()?)
+            .ok()?;
+    Some(EngineRun {
+        engine: engine.to_string(),
+        status: Status::Ok,
+        output: Some(RunOutput {
+            trajectory,
+            settings: summary.settings.clone(),
+            engine_version: summary.engine_version.clone(),
+            steps: summary.steps,
+            solver_iterations: summary.solver_iterations,
+            exact_impacts,
+            notes: summary.notes.clone(),
+        }),
+        summary: Some(summary),
+        cached: true,
+    })
+}
+
+fn store(entry: &Path, engine: &str, scene: &Scene, r: &EngineRun) -> std::io::Result<()> {
+    let (Some(out), Some(summary)) = (&r.output, &r.summary) else {
+        return Ok(());
+    };
+    let parent = entry.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent)?;
+    let tmp = parent.join(format!(
+        ".tmp-{}-{}",
+        std::process::id(),
+        entry.file_name().unwrap_or_default().to_string_lossy()
+    ));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp)?;
+    out.trajectory.write_csv(&tmp.join("trajectory.csv"))?;
+    std::fs::write(
+        tmp.join("summary.json"),
+        serde_json::to_string_pretty(summary).expect("summaries serialise"),
+    )?;
+    std::fs::write(
+        tmp.join("exact_impacts.json"),
+        serde_json::to_string(&out.exact_impacts).expect("impacts serialise"),
+    )?;
+    std::fs::write(
+        tmp.join("key.json"),
+        serde_json::to_string_pretty(&key_json(engine, scene)).expect("keys serialise"),
+    )?;
+    match std::fs::rename(&tmp, entry) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            if entry.is_dir() { Ok(()) } else { Err(e) }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    const SCENE: &str =
+        "name = \"k\"\nduration = 1.0\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.0\n";
+
+    #[test]
+    fn the_key_changes_with_scene_settings_and_engine_only() {
+        let s = |o: &[String]| parse_scene_str(SCENE, false, "k.toml", o).unwrap();
+        let base = run_key("native", &s(&[]));
+        assert_eq!(base, run_key("native", &s(&[])));
+        assert_eq!(base.len(), 64);
+        assert_ne!(base, run_key("housner", &s(&[])));
+        assert_ne!(base, run_key("native", &s(&["native.dt=5e-4".into()])));
+        assert_ne!(base, run_key("native", &s(&["initial.tilt=0.1".into()])));
+        // A comment or the file name does not change what is run.
+        let c = parse_scene_str(&format!("# note\n{SCENE}"), false, "other.toml", &[]).unwrap();
+        assert_eq!(base, run_key("native", &c));
+    }
+
+    #[test]
+    fn a_stored_run_is_served_back_identically() {
+        let dir = std::env::temp_dir().join(format!("rb-cache-unit-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = parse_scene_str(
+            &SCENE.replace("[[blocks]]", "[initial]\ntilt = 0.1\n[[blocks]]"),
+            false,
+            "k.toml",
+            &[],
+        )
+        .unwrap();
+        let cache = RunCache::new(Some(dir.clone()));
+        let first = cache.run("housner", &scene);
+        assert_eq!(first.status, Status::Ok);
+        assert!(!first.cached);
+        let again = cache.run("housner", &scene);
+        assert!(again.cached);
+        assert_eq!(cache.stats(), crate::gates::CacheStats { hits: 1, runs: 1 });
+        let (a, b) = (first.output.unwrap(), again.output.unwrap());
+        assert_eq!(a.trajectory, b.trajectory);
+        assert_eq!(a.exact_impacts, b.exact_impacts);
+        assert_eq!(first.summary, again.summary);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,601 @@
+//! Accuracy gates: declarative checks of one metric of one engine against a reference, with
+//! an expected status, evaluated from cached runs.
+//!
+//! A gate file (TOML) holds `[[gate]]` tables:
+//!
+//! ```toml
+//! [[gate]]
+//! name = "native-slender-first-impact"   # unique; names the gate in every message
+//! scene = "scenes/housner-slender.toml"  # relative to the gate file
+//! set = ["native.dt=5e-4"]               # optional scene overrides
+//! engine = "native"
+//! reference = "housner"                  # an engine name, or a trajectory.csv (relative path)
+//! block = "block"                        # block, `lower/upper` interface or `(run)`;
+//!                                        # optional when only one has this metric
+//! metric = "impact_time_1"               # a metric of metrics.csv
+//! tolerance = 1e-3                       # the gate passes when the checked quantity <= this
+//! check = "abs-diff"                     # abs-diff: |value - reference| (default when the
+//!                                        # metric has a reference value); value: |value|
+//!                                        # (default otherwise: error metrics);
+//!                                        # rel-diff: |value - reference| / |reference|
+//! expect = "pass"                        # or "known-failure", with `reason`
+//! reason = "..."
+//! ```
+//!
+//! Runs are cached under a content hash of the scene as run (its JSON after overrides, with
+//! every engine's settings, and the contents of any record files), the engine name, the
+//! rockbench version and a hash of the rockbench executable (so a rebuilt binary never
+//! reuses an older build's results). A re-run of unchanged gates runs no engine. An external
+//! engine's package version is only known after a run: after upgrading one, clear the cache
+//! or pass `--no-cache`.
+
+pub mod cache;
+pub mod junit;
+
+use crate::compare::{CompareOptions, EngineRun, ReferenceSpec, Status, compare_with};
+use crate::metrics::{self, MetricRow};
+use crate::scene::{Scene, load_scene_with_overrides};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One line naming the file, the gate and the field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}: {field}: {message}")]
+pub struct GateError {
+    pub file: String,
+    pub field: String,
+    pub message: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Expect {
+    Pass,
+    KnownFailure,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Check {
+    AbsDiff,
+    Value,
+    RelDiff,
+}
+
+impl Check {
+    fn word(self) -> &'static str {
+        match self {
+            Check::AbsDiff => "|value - reference|",
+            Check::Value => "|value|",
+            Check::RelDiff => "|value - reference| / |reference|",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GateFileRaw {
+    #[serde(default)]
+    gate: Vec<GateRaw>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GateRaw {
+    name: String,
+    scene: String,
+    #[serde(default)]
+    set: Vec<String>,
+    engine: String,
+    reference: String,
+    #[serde(default)]
+    block: Option<String>,
+    metric: String,
+    tolerance: f64,
+    #[serde(default)]
+    check: Option<Check>,
+    #[serde(default = "default_expect")]
+    expect: Expect,
+    #[serde(default)]
+    reason: Option<String>,
+}
+
+fn default_expect() -> Expect {
+    Expect::Pass
+}
+
+/// A checked gate.
+#[derive(Debug, Clone)]
+pub struct Gate {
+    pub name: String,
+    pub scene_path: PathBuf,
+    pub set: Vec<String>,
+    pub scene: Scene,
+    pub engine: String,
+    pub reference: ReferenceSpec,
+    pub block: Option<String>,
+    pub metric: String,
+    pub tolerance: f64,
+    pub check: Option<Check>,
+    pub expect: Expect,
+    pub reason: Option<String>,
+}
+
+/// Read and check a gate file. Every problem is one line naming the gate and the field.
+pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
+    let file = path.display().to_string();
+    let err = |field: String, message: String| GateError {
+        file: file.clone(),
+        field,
+        message,
+    };
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err("(file)".into(), format!("cannot read: {e}")))?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| {
+                format!(
+                    "line {}",
+                    text[..s.start.min(text.len())].lines().count().max(1)
+                )
+            })
+            .unwrap_or_else(|| "(file)".into());
+        err(
+            line,
+            format!("invalid TOML: {}", e.message().replace('\n', " ")),
+        )
+    })?;
+    let raw: GateFileRaw =
+        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+            let p = e.path().to_string();
+            err(
+                if p == "." { "(top level)".into() } else { p },
+                e.inner().message().lines().next().unwrap_or("").to_string(),
+            )
+        })?;
+    if raw.gate.is_empty() {
+        return Err(err("gate".into(), "no [[gate]] in the file".into()));
+    }
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut gates: Vec<Gate> = Vec::new();
+    let mut scenes: BTreeMap<(PathBuf, Vec<String>), Scene> = BTreeMap::new();
+    for (i, g) in raw.gate.into_iter().enumerate() {
+        let at = |f: &str| {
+            if g.name.trim().is_empty() {
+                format!("gate[{i}].{f}")
+            } else {
+                format!("gate[{i}] ({}).{f}", g.name)
+            }
+        };
+        if g.name.trim().is_empty() {
+            return Err(err(at("name"), "must not be empty".into()));
+        }
+        if gates.iter().any(|x| x.name == g.name) {
+            return Err(err(at("name"), "another gate has this name".into()));
+        }
+        if g.engine.trim().is_empty() {
+            return Err(err(at("engine"), "must not be empty".into()));
+        }
+        if !metrics::is_known_metric(&g.metric) {
+            return Err(err(
+                at("metric"),
+                format!(
+                    "`{}` is not a metric rockbench computes (see metrics.csv)",
+                    g.metric
+                ),
+            ));
+        }
+        if !(g.tolerance.is_finite() && g.tolerance >= 0.0) {
+            return Err(err(
+                at("tolerance"),
+                format!("must be a finite number >= 0 (got {})", g.tolerance),
+            ));
+        }
+        match (g.expect, &g.reason) {
+            (Expect::KnownFailure, None) => {
+                return Err(err(
+                    at("reason"),
+                    "a known failure must say why (reason = \"...\")".into(),
+                ));
+            }
+            (Expect::KnownFailure, Some(r)) if r.trim().is_empty() => {
+                return Err(err(at("reason"), "must not be empty".into()));
+            }
+            (Expect::Pass, Some(_)) => {
+                return Err(err(
+                    at("reason"),
+                    "only a gate with expect = \"known-failure\" has a reason".into(),
+                ));
+            }
+            _ => {}
+        }
+        let scene_path = base.join(&g.scene);
+        let key = (scene_path.clone(), g.set.clone());
+        let scene = match scenes.get(&key) {
+            Some(s) => s.clone(),
+            None => {
+                let s = load_scene_with_overrides(&scene_path, &g.set)
+                    .map_err(|e| err(at("scene"), e.to_string()))?;
+                scenes.insert(key, s.clone());
+                s
+            }
+        };
+        if let Some(b) = &g.block {
+            let labels: Vec<String> = metrics::series_of(&scene)
+                .into_iter()
+                .map(|s| s.label)
+                .chain([metrics::RUN_ROW.to_string()])
+                .collect();
+            if !labels.contains(b) {
+                return Err(err(
+                    at("block"),
+                    format!("`{b}` is not one of {}", labels.join(", ")),
+                ));
+            }
+        }
+        let reference = {
+            let looks_like_file = g.reference.contains('/') || g.reference.ends_with(".csv");
+            if looks_like_file {
+                let p = base.join(&g.reference);
+                if !p.is_file() {
+                    return Err(err(
+                        at("reference"),
+                        format!("no trajectory file {}", p.display()),
+                    ));
+                }
+                ReferenceSpec::File(p)
+            } else if g.reference.trim().is_empty() {
+                return Err(err(at("reference"), "must not be empty".into()));
+            } else {
+                ReferenceSpec::Engine(g.reference.clone())
+            }
+        };
+        gates.push(Gate {
+            name: g.name,
+            scene_path,
+            set: g.set,
+            scene,
+            engine: g.engine,
+            reference,
+            block: g.block,
+            metric: g.metric,
+            tolerance: g.tolerance,
+            check: g.check,
+            expect: g.expect,
+            reason: g.reason,
+        });
+    }
+    Ok(gates)
+}
+
+/// How a gate came out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Expected to pass and passes.
+    Pass,
+    /// Expected to pass and fails.
+    Fail,
+    /// A known failure that still fails.
+    KnownFailure,
+    /// A known failure that now passes: reported so the gate is updated.
+    UnexpectedPass,
+}
+
+impl Outcome {
+    pub fn word(self) -> &'static str {
+        match self {
+            Outcome::Pass => "PASS",
+            Outcome::Fail => "FAIL",
+            Outcome::KnownFailure => "known failure",
+            Outcome::UnexpectedPass => "UNEXPECTED PASS",
+        }
+    }
+    /// Whether this outcome makes the gate run fail.
+    pub fn is_bad(self) -> bool {
+        matches!(self, Outcome::Fail | Outcome::UnexpectedPass)
+    }
+}
+
+/// A gate's result.
+#[derive(Debug, Clone)]
+pub struct GateResult {
+    pub gate: Gate,
+    pub block: Option<String>,
+    pub value: Option<f64>,
+    pub reference: Option<f64>,
+    pub unit: String,
+    /// The quantity compared with the tolerance.
+    pub checked: Option<f64>,
+    pub check: Option<Check>,
+    pub passed: bool,
+    pub outcome: Outcome,
+    /// Why it failed (or the known-failure reason), one line.
+    pub message: String,
+    /// Wall time of the engine run, s (0 when served from the cache).
+    pub time_s: f64,
+    pub cached: bool,
+}
+
+/// Options of a gate run.
+#[derive(Debug, Clone)]
+pub struct GateOptions {
+    /// `None`: no cache.
+    pub cache_dir: Option<PathBuf>,
+    pub jobs: usize,
+    pub progress: bool,
+}
+
+/// Counts of the run cache.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CacheStats {
+    pub hits: usize,
+    pub runs: usize,
+}
+
+/// Evaluate every gate; runs are shared between gates on the same scene and served from the
+/// cache when unchanged.
+pub fn run_gates(gates: &[Gate], opts: &GateOptions) -> (Vec<GateResult>, CacheStats) {
+    let cache = cache::RunCache::new(opts.cache_dir.clone());
+    // Group by (scene, overrides, reference): one comparison per group.
+    let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
+    for (i, g) in gates.iter().enumerate() {
+        match groups.iter_mut().find(|(k, _)| {
+            let h = &gates[*k];
+            h.scene_path == g.scene_path && h.set == g.set && h.reference == g.reference
+        }) {
+            Some((_, v)) => v.push(i),
+            None => groups.push((i, vec![i])),
+        }
+    }
+    let mut results: Vec<Option<GateResult>> = vec![None; gates.len()];
+    for (first, members) in &groups {
+        let g0 = &gates[*first];
+        let mut engines: Vec<String> = Vec::new();
+        for &i in members {
+            if !engines.contains(&gates[i].engine) {
+                engines.push(gates[i].engine.clone());
+            }
+        }
+        let mut copts = CompareOptions::new(engines, g0.reference.clone());
+        copts.jobs = opts.jobs.max(1);
+        copts.progress = opts.progress;
+        let runner = |name: &str, scene: &Scene| cache.run(name, scene);
+        let cmp = compare_with(&g0.scene, &copts, &runner);
+        for &i in members {
+            let g = &gates[i];
+            results[i] = Some(match &cmp {
+                Ok(c) => {
+                    let run = c.runs.iter().find(|r| r.engine == g.engine);
+                    evaluate(g, &c.rows, run)
+                }
+                Err(e) => failed(g, format!("no comparison: {e}"), None),
+            });
+        }
+    }
+    (
+        results.into_iter().map(|r| r.expect("evaluated")).collect(),
+        cache.stats(),
+    )
+}
+
+fn failed(g: &Gate, message: String, run: Option<&EngineRun>) -> GateResult {
+    let outcome = match g.expect {
+        Expect::Pass => Outcome::Fail,
+        Expect::KnownFailure => Outcome::KnownFailure,
+    };
+    GateResult {
+        gate: g.clone(),
+        block: g.block.clone(),
+        value: None,
+        reference: None,
+        unit: String::new(),
+        checked: None,
+        check: g.check,
+        passed: false,
+        outcome,
+        message,
+        time_s: run_time(run),
+        cached: run.is_some_and(|r| r.cached),
+    }
+}
+
+fn run_time(run: Option<&EngineRun>) -> f64 {
+    match run {
+        Some(r) if !r.cached => r.summary.as_ref().map(|s| s.wall_time_s).unwrap_or(0.0),
+        _ => 0.0,
+    }
+}
+
+fn evaluate(g: &Gate, rows: &[MetricRow], run: Option<&EngineRun>) -> GateResult {
+    if let Some(r) = run
+        && r.status != Status::Ok
+    {
+        return failed(
+            g,
+            format!(
+                "engine {} {}: {}",
+                g.engine,
+                r.status.word(),
+                r.status.reason().unwrap_or("")
+            ),
+            run,
+        );
+    }
+    let candidates: Vec<&MetricRow> = rows
+        .iter()
+        .filter(|r| r.engine == g.engine && r.metric == g.metric)
+        .filter(|r| g.block.as_ref().is_none_or(|b| &r.block == b))
+        .collect();
+    let row = match candidates.as_slice() {
+        [one] => *one,
+        [] => {
+            return failed(
+                g,
+                format!(
+                    "metric {}{} not produced (e.g. fewer impacts than its index)",
+                    g.metric,
+                    g.block
+                        .as_ref()
+                        .map(|b| format!(" of {b}"))
+                        .unwrap_or_default()
+                ),
+                run,
+            );
+        }
+        many => {
+            let blocks: Vec<&str> = many.iter().map(|r| r.block.as_str()).collect();
+            return failed(
+                g,
+                format!(
+                    "metric {} exists for several blocks ({}): give `block`",
+                    g.metric,
+                    blocks.join(", ")
+                ),
+                run,
+            );
+        }
+    };
+    let check = g.check.unwrap_or(if row.reference.is_some() {
+        Check::AbsDiff
+    } else {
+        Check::Value
+    });
+    let checked = match (check, row.value, row.reference) {
+        (Check::Value, Some(v), _) => Some(v.abs()),
+        (Check::AbsDiff, Some(v), Some(r)) => Some((v - r).abs()),
+        (Check::AbsDiff, None, None) => Some(0.0),
+        (Check::RelDiff, Some(v), Some(r)) if r != 0.0 => Some((v - r).abs() / r.abs()),
+        (Check::RelDiff, None, None) => Some(0.0),
+        _ => None,
+    };
+    let passed = checked.is_some_and(|q| q.is_finite() && q <= g.tolerance);
+    let outcome = match (g.expect, passed) {
+        (Expect::Pass, true) => Outcome::Pass,
+        (Expect::Pass, false) => Outcome::Fail,
+        (Expect::KnownFailure, false) => Outcome::KnownFailure,
+        (Expect::KnownFailure, true) => Outcome::UnexpectedPass,
+    };
+    let shown = |x: Option<f64>| {
+        x.map(|v| format!("{v:.6e}"))
+            .unwrap_or_else(|| "none".into())
+    };
+    let message = match outcome {
+        Outcome::Pass => format!("{} = {} <= {}", check.word(), shown(checked), g.tolerance),
+        Outcome::Fail => format!(
+            "{} = {} exceeds the tolerance {} (value {}, reference {})",
+            check.word(),
+            shown(checked),
+            g.tolerance,
+            shown(row.value),
+            shown(row.reference)
+        ),
+        Outcome::KnownFailure => format!(
+            "known failure ({}): {} = {} > {}",
+            g.reason.as_deref().unwrap_or(""),
+            check.word(),
+            shown(checked),
+            g.tolerance
+        ),
+        Outcome::UnexpectedPass => format!(
+            "known failure now passes ({} = {} <= {}): update the gate (reason was: {})",
+            check.word(),
+            shown(checked),
+            g.tolerance,
+            g.reason.as_deref().unwrap_or("")
+        ),
+    };
+    GateResult {
+        gate: g.clone(),
+        block: Some(row.block.clone()),
+        value: row.value,
+        reference: row.reference,
+        unit: row.unit.clone(),
+        checked,
+        check: Some(check),
+        passed,
+        outcome,
+        message,
+        time_s: run_time(run),
+        cached: run.is_some_and(|r| r.cached),
+    }
+}
+
+/// The results as a text table.
+pub fn table(results: &[GateResult]) -> String {
+    let head = [
+        "gate",
+        "engine",
+        "reference",
+        "block",
+        "metric",
+        "value",
+        "ref value",
+        "checked",
+        "tolerance",
+        "expected",
+        "result",
+        "run",
+    ];
+    let f = |x: Option<f64>| x.map(|v| format!("{v:.4e}")).unwrap_or_else(|| "-".into());
+    let rows: Vec<Vec<String>> = results
+        .iter()
+        .map(|r| {
+            vec![
+                r.gate.name.clone(),
+                r.gate.engine.clone(),
+                r.gate.reference_label(),
+                r.block.clone().unwrap_or_else(|| "-".into()),
+                r.gate.metric.clone(),
+                f(r.value),
+                f(r.reference),
+                f(r.checked),
+                format!("{:e}", r.gate.tolerance),
+                match r.gate.expect {
+                    Expect::Pass => "pass".into(),
+                    Expect::KnownFailure => "known failure".into(),
+                },
+                r.outcome.word().into(),
+                if r.cached {
+                    "cached".into()
+                } else {
+                    "ran".into()
+                },
+            ]
+        })
+        .collect();
+    let mut w: Vec<usize> = head.iter().map(|h| h.len()).collect();
+    for r in &rows {
+        for (k, c) in r.iter().enumerate() {
+            w[k] = w[k].max(c.chars().count());
+        }
+    }
+    let line = |cells: Vec<String>| {
+        cells
+            .iter()
+            .enumerate()
+            .map(|(k, c)| format!("{c:<width$}", width = w[k]))
+            .collect::<Vec<_>>()
+            .join("  ")
+            .trim_end()
+            .to_string()
+    };
+    let mut out = line(head.iter().map(|s| s.to_string()).collect()) + "\n";
+    for r in rows {
+        out += &(line(r) + "\n");
+    }
+    out
+}
+
+impl Gate {
+    pub fn reference_label(&self) -> String {
+        match &self.reference {
+            ReferenceSpec::Engine(e) => e.clone(),
+            ReferenceSpec::File(p) => p
+                .file_name()
+                .map(|f| f.to_string_lossy().to_string())
+                .unwrap_or_default(),
+        }
+    }
+}

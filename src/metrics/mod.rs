@@ -1,0 +1,670 @@
+//! Metrics between two trajectories, one of them the reference: the definitions of
+//! `VALIDATION.md`, implemented once. Impacts, peaks, rest times and overturning come from
+//! [`crate::events`]; this module only compares them.
+//!
+//! ## Series
+//! Every block has its **absolute rotation** (series named after the block). A block standing
+//! on another block also has the **relative rotation** `phi_upper - phi_lower` of its interface
+//! (series `lower/upper`): that is what rocks there. A block's *measured* rotation (the one its
+//! impacts, peaks and effective restitution are read from) is the absolute one for a block on
+//! the ground and the interface's relative one otherwise, as in `summary.json`
+//! ([`crate::summary::measured_rotation`]).
+//!
+//! ## Metrics (`metric` column of `metrics.csv`; `value` is the engine's, `reference` the
+//! reference's)
+//! - `rotation_rms_error`, `rotation_max_error` (rad) and `..._normalised` (divided by the
+//!   reference's largest |phi| of that series over the window): both histories are linearly
+//!   interpolated onto one uniform grid (default 1 ms) over the common window (the overlap of
+//!   the two histories). `..._to_impact_K`: the same on the grid points up to the reference's
+//!   K-th impact of the block's measured rotation (K = 1, 3 by default; absent if the
+//!   reference has fewer impacts).
+//! - `impact_count` (engine's and reference's count in the window), `impacts_unmatched`
+//!   (impacts are matched in order, the i-th with the i-th; the rest are unmatched),
+//!   `impact_time_K` (s, K = 1, 2, ...; one side empty when unmatched),
+//!   `impact_time_max_abs_diff` (s, over the matched pairs).
+//! - `peak_amplitude_K` (rad): largest |phi| after impact K (K = 0: before the first impact).
+//!   A last stretch that is still growing when the history ends is not a peak.
+//! - `restitution_K`: effective restitution of impact K from the peaks before and after it
+//!   through energy, `sqrt(E(A_K) / E(A_{K-1}))` with `E(A) = cos(alpha - A) - cos(alpha)`
+//!   (the rise of the centroid of a block rocking on a fixed base, alpha = atan(B/H)); to be
+//!   compared with Housner's `housner_restitution = 1 - 1.5 sin^2 alpha`. Exact for a single
+//!   block in free rocking; for a block on a moving block an indicator.
+//! - `rest_time_1e-4`, `rest_time_1e-3`, `rest_time_1e-2`, `rest_time_3e-2` (s): the earliest
+//!   time after which |phi| stays below the threshold (empty: not at rest by the end).
+//! - `overturned` (1 or 0), `overturn_time` (s), `overturning_agrees` (1 when engine and
+//!   reference agree on whether the block overturned).
+//! - `max_abs_rotation` (rad).
+//! - Energy per block (absolute series only), J per metre of depth: `energy_initial`,
+//!   `energy_final` (at the end of the window) and `energy_rms_diff` (on the grid), with
+//!   `E = m (vx^2 + vz^2) / 2 + I omega^2 / 2 + m g (z - z_rest)`, `z_rest` the centroid height
+//!   of the block in the upright stack.
+//! - Cost (block `(run)`): `wall_time` (s), `steps`, `solver_iterations`.
+
+pub mod grid;
+
+use crate::events::{self, Peak};
+use crate::scene::Scene;
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+
+/// The block column of the cost rows.
+pub const RUN_ROW: &str = "(run)";
+
+/// What a run of an engine (or a trajectory file) brings to a comparison.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// Engine name, or the file the trajectory was read from.
+    pub name: String,
+    pub trajectory: Trajectory,
+    /// Impact times per block on its measured rotation, located by the engine itself
+    /// (the Housner engine); `None`: taken from the trajectory.
+    pub exact_impacts: Option<Vec<Vec<f64>>>,
+    pub cost: Cost,
+}
+
+/// Cost of a run (unknown for a trajectory file).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Cost {
+    pub wall_time_s: Option<f64>,
+    pub steps: Option<u64>,
+    pub solver_iterations: Option<u64>,
+}
+
+/// Settings of the comparison.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricSettings {
+    /// Spacing of the common grid, s (default 1e-3).
+    pub grid_dt: f64,
+    /// Rotation errors are also reported up to the reference's K-th impact for these K
+    /// (default 1 and 3).
+    pub up_to_impacts: Vec<usize>,
+    /// Crossings while the amplitude is below this are not impacts, rad (default 1e-5).
+    pub noise_floor: f64,
+    /// Window `[t0, t1]`, s; default the overlap of the two histories.
+    pub window: Option<(f64, f64)>,
+}
+
+impl Default for MetricSettings {
+    fn default() -> Self {
+        MetricSettings {
+            grid_dt: 1e-3,
+            up_to_impacts: vec![1, 3],
+            noise_floor: events::NOISE_FLOOR,
+            window: None,
+        }
+    }
+}
+
+/// One line of `metrics.csv`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricRow {
+    pub scene: String,
+    pub engine: String,
+    /// Block name, interface `lower/upper`, or `(run)` for costs.
+    pub block: String,
+    pub metric: String,
+    /// The engine's value (`None`: not defined, e.g. never at rest).
+    pub value: Option<f64>,
+    /// The reference's value (`None` for error metrics and where not defined).
+    pub reference: Option<f64>,
+    pub unit: String,
+}
+
+/// Absolute rotation of a block, or relative rotation of an interface.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Series {
+    pub label: String,
+    /// The block (the upper block of an interface).
+    pub block: usize,
+    /// For an interface: the lower block.
+    pub lower: Option<usize>,
+    /// Whether this is the block's measured rotation (impacts, peaks, restitution).
+    pub measured: bool,
+}
+
+impl Series {
+    pub fn is_interface(&self) -> bool {
+        self.lower.is_some()
+    }
+
+    /// The series' rotation history, rad.
+    pub fn rotation(&self, tr: &Trajectory) -> Vec<f64> {
+        let phi = &tr.blocks[self.block].phi;
+        match self.lower {
+            None => phi.clone(),
+            Some(l) => phi
+                .iter()
+                .zip(&tr.blocks[l].phi)
+                .map(|(a, b)| a - b)
+                .collect(),
+        }
+    }
+}
+
+/// The series of a scene: per block its absolute rotation, then for blocks on blocks the
+/// interface's relative rotation.
+pub fn series_of(scene: &Scene) -> Vec<Series> {
+    let supports = scene.layout().supports;
+    let mut out = Vec::new();
+    for (i, b) in scene.blocks.iter().enumerate() {
+        out.push(Series {
+            label: b.name.clone(),
+            block: i,
+            lower: None,
+            measured: supports[i].is_none(),
+        });
+    }
+    for (i, b) in scene.blocks.iter().enumerate() {
+        if let Some(s) = supports[i] {
+            out.push(Series {
+                label: format!("{}/{}", scene.blocks[s].name, b.name),
+                block: i,
+                lower: Some(s),
+                measured: true,
+            });
+        }
+    }
+    out
+}
+
+/// Events of one series of one run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SeriesEvents {
+    pub label: String,
+    pub measured: bool,
+    /// Impacts of the block's measured rotation, s (for an upper block's absolute series: its
+    /// interface's).
+    pub impacts: Vec<f64>,
+    /// Peaks of this series (measured series only).
+    pub peaks: Vec<Peak>,
+    /// Effective restitution of impact K (index K - 1), from the peaks through energy.
+    pub restitution: Vec<Option<f64>>,
+    /// Housner's `1 - 1.5 sin^2 alpha` of the block.
+    pub housner_restitution: f64,
+    /// Rest time at each threshold of [`events::REST_THRESHOLDS`], s.
+    pub rest_times: Vec<(String, Option<f64>)>,
+    pub overturned: bool,
+    pub overturn_time: Option<f64>,
+    pub max_abs_rotation: f64,
+}
+
+/// Events of every series of a run, within `[t0, t1]`.
+pub fn run_events(
+    scene: &Scene,
+    run: &Run,
+    settings: &MetricSettings,
+    window: (f64, f64),
+) -> Vec<SeriesEvents> {
+    let all = series_of(scene);
+    let tr = &run.trajectory;
+    // Impacts of each block's measured rotation.
+    let measured_impacts: Vec<Vec<f64>> = (0..scene.blocks.len())
+        .map(|i| {
+            let s = all
+                .iter()
+                .find(|s| s.block == i && s.measured)
+                .expect("every block has a measured series");
+            let imp = match &run.exact_impacts {
+                Some(ex) => ex.get(i).cloned().unwrap_or_default(),
+                None => events::impacts(&tr.t, &s.rotation(tr), settings.noise_floor),
+            };
+            imp.into_iter()
+                .filter(|t| *t >= window.0 && *t <= window.1)
+                .collect()
+        })
+        .collect();
+    all.iter()
+        .map(|s| series_events(scene, s, tr, &measured_impacts[s.block], window))
+        .collect()
+}
+
+fn series_events(
+    scene: &Scene,
+    s: &Series,
+    tr: &Trajectory,
+    impacts: &[f64],
+    window: (f64, f64),
+) -> SeriesEvents {
+    // Samples inside the window.
+    let k0 = tr.t.partition_point(|t| *t < window.0);
+    let k1 = tr.t.partition_point(|t| *t <= window.1);
+    let t = &tr.t[k0..k1];
+    let rot_all = s.rotation(tr);
+    let phi = &rot_all[k0..k1];
+    let b = &scene.blocks[s.block];
+    let alpha = b.critical_angle();
+    let (peaks, restitution) = if s.measured {
+        let mut pk = events::peaks(t, phi, impacts);
+        // A last stretch still growing at the end of the history is not a peak.
+        if let (Some(last), Some(&t_end)) = (pk.last(), t.last())
+            && last.t >= t_end
+            && pk.len() > 1
+        {
+            pk.pop();
+        }
+        let energy = |a: f64| (alpha - a).cos() - alpha.cos();
+        let rest: Vec<Option<f64>> = (1..=impacts.len())
+            .map(|k| {
+                let before = pk.iter().find(|p| p.after_impact == k - 1)?;
+                let after = pk.iter().find(|p| p.after_impact == k)?;
+                let (e0, e1) = (energy(before.amplitude), energy(after.amplitude));
+                (e0 > 0.0 && e1 >= 0.0).then(|| (e1 / e0).sqrt())
+            })
+            .collect();
+        (pk, rest)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let rest_times = events::REST_THRESHOLDS
+        .iter()
+        .map(|(k, eps)| (k.to_string(), events::rest_time(t, phi, *eps)))
+        .collect();
+    let (overturned, overturn_time) = events::overturning(t, phi, alpha);
+    SeriesEvents {
+        label: s.label.clone(),
+        measured: s.measured,
+        impacts: impacts.to_vec(),
+        peaks,
+        restitution,
+        housner_restitution: 1.0 - 1.5 * alpha.sin().powi(2),
+        rest_times,
+        overturned,
+        overturn_time,
+        max_abs_rotation: phi.iter().fold(0.0, |m, p| m.max(p.abs())),
+    }
+}
+
+/// Why two runs cannot be compared.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MetricsError {
+    #[error("{run}: blocks {found:?} do not match the scene's blocks {expected:?}")]
+    Blocks {
+        run: String,
+        found: Vec<String>,
+        expected: Vec<String>,
+    },
+    #[error("{run} and {reference} do not overlap in time (or the window is empty)")]
+    NoOverlap { run: String, reference: String },
+    #[error("{run}: times are not increasing at sample {index}")]
+    Times { run: String, index: usize },
+    #[error("grid spacing must be a positive number of seconds (got {0})")]
+    Grid(f64),
+}
+
+/// Check that a run can be compared on this scene.
+pub fn check_run(scene: &Scene, run: &Run) -> Result<(), MetricsError> {
+    let found: Vec<String> = run
+        .trajectory
+        .blocks
+        .iter()
+        .map(|b| b.name.clone())
+        .collect();
+    let expected: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
+    if found != expected {
+        return Err(MetricsError::Blocks {
+            run: run.name.clone(),
+            found,
+            expected,
+        });
+    }
+    if let Some(k) = run
+        .trajectory
+        .t
+        .windows(2)
+        .position(|w| w[1].is_nan() || w[1] < w[0])
+    {
+        return Err(MetricsError::Times {
+            run: run.name.clone(),
+            index: k + 1,
+        });
+    }
+    Ok(())
+}
+
+/// The window on which two runs are compared: their overlap, cut to the requested window.
+pub fn common_window(
+    run: &Run,
+    reference: &Run,
+    settings: &MetricSettings,
+) -> Result<(f64, f64), MetricsError> {
+    let (a, b) = (&run.trajectory.t, &reference.trajectory.t);
+    let no = || MetricsError::NoOverlap {
+        run: run.name.clone(),
+        reference: reference.name.clone(),
+    };
+    let (a0, a1) = (*a.first().ok_or_else(no)?, *a.last().ok_or_else(no)?);
+    let (b0, b1) = (*b.first().ok_or_else(no)?, *b.last().ok_or_else(no)?);
+    let (mut t0, mut t1) = (a0.max(b0), a1.min(b1));
+    if let Some((w0, w1)) = settings.window {
+        t0 = t0.max(w0);
+        t1 = t1.min(w1);
+    }
+    if t1.is_nan() || t0.is_nan() || t1 <= t0 {
+        return Err(no());
+    }
+    Ok((t0, t1))
+}
+
+/// Rotation difference `run - reference` of every series on the common grid.
+pub struct ErrorHistory {
+    pub t: Vec<f64>,
+    /// Per series (in [`series_of`] order): engine, reference, difference.
+    pub series: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+}
+
+pub fn error_history(
+    scene: &Scene,
+    run: &Run,
+    reference: &Run,
+    settings: &MetricSettings,
+) -> Result<ErrorHistory, MetricsError> {
+    if !(settings.grid_dt > 0.0 && settings.grid_dt.is_finite()) {
+        return Err(MetricsError::Grid(settings.grid_dt));
+    }
+    let (t0, t1) = common_window(run, reference, settings)?;
+    let g = grid::uniform_grid(t0, t1, settings.grid_dt);
+    let series = series_of(scene)
+        .iter()
+        .map(|s| {
+            let a = grid::interpolate(&run.trajectory.t, &s.rotation(&run.trajectory), &g);
+            let r = grid::interpolate(
+                &reference.trajectory.t,
+                &s.rotation(&reference.trajectory),
+                &g,
+            );
+            let d = a.iter().zip(&r).map(|(x, y)| x - y).collect();
+            (a, r, d)
+        })
+        .collect();
+    Ok(ErrorHistory { t: g, series })
+}
+
+/// Energy of a block above the upright rest state, J per metre of depth, per sample.
+pub fn block_energy(scene: &Scene, tr: &Trajectory, i: usize) -> Vec<f64> {
+    let b = &scene.blocks[i];
+    let (m, inertia, g) = (b.mass(), b.inertia(), scene.gravity);
+    let z_rest = rest_height(scene, i);
+    let h = &tr.blocks[i];
+    (0..tr.t.len())
+        .map(|k| {
+            0.5 * m * (h.vx[k] * h.vx[k] + h.vz[k] * h.vz[k])
+                + 0.5 * inertia * h.omega[k] * h.omega[k]
+                + m * g * (h.z[k] - z_rest)
+        })
+        .collect()
+}
+
+/// Centroid height of block `i` in the upright stack, m.
+pub fn rest_height(scene: &Scene, i: usize) -> f64 {
+    let supports = scene.layout().supports;
+    let mut z = scene.blocks[i].height / 2.0;
+    let mut cur = supports[i];
+    let mut guard = 0;
+    while let Some(s) = cur {
+        z += scene.blocks[s].height;
+        cur = supports[s];
+        guard += 1;
+        if guard > scene.blocks.len() {
+            break;
+        }
+    }
+    z
+}
+
+/// Every metric of `run` against `reference` (see the module docs).
+pub fn compare_runs(
+    scene: &Scene,
+    run: &Run,
+    reference: &Run,
+    settings: &MetricSettings,
+) -> Result<Vec<MetricRow>, MetricsError> {
+    check_run(scene, run)?;
+    check_run(scene, reference)?;
+    let window = common_window(run, reference, settings)?;
+    let eh = error_history(scene, run, reference, settings)?;
+    let ev = run_events(scene, run, settings, window);
+    let er = run_events(scene, reference, settings, window);
+    let all = series_of(scene);
+    let mut rows = Vec::new();
+    let mut push = |block: &str, metric: String, value: Option<f64>, reff: Option<f64>, unit| {
+        rows.push(MetricRow {
+            scene: scene.name.clone(),
+            engine: run.name.clone(),
+            block: block.to_string(),
+            metric,
+            value,
+            reference: reff,
+            unit: String::from(unit),
+        });
+    };
+    for (si, s) in all.iter().enumerate() {
+        let (a, r, _) = &eh.series[si];
+        let (e, f) = (&ev[si], &er[si]);
+        let lab = s.label.as_str();
+        // Rotation-history errors.
+        let scale = r.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+        let norm = |x: f64| (scale > 0.0).then(|| x / scale);
+        let mut err_rows = |suffix: &str, n: usize| {
+            let (rms, max) = grid::rms_and_max(a, r, n);
+            push(
+                lab,
+                format!("rotation_rms_error{suffix}"),
+                Some(rms),
+                None,
+                "rad",
+            );
+            push(
+                lab,
+                format!("rotation_max_error{suffix}"),
+                Some(max),
+                None,
+                "rad",
+            );
+            push(
+                lab,
+                format!("rotation_rms_error_normalised{suffix}"),
+                norm(rms),
+                None,
+                "1",
+            );
+            push(
+                lab,
+                format!("rotation_max_error_normalised{suffix}"),
+                norm(max),
+                None,
+                "1",
+            );
+        };
+        err_rows("", eh.t.len());
+        for &k in &settings.up_to_impacts {
+            if k >= 1
+                && let Some(&tk) = f.impacts.get(k - 1)
+            {
+                let n = eh.t.partition_point(|t| *t <= tk);
+                err_rows(&format!("_to_impact_{k}"), n);
+            }
+        }
+        if s.measured {
+            let (ni, nr) = (e.impacts.len(), f.impacts.len());
+            push(
+                lab,
+                "impact_count".into(),
+                Some(ni as f64),
+                Some(nr as f64),
+                "1",
+            );
+            push(
+                lab,
+                "impacts_unmatched".into(),
+                Some(ni.abs_diff(nr) as f64),
+                None,
+                "1",
+            );
+            let mut max_diff: Option<f64> = None;
+            for k in 0..ni.max(nr) {
+                let (x, y) = (e.impacts.get(k).copied(), f.impacts.get(k).copied());
+                if let (Some(x), Some(y)) = (x, y) {
+                    max_diff = Some(max_diff.unwrap_or(0.0).max((x - y).abs()));
+                }
+                push(lab, format!("impact_time_{}", k + 1), x, y, "s");
+            }
+            push(lab, "impact_time_max_abs_diff".into(), max_diff, None, "s");
+            let n_peaks = e
+                .peaks
+                .iter()
+                .chain(&f.peaks)
+                .map(|p| p.after_impact + 1)
+                .max()
+                .unwrap_or(0);
+            for k in 0..n_peaks {
+                let pa = |v: &SeriesEvents| {
+                    v.peaks
+                        .iter()
+                        .find(|p| p.after_impact == k)
+                        .map(|p| p.amplitude)
+                };
+                push(lab, format!("peak_amplitude_{k}"), pa(e), pa(f), "rad");
+            }
+            for k in 0..e.restitution.len().max(f.restitution.len()) {
+                push(
+                    lab,
+                    format!("restitution_{}", k + 1),
+                    e.restitution.get(k).copied().flatten(),
+                    f.restitution.get(k).copied().flatten(),
+                    "1",
+                );
+            }
+            push(
+                lab,
+                "housner_restitution".into(),
+                Some(e.housner_restitution),
+                Some(f.housner_restitution),
+                "1",
+            );
+        }
+        for ((key, x), (_, y)) in e.rest_times.iter().zip(&f.rest_times) {
+            push(lab, format!("rest_time_{key}"), *x, *y, "s");
+        }
+        let b01 = |b: bool| Some(if b { 1.0 } else { 0.0 });
+        push(
+            lab,
+            "overturned".into(),
+            b01(e.overturned),
+            b01(f.overturned),
+            "1",
+        );
+        push(
+            lab,
+            "overturn_time".into(),
+            e.overturn_time,
+            f.overturn_time,
+            "s",
+        );
+        push(
+            lab,
+            "overturning_agrees".into(),
+            b01(e.overturned == f.overturned),
+            None,
+            "1",
+        );
+        push(
+            lab,
+            "max_abs_rotation".into(),
+            Some(e.max_abs_rotation),
+            Some(f.max_abs_rotation),
+            "rad",
+        );
+        if !s.is_interface() {
+            let ea = block_energy(scene, &run.trajectory, s.block);
+            let fa = block_energy(scene, &reference.trajectory, s.block);
+            let ga = grid::interpolate(&run.trajectory.t, &ea, &eh.t);
+            let gr = grid::interpolate(&reference.trajectory.t, &fa, &eh.t);
+            let (first, last) = (0, eh.t.len() - 1);
+            push(
+                lab,
+                "energy_initial".into(),
+                Some(ga[first]),
+                Some(gr[first]),
+                "J/m",
+            );
+            push(
+                lab,
+                "energy_final".into(),
+                Some(ga[last]),
+                Some(gr[last]),
+                "J/m",
+            );
+            let (rms, _) = grid::rms_and_max(&ga, &gr, eh.t.len());
+            push(lab, "energy_rms_diff".into(), Some(rms), None, "J/m");
+        }
+    }
+    let c = (&run.cost, &reference.cost);
+    push(
+        RUN_ROW,
+        "wall_time".into(),
+        c.0.wall_time_s,
+        c.1.wall_time_s,
+        "s",
+    );
+    let u = |x: Option<u64>| x.map(|v| v as f64);
+    push(RUN_ROW, "steps".into(), u(c.0.steps), u(c.1.steps), "1");
+    push(
+        RUN_ROW,
+        "solver_iterations".into(),
+        u(c.0.solver_iterations),
+        u(c.1.solver_iterations),
+        "1",
+    );
+    Ok(rows)
+}
+
+/// Whether `name` is a metric [`compare_runs`] can produce (for checking gate files).
+pub fn is_known_metric(name: &str) -> bool {
+    const FIXED: &[&str] = &[
+        "impact_count",
+        "impacts_unmatched",
+        "impact_time_max_abs_diff",
+        "housner_restitution",
+        "overturned",
+        "overturn_time",
+        "overturning_agrees",
+        "max_abs_rotation",
+        "energy_initial",
+        "energy_final",
+        "energy_rms_diff",
+        "wall_time",
+        "steps",
+        "solver_iterations",
+    ];
+    if FIXED.contains(&name) {
+        return true;
+    }
+    if let Some(k) = name.strip_prefix("rest_time_") {
+        return events::REST_THRESHOLDS.iter().any(|(t, _)| *t == k);
+    }
+    let number = |s: &str| !s.is_empty() && s.bytes().all(|c| c.is_ascii_digit());
+    for p in ["impact_time_", "peak_amplitude_", "restitution_"] {
+        if let Some(k) = name.strip_prefix(p) {
+            return number(k);
+        }
+    }
+    for base in [
+        "rotation_rms_error",
+        "rotation_max_error",
+        "rotation_rms_error_normalised",
+        "rotation_max_error_normalised",
+    ] {
+        if let Some(rest) = name.strip_prefix(base) {
+            if rest.is_empty() {
+                return true;
+            }
+            if let Some(k) = rest.strip_prefix("_to_impact_") {
+                return number(k);
+            }
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,289 @@
+//! `rockbench compare`: the files it writes, skipped engines, a trajectory file as the
+//! reference, and the HTML report rendered by headless Chromium.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rockbench"))
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rb-cmp-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run_ok(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap();
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout).to_string(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    );
+    assert!(out.status.success(), "failed: {so}\n{se}");
+    so
+}
+
+fn csv_rows(p: &Path) -> Vec<Vec<String>> {
+    let mut r = csv::Reader::from_path(p).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(
+        h,
+        [
+            "scene",
+            "engine",
+            "block",
+            "metric",
+            "value",
+            "reference",
+            "unit"
+        ]
+    );
+    r.records()
+        .map(|x| x.unwrap().iter().map(String::from).collect())
+        .collect()
+}
+
+/// The two-block case with every engine asked for: native runs, the engines missing from
+/// this build and Housner (single block only) are listed as skipped, and every file is there.
+/// Then the same scene against the first run's trajectory file: identical, so zero error.
+#[test]
+fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
+    let out = tmp("two");
+    let scene = root().join("validation/scenes/two-block-free-rocking.toml");
+    run_ok(bin().args([
+        "compare",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native,rapier,mujoco,pybullet,housner",
+        "--reference",
+        "native",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    for f in [
+        "metrics.csv",
+        "metrics.json",
+        "report.md",
+        "report.html",
+        "native/trajectory.csv",
+        "native/summary.json",
+        "plots/rotation-statue.svg",
+        "plots/rotation-pedestal-on-statue.svg",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let runs = json["runs"].as_array().unwrap();
+    let status = |e: &str| {
+        let r = runs.iter().find(|r| r["engine"] == e).unwrap();
+        (
+            r["status"].as_str().unwrap().to_string(),
+            r["reason"].as_str().unwrap_or("").to_string(),
+        )
+    };
+    assert_eq!(status("native").0, "ok");
+    for e in ["rapier", "mujoco", "pybullet"] {
+        let (s, why) = status(e);
+        assert!(s == "skipped" || s == "ok" || s == "failed", "{e}: {s}");
+        if s == "skipped" {
+            assert!(why.contains(e), "{e}: {why}");
+        }
+    }
+    let (s, why) = status("housner");
+    assert_eq!(s, "skipped");
+    assert!(why.contains("2 blocks"), "{why}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for text in [&md, &html] {
+        assert!(text.contains("pedestal/statue"));
+        assert!(text.contains("housner"));
+        assert!(text.contains("Provenance"));
+        assert!(text.contains("rotation φ (rad)") || text.contains("rest"));
+    }
+    assert!(html.contains("<svg") && !html.contains("<script") && !html.contains("src=\"http"));
+    // Provenance: versions, machine, the exact command.
+    for text in [&md, &html] {
+        assert!(text.contains(concat!("rockbench ", env!("CARGO_PKG_VERSION"))));
+        assert!(text.contains("git commit") && text.contains("CPU") && text.contains("OS"));
+        assert!(text.contains("--engines native,rapier,mujoco,pybullet,housner"));
+    }
+    // Every plot in the Markdown twin exists as a file.
+    for line in md.lines().filter(|l| l.starts_with("![")) {
+        let file = line.rsplit_once("](").unwrap().1.trim_end_matches(')');
+        assert!(out.join(file).is_file(), "{file}");
+    }
+    // The summary names the statue's rest at the four thresholds.
+    assert!(md.contains("interface `pedestal/statue`") && md.contains("at 3e-2 rad"));
+
+    // The same scene against that trajectory as a reference file: the engine is
+    // deterministic, so every rotation error is exactly zero and every impact matches.
+    let out2 = tmp("two-file");
+    let reference = out.join("native/trajectory.csv");
+    run_ok(bin().args([
+        "compare",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native",
+        "--reference",
+        reference.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out2.to_str().unwrap(),
+    ]));
+    let rows = csv_rows(&out2.join("metrics.csv"));
+    let get = |block: &str, metric: &str| {
+        rows.iter()
+            .find(|r| r[2] == block && r[3] == metric)
+            .unwrap_or_else(|| panic!("{block} {metric}"))
+            .clone()
+    };
+    for b in ["pedestal", "statue", "pedestal/statue"] {
+        assert_eq!(get(b, "rotation_max_error")[4].parse::<f64>().unwrap(), 0.0);
+    }
+    assert_eq!(get("pedestal/statue", "impacts_unmatched")[4], "0");
+    let first = get("pedestal/statue", "impact_time_1");
+    assert_eq!(first[4], first[5]);
+    // The upper block's first crossing on its pedestal (VALIDATION.md: ~0.615 s).
+    let t1: f64 = first[4].parse().unwrap();
+    assert!((t1 - 0.615).abs() < 0.01, "{t1}");
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&out2);
+}
+
+#[test]
+fn bad_reference_file_is_one_line_naming_it() {
+    let out = tmp("badref");
+    let bad = out.join("bad.csv");
+    std::fs::write(&bad, "t,block_x\n0,1\n").unwrap();
+    let o = bin()
+        .args([
+            "compare",
+            root()
+                .join("validation/scenes/housner-slender.toml")
+                .to_str()
+                .unwrap(),
+            "--engines",
+            "native",
+            "--reference",
+            bad.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            out.join("o").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--reference") && err.contains("bad.csv"),
+        "{err}"
+    );
+}
+
+/// Slender block, native against Housner: the rows carry Housner's exact first impact as
+/// the reference value, and the report renders in headless Chromium.
+#[test]
+fn slender_report_renders_in_headless_chromium() {
+    let out = tmp("slender");
+    run_ok(
+        bin().args([
+            "compare",
+            root()
+                .join("validation/scenes/housner-slender.toml")
+                .to_str()
+                .unwrap(),
+            "--engines",
+            "native,housner",
+            "--reference",
+            "housner",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]),
+    );
+    let rows = csv_rows(&out.join("metrics.csv"));
+    let r = rows
+        .iter()
+        .find(|r| r[1] == "native" && r[2] == "block" && r[3] == "impact_time_1")
+        .unwrap();
+    let reference: f64 = r[5].parse().unwrap();
+    assert!((reference - 0.4674).abs() < 1e-4, "{reference}");
+
+    let Some(chromium) = ["chromium", "chromium-browser"]
+        .into_iter()
+        .find(|c| Command::new(c).arg("--version").output().is_ok())
+    else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "chromium is not installed (make test installs it)"
+        );
+        eprintln!("skipped: chromium not installed (make test installs it)");
+        return;
+    };
+    let png = out.join("shot.png");
+    let profile = out.join("profile");
+    let url = format!("file://{}", out.join("report.html").display());
+    let o = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--hide-scrollbars",
+            &format!("--user-data-dir={}", profile.display()),
+            &format!("--screenshot={}", png.display()),
+            "--window-size=1200,1600",
+            &url,
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        png.is_file(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let ch = info.color_type.samples();
+    assert!(ch >= 3, "unexpected colour type {:?}", info.color_type);
+    let px: Vec<&[u8]> = buf[..info.buffer_size()].chunks(ch).collect();
+    let lum: Vec<f64> = px
+        .iter()
+        .map(|p| 0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64)
+        .collect();
+    let mean = lum.iter().sum::<f64>() / lum.len() as f64;
+    let var = lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64;
+    assert!(
+        var > 100.0,
+        "screenshot looks blank (luminance variance {var})"
+    );
+    // The native curve's blue (#1f77b4) is drawn: the plot rendered, not only the text.
+    let blue = px
+        .iter()
+        .filter(|p| {
+            (p[0] as i32 - 0x1f).abs() < 40
+                && (p[1] as i32 - 0x77).abs() < 40
+                && (p[2] as i32 - 0xb4).abs() < 40
+        })
+        .count();
+    assert!(
+        blue > 200,
+        "no plotted curve in the screenshot ({blue} blue pixels)"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -1,0 +1,195 @@
+//! `rockbench gate`: failing and passing gates, known failures, JUnit XML, the run cache and
+//! one-line errors for bad gate files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rb-gate-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn slender() -> String {
+    root()
+        .join("validation/scenes/housner-slender.toml")
+        .display()
+        .to_string()
+}
+
+fn gate(dir: &Path, file_text: &str) -> (Output, String, String) {
+    let f = dir.join("gates.toml");
+    std::fs::write(&f, file_text).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_rockbench"))
+        .args([
+            "gate",
+            f.to_str().unwrap(),
+            "--quiet",
+            "--cache-dir",
+            dir.join("cache").to_str().unwrap(),
+            "--junit",
+            dir.join("junit.xml").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let so = String::from_utf8_lossy(&o.stdout).to_string();
+    let se = String::from_utf8_lossy(&o.stderr).to_string();
+    (o, so, se)
+}
+
+fn gate_toml(name: &str, metric: &str, tol: f64, extra: &str) -> String {
+    format!(
+        "[[gate]]\nname = \"{name}\"\nscene = \"{}\"\nengine = \"native\"\nreference = \"housner\"\n\
+         metric = \"{metric}\"\ntolerance = {tol:e}\n{extra}\n",
+        slender()
+    )
+}
+
+#[test]
+fn impossible_tolerance_fails_names_the_gate_and_the_rerun_is_cached() {
+    let dir = tmp("impossible");
+    let text = gate_toml("first-impact", "impact_time_1", 1e-3, "")
+        + &gate_toml("impossible-rms", "rotation_rms_error", 0.0, "");
+    let (o, so, se) = gate(&dir, &text);
+    assert_eq!(o.status.code(), Some(1), "{so}\n{se}");
+    assert!(se.contains("impossible-rms"), "{se}");
+    assert!(!se.contains("first-impact"), "{se}");
+    assert!(so.contains("0 from the cache, 2 run now"), "{so}");
+
+    // The JUnit XML parses: two cases, one failure, on the impossible gate.
+    let xml = std::fs::read_to_string(dir.join("junit.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let suites = doc.root_element();
+    assert_eq!(suites.tag_name().name(), "testsuites");
+    assert_eq!(suites.attribute("tests"), Some("2"));
+    assert_eq!(suites.attribute("failures"), Some("1"));
+    let cases: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("testcase"))
+        .collect();
+    assert_eq!(cases.len(), 2);
+    let failing: Vec<&str> = cases
+        .iter()
+        .filter(|c| c.children().any(|n| n.has_tag_name("failure")))
+        .map(|c| c.attribute("name").unwrap())
+        .collect();
+    assert_eq!(failing, ["impossible-rms"]);
+
+    // Unchanged gates: both engine runs come from the cache, with the same verdicts.
+    let (o2, so2, se2) = gate(&dir, &text);
+    assert_eq!(o2.status.code(), Some(1), "{so2}\n{se2}");
+    assert!(so2.contains("2 from the cache, 0 run now"), "{so2}");
+    let table_rows = |s: &str| -> Vec<String> {
+        s.lines()
+            .filter(|l| l.starts_with("first-impact") || l.starts_with("impossible-rms"))
+            .map(|l| l.replace("cached", "ran"))
+            .collect()
+    };
+    assert_eq!(table_rows(&so), table_rows(&so2));
+
+    // A changed setting is a different run.
+    let changed = text.replace(
+        "engine = \"native\"\nreference",
+        "set = [\"native.dt=2e-3\"]\nengine = \"native\"\nreference",
+    );
+    let (_, so3, _) = gate(&dir, &changed);
+    assert!(so3.contains("0 from the cache, 2 run now"), "{so3}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn known_failures_pass_while_failing_and_fail_when_they_start_passing() {
+    let dir = tmp("known");
+    let still = gate_toml(
+        "still-broken",
+        "rotation_rms_error",
+        0.0,
+        "expect = \"known-failure\"\nreason = \"pointwise error is never exactly zero\"",
+    );
+    let (o, so, se) = gate(&dir, &still);
+    assert_eq!(o.status.code(), Some(0), "{so}\n{se}");
+    assert!(so.contains("known failure"), "{so}");
+    let xml = std::fs::read_to_string(dir.join("junit.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    assert!(doc.descendants().any(|n| n.has_tag_name("skipped")));
+
+    let fixed = gate_toml(
+        "now-fixed",
+        "impact_time_1",
+        1.0,
+        "expect = \"known-failure\"\nreason = \"was late\"",
+    );
+    let (o, so, se) = gate(&dir, &fixed);
+    assert_eq!(o.status.code(), Some(1), "{so}\n{se}");
+    assert!(
+        se.contains("now-fixed") && se.contains("unexpected pass"),
+        "{se}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_gate_files_are_one_line_naming_the_field() {
+    let dir = tmp("bad");
+    let cases = [
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "").replace("tolerance", "tolerence"),
+            "tolerence",
+        ),
+        (
+            gate_toml("a", "impact_time_1", -1.0, ""),
+            "gate[0] (a).tolerance",
+        ),
+        (
+            gate_toml("a", "impact_tme_1", 1e-3, ""),
+            "gate[0] (a).metric",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "expect = \"known-failure\""),
+            "gate[0] (a).reason",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "expect = \"maybe\""),
+            "expect",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "block = \"statue\""),
+            "gate[0] (a).block",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "") + &gate_toml("a", "impact_time_2", 1e-3, ""),
+            "gate[1] (a).name",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "").replace(&slender(), "nowhere.toml"),
+            "gate[0] (a).scene",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "set = [\"native.dt=-1\"]"),
+            "native.dt",
+        ),
+        ("[[gate]\n".to_string(), "line 1"),
+    ];
+    for (text, field) in cases {
+        let (o, so, se) = gate(&dir, &text);
+        assert_eq!(o.status.code(), Some(1), "{text}\n{so}{se}");
+        assert_eq!(se.trim().lines().count(), 1, "{se}");
+        assert!(
+            se.contains("gates.toml") && se.contains(field),
+            "want {field}: {se}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn validation_gates_file_is_valid() {
+    // Parsing only (the gates themselves run in `make gates`).
+    let gates = rockbench::gates::load_gates(&root().join("validation/gates.toml")).unwrap();
+    assert!(gates.len() >= 5);
+}
