@@ -3,6 +3,13 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, which turns a closed pipe (`rockbench run ... | head`) into a
+    // panic on the next print; the default action ends the process quietly instead.
+    #[cfg(unix)]
+    // SAFETY: called once at start-up, before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     match rockbench::cli::main() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
