@@ -26,6 +26,7 @@
 //! [`metrics`] (comparing two trajectories) · [`compare`] (running engines against a reference)
 //! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML).
 
+pub mod bench;
 pub mod cli;
 pub mod compare;
 pub mod engines;

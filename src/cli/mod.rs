@@ -1,5 +1,6 @@
 //! The `rockbench` command line: one file per subcommand.
 
+mod bench;
 mod check;
 mod compare;
 mod gate;
@@ -31,6 +32,9 @@ enum Command {
     /// Evaluate accuracy gates (GATES.toml); exits 1 when a gate fails or a known failure
     /// starts passing.
     Gate(gate::GateArgs),
+    /// Work-precision benchmark: every engine at every step size, median wall time against
+    /// the error; writes DIR/work_precision.{csv,md,svg}.
+    Bench(bench::BenchArgs),
 }
 
 /// Parse the command line and run it.
@@ -38,6 +42,7 @@ pub fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Run(a) => run::run(a),
+        Command::Bench(a) => bench::run(a),
         Command::Check(a) => check::check(a),
         Command::Compare(a) => compare::compare_cmd(a),
         Command::Gate(a) => gate::gate_cmd(a),

@@ -1,0 +1,350 @@
+//! Work-precision benchmark: every engine at every step size (and every native variant), the
+//! median wall time of N runs against the error metrics of `crate::metrics`.
+//!
+//! The step size is set through each engine's own setting (`native.dt`, `rapier.dt`,
+//! `mujoco.timestep`, `pybullet.fixed_time_step`); engines without one (housner, auto) run
+//! once. Runs that fail or blow up stay in the table as failed, with their reason.
+
+use crate::compare::{ReferenceSpec, Status, classify};
+use crate::engines::{RunOutput, engine_by_name, run_timed};
+use crate::metrics::{Cost, MetricRow, MetricSettings, Run, compare_runs};
+use crate::report::svg::{Curve, Plot};
+use crate::scene::{Scene, load_scene_with_overrides};
+use crate::summary::Summary;
+use crate::trajectory::Trajectory;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A native solver/stepper combination benchmarked as its own line.
+#[derive(Debug, Clone)]
+pub struct Variant {
+    pub name: String,
+    pub set: Vec<String>,
+}
+
+/// The native variants: both back-ends with both steppers.
+pub fn native_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
+    for solver in ["active-set", "clarabel"] {
+        for stepper in ["impact", "position"] {
+            v.push(Variant {
+                name: format!("{solver}/{stepper}"),
+                set: vec![
+                    format!("native.solver=\"{solver}\""),
+                    format!("native.stepper=\"{stepper}\""),
+                ],
+            });
+        }
+    }
+    v
+}
+
+/// The scene setting that holds an engine's step size.
+pub fn step_setting(engine: &str) -> Option<&'static str> {
+    match engine {
+        "native" => Some("native.dt"),
+        "rapier" => Some("rapier.dt"),
+        "mujoco" => Some("mujoco.timestep"),
+        "pybullet" => Some("pybullet.fixed_time_step"),
+        _ => None,
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    pub engines: Vec<String>,
+    pub dts: Vec<f64>,
+    pub repeat: usize,
+    pub reference: ReferenceSpec,
+    /// Extra `--set` overrides applied to every run.
+    pub overrides: Vec<String>,
+}
+
+/// One line of `work_precision.csv`.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchRow {
+    pub scene: String,
+    pub engine: String,
+    pub variant: String,
+    /// Step size, s (`None` for engines without one).
+    pub dt: Option<f64>,
+    pub status: String,
+    pub reason: Option<String>,
+    pub runs: usize,
+    pub median_wall_s: Option<f64>,
+    pub steps: Option<u64>,
+    pub us_per_step: Option<f64>,
+    /// Largest over blocks of the RMS / max rotation error over the window, rad.
+    pub rms_error: Option<f64>,
+    pub max_error: Option<f64>,
+    /// Largest over blocks of the RMS rotation error up to the reference's first impact, rad.
+    pub rms_error_to_impact_1: Option<f64>,
+    /// First impact of the bottom block minus the reference's, s.
+    pub first_impact_diff: Option<f64>,
+    /// Relative error of the bottom block's amplitude after its first impact.
+    pub amplitude_1_rel_error: Option<f64>,
+}
+
+fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
+    Run {
+        name: name.to_string(),
+        trajectory: out.trajectory.clone(),
+        exact_impacts: out.exact_impacts.clone(),
+        cost: Cost {
+            wall_time_s: Some(s.wall_time_s),
+            steps: Some(s.steps),
+            solver_iterations: s.solver_iterations,
+        },
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Errors of one run against the reference, from the metric rows.
+fn errors(scene: &Scene, rows: &[MetricRow], row: &mut BenchRow) {
+    let blocks: Vec<&str> = scene.blocks.iter().map(|b| b.name.as_str()).collect();
+    let max_of = |metric: &str| -> Option<f64> {
+        rows.iter()
+            .filter(|r| r.metric == metric && blocks.contains(&r.block.as_str()))
+            .filter_map(|r| r.value)
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
+    };
+    let bottom = |metric: &str| {
+        rows.iter()
+            .find(|r| r.metric == metric && r.block == blocks[0])
+    };
+    row.rms_error = max_of("rotation_rms_error");
+    row.max_error = max_of("rotation_max_error");
+    row.rms_error_to_impact_1 = max_of("rotation_rms_error_to_impact_1");
+    row.first_impact_diff = bottom("impact_time_1").and_then(|r| Some(r.value? - r.reference?));
+    row.amplitude_1_rel_error =
+        bottom("peak_amplitude_1").and_then(|r| Some(r.value? / r.reference? - 1.0));
+}
+
+/// Run the benchmark. `progress` is called with a line per finished cell.
+pub fn bench(
+    scene_path: &Path,
+    opts: &BenchOptions,
+    progress: &dyn Fn(&BenchRow),
+) -> Result<Vec<BenchRow>, String> {
+    let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
+    let reference = match &opts.reference {
+        ReferenceSpec::Engine(name) => {
+            let e = engine_by_name(name).map_err(|e| format!("--reference: {e}"))?;
+            let (out, s) = run_timed(e.as_ref(), &base)
+                .map_err(|e| format!("--reference {name} did not run: {e}"))?;
+            run_of(name, &out, &s)
+        }
+        ReferenceSpec::File(p) => Run {
+            name: p.display().to_string(),
+            trajectory: Trajectory::read_csv(p).map_err(|e| format!("--reference: {e}"))?,
+            exact_impacts: None,
+            cost: Cost::default(),
+        },
+    };
+    let mut rows = Vec::new();
+    for engine in &opts.engines {
+        let variants = if engine == "native" {
+            native_variants()
+        } else {
+            vec![Variant {
+                name: "default".into(),
+                set: vec![],
+            }]
+        };
+        let dts: Vec<Option<f64>> = match step_setting(engine) {
+            Some(_) => opts.dts.iter().map(|&d| Some(d)).collect(),
+            None => vec![None],
+        };
+        for v in &variants {
+            for &dt in &dts {
+                let mut set = opts.overrides.clone();
+                set.extend(v.set.iter().cloned());
+                if let (Some(dt), Some(key)) = (dt, step_setting(engine)) {
+                    set.push(format!("{key}={dt:e}"));
+                }
+                let mut row = BenchRow {
+                    scene: base.name.clone(),
+                    engine: engine.clone(),
+                    variant: v.name.clone(),
+                    dt,
+                    status: "ok".into(),
+                    reason: None,
+                    runs: 0,
+                    median_wall_s: None,
+                    steps: None,
+                    us_per_step: None,
+                    rms_error: None,
+                    max_error: None,
+                    rms_error_to_impact_1: None,
+                    first_impact_diff: None,
+                    amplitude_1_rel_error: None,
+                };
+                let outcome = load_scene_with_overrides(scene_path, &set)
+                    .map_err(|e| e.to_string())
+                    .and_then(|scene| {
+                        let e = engine_by_name(engine).map_err(|e| {
+                            row.status = classify(&e).word().to_string();
+                            e.to_string()
+                        })?;
+                        let mut walls = Vec::new();
+                        let mut first = None;
+                        for _ in 0..opts.repeat.max(1) {
+                            let (out, s) = run_timed(e.as_ref(), &scene).map_err(|err| {
+                                if let Status::Skipped(_) = classify(&err) {
+                                    row.status = "skipped".into();
+                                }
+                                err.to_string()
+                            })?;
+                            walls.push(s.wall_time_s);
+                            first.get_or_insert((out, s));
+                        }
+                        Ok((scene, walls, first.expect("at least one run")))
+                    });
+                match outcome {
+                    Ok((scene, walls, (out, s))) => {
+                        let wall = median(walls.clone());
+                        row.runs = walls.len();
+                        row.median_wall_s = Some(wall);
+                        row.steps = Some(s.steps);
+                        row.us_per_step = (s.steps > 0).then(|| 1e6 * wall / s.steps as f64);
+                        let run = run_of(engine, &out, &s);
+                        match compare_runs(&scene, &run, &reference, &MetricSettings::default()) {
+                            Ok(m) => errors(&scene, &m, &mut row),
+                            Err(e) => {
+                                row.status = "failed".into();
+                                row.reason = Some(format!("metrics: {e}"));
+                            }
+                        }
+                    }
+                    Err(reason) => {
+                        if row.status == "ok" {
+                            row.status = "failed".into();
+                        }
+                        row.reason = Some(reason.replace('\n', " "));
+                    }
+                }
+                progress(&row);
+                rows.push(row);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(|v| format!("{v:.4e}")).unwrap_or_default()
+}
+
+/// `work_precision.csv`, `work_precision.md`, `work_precision.svg`.
+pub fn write(dir: &Path, rows: &[BenchRow], command: &str) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut csv = String::from(
+        "scene,engine,variant,dt,status,reason,runs,median_wall_s,steps,us_per_step,rms_error,max_error,rms_error_to_impact_1,first_impact_diff,amplitude_1_rel_error\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},\"{}\",{},{},{},{},{},{},{},{},{}",
+            r.scene,
+            r.engine,
+            r.variant,
+            opt(r.dt),
+            r.status,
+            r.reason.clone().unwrap_or_default().replace('"', "'"),
+            r.runs,
+            opt(r.median_wall_s),
+            r.steps.map(|s| s.to_string()).unwrap_or_default(),
+            opt(r.us_per_step),
+            opt(r.rms_error),
+            opt(r.max_error),
+            opt(r.rms_error_to_impact_1),
+            opt(r.first_impact_diff),
+            opt(r.amplitude_1_rel_error)
+        );
+    }
+    let w = |name: &str, text: &str| {
+        std::fs::write(dir.join(name), text)
+            .map_err(|e| format!("{}: {e}", dir.join(name).display()))
+    };
+    w("work_precision.csv", &csv)?;
+    let mut md = format!(
+        "# Work-precision: {}\n\nMedian wall time of {} run(s) per cell against the rotation error (largest over blocks, rad) versus the reference. Command: `{command}`\n\n",
+        rows.first().map(|r| r.scene.as_str()).unwrap_or(""),
+        rows.first().map(|r| r.runs).unwrap_or(0)
+    );
+    md += "| engine | variant | dt (s) | status | wall (s) | us/step | RMS error | max error | RMS to impact 1 | first impact diff (s) | amplitude 1 error |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for r in rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {}{} | {} | {} | {} | {} | {} | {} | {} |",
+            r.engine,
+            r.variant,
+            opt(r.dt),
+            r.status,
+            r.reason
+                .as_ref()
+                .map(|x| format!(": {x}"))
+                .unwrap_or_default(),
+            opt(r.median_wall_s),
+            opt(r.us_per_step),
+            opt(r.rms_error),
+            opt(r.max_error),
+            opt(r.rms_error_to_impact_1),
+            opt(r.first_impact_diff),
+            r.amplitude_1_rel_error
+                .map(|e| format!("{:+.2} %", 100.0 * e))
+                .unwrap_or_default()
+        );
+    }
+    w("work_precision.md", &md)?;
+    // One line per engine/variant through its step sizes: log10 error against log10 time.
+    let palette = [
+        "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
+    ];
+    let mut plot = Plot {
+        title: "Work-precision: RMS rotation error against median wall time".into(),
+        x_label: "log10 wall time (s)".into(),
+        y_label: "log10 RMS rotation error (rad)".into(),
+        ..Default::default()
+    };
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for r in rows {
+        let k = (r.engine.clone(), r.variant.clone());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    for (i, (e, v)) in keys.iter().enumerate() {
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| &r.engine == e && &r.variant == v && r.status == "ok")
+            .filter_map(|r| Some((r.median_wall_s?.log10(), r.rms_error?.max(1e-16).log10())))
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        plot.curves.push(Curve {
+            name: if v == "default" {
+                e.clone()
+            } else {
+                format!("{e} {v}")
+            },
+            color: palette[i % palette.len()].into(),
+            dashed: v.ends_with("position"),
+            x: pts.iter().map(|p| p.0).collect(),
+            y: pts.iter().map(|p| p.1).collect(),
+        });
+    }
+    w("work_precision.svg", &plot.render())?;
+    Ok(())
+}

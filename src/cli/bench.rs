@@ -1,0 +1,68 @@
+//! `rockbench bench SCENE --engines ... --dt ... --repeat N --reference R --out DIR`: the
+//! work-precision benchmark (see `crate::bench`).
+
+use crate::bench::{BenchOptions, bench, write};
+use crate::compare::ReferenceSpec;
+use anyhow::{Result, anyhow};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Scene file (TOML or JSON).
+    scene: PathBuf,
+    /// Engines, comma-separated (native runs every solver/stepper variant).
+    #[arg(long, default_value = "native,rapier,mujoco", value_delimiter = ',')]
+    engines: Vec<String>,
+    /// Step sizes, s, comma-separated.
+    #[arg(long, default_value = "2e-3,1e-3,5e-4", value_delimiter = ',')]
+    dt: Vec<f64>,
+    /// Runs per cell; the wall time is their median.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Reference: an engine name or a trajectory.csv.
+    #[arg(long, default_value = "housner")]
+    reference: String,
+    /// Override a scene field for every run (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    #[arg(long, default_value = "out/bench")]
+    out: PathBuf,
+}
+
+pub fn run(a: BenchArgs) -> Result<()> {
+    if let Some(bad) = a.dt.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
+        return Err(anyhow!("--dt: step sizes must be positive (got {bad})"));
+    }
+    if a.repeat == 0 {
+        return Err(anyhow!("--repeat: must be at least 1"));
+    }
+    let opts = BenchOptions {
+        engines: a.engines,
+        dts: a.dt,
+        repeat: a.repeat,
+        reference: ReferenceSpec::parse(&a.reference),
+        overrides: a.set,
+    };
+    let rows = bench(&a.scene, &opts, &|r| {
+        eprintln!(
+            "{} {} dt={}: {}{}",
+            r.engine,
+            r.variant,
+            r.dt.map(|d| format!("{d:e}")).unwrap_or("-".into()),
+            r.status,
+            match (r.median_wall_s, r.rms_error) {
+                (Some(w), Some(e)) => format!(" {w:.4} s, RMS error {e:.3e} rad"),
+                _ => r
+                    .reason
+                    .clone()
+                    .map(|x| format!(" ({x})"))
+                    .unwrap_or_default(),
+            }
+        )
+    })
+    .map_err(|e| anyhow!(e))?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    write(&a.out, &rows, &command).map_err(|e| anyhow!(e))?;
+    println!("wrote {}/work_precision.{{csv,md,svg}}", a.out.display());
+    Ok(())
+}
