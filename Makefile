@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo test test-rust test-no-default-features test-python stubtest \
-	settings-sweep rapier-sweep gates compare-demo chromium fmt clippy clean .venv
+	settings-sweep rapier-sweep gates compare-demo chromium bench bench-steps fmt clippy clean .venv
 
 all: build
 
@@ -90,3 +90,13 @@ clippy:
 
 clean:
 	rm -rf out target $(VENV) python/rockbench/_native*.so
+
+# Per-step cost of the native engine for 1, 2, 10, 50 and 210 blocks and every back-end
+# (criterion; a few minutes).
+bench-steps:
+	$(CARGO) bench --bench step_cost
+
+# The work-precision benchmark of the slender block (every engine, step sizes, native variants).
+bench: build .venv
+	$(BIN) bench validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet,housner --dt 2e-3,1e-3,5e-4,1e-4,5e-5,2e-5 --repeat 3 --reference housner --set duration=3.0 --out out/bench/housner-slender
+	$(BIN) bench validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --dt 2e-3,1e-3,5e-4 --repeat 3 --reference native --set duration=4.0 --out out/bench/two-block

@@ -40,6 +40,8 @@ impl Engine for NativeEngine {
                 engine: "native",
                 message: e.to_string(),
             })?;
+            // Step k ends at k dt exactly (no accumulated rounding in the sample times).
+            state.t = k as f64 * dt;
             let states = stepper.relative_states(&state);
             if k % every == 0 || k == n_steps {
                 tr.push(state.t, &states);
