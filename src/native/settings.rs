@@ -28,6 +28,18 @@ pub enum StepperKind {
     Impact,
 }
 
+/// The friction law of the interfaces.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum FrictionLaw {
+    /// The paper's associative law: `g0 + du_n >= mu |du_t|` (sliding dilates).
+    #[default]
+    Associative,
+    /// True Coulomb (non-associative): no tension, `|T| <= mu N`, no dilatancy; solved as a
+    /// fixed point on the normal forces of Tresca problems (always with Clarabel).
+    Coulomb,
+}
+
 /// Contact solver back-end.
 #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
@@ -83,6 +95,9 @@ pub struct NativeSettings {
     /// first amplitude but worsens the second for theta < 1; see docs/method.md).
     #[serde(default)]
     pub locate_impacts: bool,
+    /// `associative` (the paper's law, default) or `coulomb` (non-associative).
+    #[serde(default)]
+    pub friction_law: FrictionLaw,
     /// Contact solver back-end: `auto` (default), `active-set` or `clarabel`.
     #[serde(default)]
     pub solver: SolverKind,
@@ -132,6 +147,7 @@ impl Default for NativeSettings {
             dt: d_dt(),
             formulation: Formulation::default(),
             stepper: StepperKind::default(),
+            friction_law: FrictionLaw::default(),
             locate_impacts: false,
             solver: SolverKind::default(),
             tolerance: d_tol(),

@@ -27,7 +27,11 @@
 
 use super::assembly::{Bodies, contact_rows, poses};
 use super::problem::{SparseRow, StepProblem, StepSolution};
-use super::settings::{NativeSettings, StepperKind};
+use super::settings::{FrictionLaw, NativeSettings, StepperKind};
+use super::solver::ClarabelSolver;
+
+/// Largest number of Tresca solves per step for non-associative friction.
+pub const COULOMB_ITERATIONS: usize = 50;
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
 use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
@@ -333,14 +337,15 @@ impl Stepper {
         h: f64,
     ) -> Result<StepSolution, StepError> {
         let (pr, g) = self.problem(s, contacts, h);
-        let sol = self
-            .solver
-            .solve(&pr)
-            .map_err(|failure| StepError::Solver {
-                step: s.step + 1,
-                t: s.t,
-                failure,
-            })?;
+        let fail = |failure| StepError::Solver {
+            step: s.step + 1,
+            t: s.t,
+            failure,
+        };
+        let mut sol = self.solver.solve(&pr).map_err(fail)?;
+        if self.settings.friction_law == FrictionLaw::Coulomb && !pr.contacts.is_empty() {
+            sol = self.coulomb_fixed_point(&pr, sol).map_err(fail)?;
+        }
         let th = self.settings.theta;
         for i in 0..s.q.len() {
             let v = (sol.dq[i] / h - (1.0 - th) * s.v[i]) / th;
@@ -360,6 +365,46 @@ impl Stepper {
             });
         }
         Ok(sol)
+    }
+
+    /// Non-associative friction: Tresca problems with slip bounds `mu N`, N from the previous
+    /// iterate (starting from the associative solution), until N settles (relative 1e-9, at
+    /// most `COULOMB_ITERATIONS` solves).
+    fn coulomb_fixed_point(
+        &mut self,
+        pr: &StepProblem,
+        first: StepSolution,
+    ) -> Result<StepSolution, SolveFailure> {
+        let clarabel = ClarabelSolver::new(&self.settings);
+        let mut sol = first;
+        let mut iterations = sol.iterations;
+        for _ in 0..COULOMB_ITERATIONS {
+            let bounds: Vec<f64> = pr
+                .contacts
+                .iter()
+                .zip(&sol.normal)
+                .map(|(c, n)| c.mu * n.max(0.0))
+                .collect();
+            let next = clarabel.solve_tresca(pr, &bounds)?;
+            iterations += next.iterations;
+            let scale = next.normal.iter().fold(1e-300f64, |m, n| m.max(n.abs()));
+            let change = next
+                .normal
+                .iter()
+                .zip(&sol.normal)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            sol = next;
+            if change <= 1e-9 * scale {
+                sol.iterations = iterations;
+                return Ok(sol);
+            }
+        }
+        Err(SolveFailure {
+            solver: "clarabel",
+            status: format!(
+                "Coulomb friction: normal forces did not settle in {COULOMB_ITERATIONS} Tresca solves"
+            ),
+        })
     }
 
     /// Block states relative to the ground: (x, z, phi, vx, vz, omega) per block.
