@@ -33,7 +33,7 @@ demo: build .venv
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
 test: test-no-default-features test-rust test-python
 
-test-no-default-features:
+test-no-default-features: chromium
 	$(CARGO) test --release --no-default-features
 
 test-rust: chromium
