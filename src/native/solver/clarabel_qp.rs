@@ -346,6 +346,17 @@ impl ContactSolver for ClarabelSolver {
     }
 
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        if problem.contacts.is_empty() {
+            // Free flight: the unconstrained minimiser u = -q / P, no solver needed.
+            let sc = problem.scaled();
+            return Ok(StepSolution {
+                dq: sc.q.iter().zip(&sc.p).map(|(q, p)| -q / p * problem.dt).collect(),
+                normal: Vec::new(),
+                tangential: Vec::new(),
+                iterations: 0,
+                polished: false,
+            });
+        }
         match self.formulation {
             Formulation::Primal => self.solve_primal(problem),
             Formulation::Dual => self.solve_dual(problem),
@@ -389,6 +400,24 @@ mod tests {
                 sol.normal[0]
             );
             assert!(sol.tangential[0].abs() < 1e-6);
+        }
+    }
+
+    /// A step without contact points is free flight under gravity, in both formulations.
+    #[test]
+    fn a_step_without_contacts_is_free_flight() {
+        let mut pr = resting_mass();
+        pr.contacts.clear();
+        pr.v0 = vec![1.0, 2.0, 3.0];
+        for f in [Formulation::Primal, Formulation::Dual] {
+            let sol = ClarabelSolver::with_formulation(&NativeSettings::default(), f)
+                .solve(&pr)
+                .unwrap();
+            // dq = dt v0 + theta dt^2 f / m.
+            let want = [1e-3, 2e-3 - 0.7 * 1e-6 * 9.81, 3e-3];
+            for (d, w) in sol.dq.iter().zip(want) {
+                assert!((d - w).abs() < 1e-15, "{f:?}: {:?}", sol.dq);
+            }
         }
     }
 
