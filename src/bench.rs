@@ -328,7 +328,9 @@ pub fn write(dir: &Path, rows: &[BenchRow], command: &str) -> Result<(), String>
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| &r.engine == e && &r.variant == v && r.status == "ok")
-            .filter_map(|r| Some((r.median_wall_s?.log10(), r.rms_error?.max(1e-16).log10())))
+            // The reference itself has no error: it is in the table, not on the log axis.
+            .filter(|r| r.rms_error.is_some_and(|e| e > 0.0))
+            .filter_map(|r| Some((r.median_wall_s?.log10(), r.rms_error?.log10())))
             .collect();
         if pts.is_empty() {
             continue;
