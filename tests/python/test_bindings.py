@@ -160,7 +160,12 @@ def test_runs_release_the_gil() -> None:
 
     def work() -> None:
         try:
-            rockbench.run(scene_path("two-block-free-rocking"), engine="native", overrides=["duration=3.0"])
+            # Clarabel keeps the run long enough to observe (the default back-end takes ~10 ms).
+            rockbench.run(
+                scene_path("two-block-free-rocking"),
+                engine="native",
+                overrides=["duration=6.0", 'native.solver="clarabel"'],
+            )
         except BaseException as e:  # pragma: no cover - reported below
             err.append(e)
         done.set()
