@@ -3,7 +3,9 @@
 mod check;
 mod compare;
 mod gate;
+mod references;
 mod run;
+mod validate;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -31,6 +33,11 @@ enum Command {
     /// Evaluate accuracy gates (GATES.toml); exits 1 when a gate fails or a known failure
     /// starts passing.
     Gate(gate::GateArgs),
+    /// Run the validation suite on every engine with its gates; writes DIR/report.html with
+    /// the summary matrix (case x engine).
+    Validate(validate::ValidateArgs),
+    /// Regenerate the generated validation scenes and reference-data/ (or check them).
+    References(references::ReferencesArgs),
 }
 
 /// Parse the command line and run it.
@@ -41,5 +48,7 @@ pub fn main() -> Result<()> {
         Command::Check(a) => check::check(a),
         Command::Compare(a) => compare::compare_cmd(a),
         Command::Gate(a) => gate::gate_cmd(a),
+        Command::Validate(a) => validate::validate_cmd(a),
+        Command::References(a) => references::references_cmd(a),
     }
 }
