@@ -62,17 +62,16 @@ fn references_are_reproduced() {
     let mut generated = BTreeSet::new();
     files_under(&out, &out, &mut generated);
     let mut committed = BTreeSet::new();
-    files_under(
-        &root().join("reference-data"),
-        &root(),
-        &mut committed,
-    );
+    files_under(&root().join("reference-data"), &root(), &mut committed);
     let generated_refs: BTreeSet<String> = generated
         .iter()
         .filter(|f| f.starts_with("reference-data/"))
         .cloned()
         .collect();
-    assert_eq!(generated_refs, committed, "reference-data/ is not what the generator writes");
+    assert_eq!(
+        generated_refs, committed,
+        "reference-data/ is not what the generator writes"
+    );
     let mut bad = Vec::new();
     for rel in &generated {
         let new = std::fs::read_to_string(out.join(rel)).unwrap();
@@ -87,7 +86,12 @@ fn references_are_reproduced() {
     for d in std::fs::read_dir(root().join("reference-data")).unwrap() {
         let p = d.unwrap().path().join("PROVENANCE.md");
         let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-        for key in ["- generator:", "- command:", "- date:", "- why it can be trusted:"] {
+        for key in [
+            "- generator:",
+            "- command:",
+            "- date:",
+            "- why it can be trusted:",
+        ] {
             assert!(text.contains(key), "{}: no `{key}`", p.display());
         }
     }
@@ -113,7 +117,10 @@ fn rectangular_thresholds_match_the_closed_form() {
         if c.get("shape").and_then(|s| s.as_str()) != Some("rectangular") {
             continue;
         }
-        let pt1 = c["p_t1"].as_float().or(c["p_t1"].as_integer().map(|i| i as f64)).unwrap();
+        let pt1 = c["p_t1"]
+            .as_float()
+            .or(c["p_t1"].as_integer().map(|i| i as f64))
+            .unwrap();
         let a = c["threshold_m_per_s2"].as_float().unwrap();
         let closed = 1.0 / (1.0 - (-pt1).exp());
         let ratio = a / (g * alpha.tan());
@@ -269,7 +276,10 @@ fn validate_subset_matrix_and_report() {
     assert!(slender.contains("pass (1 known)"), "{slender}");
     assert!(slender.contains("reference"), "{slender}");
     let column = line("column");
-    assert!(column.contains("pass") && column.contains("skipped"), "{column}");
+    assert!(
+        column.contains("pass") && column.contains("skipped"),
+        "{column}"
+    );
     assert!(line("two-block").contains("pass"), "{so}");
     assert!(so.contains("4 of 4 gates as expected"), "{so}");
 
@@ -301,11 +311,15 @@ fn validate_subset_matrix_and_report() {
     let cells: Vec<&str> = row.split('|').map(str::trim).collect();
     let rest_1e4: f64 = cells[4].parse().unwrap_or_else(|_| panic!("{row}"));
     assert!((4.4..=4.95).contains(&rest_1e4), "{row}");
-    assert!(md.contains("| `native, dt = 1e-4 s (reference-data)` |"), "{md}");
+    assert!(
+        md.contains("| `native, dt = 1e-4 s (reference-data)` |"),
+        "{md}"
+    );
     assert!(md.contains("| the paper |"), "{md}");
     // Headings twinned.
     let md_heads = md.lines().filter(|l| l.starts_with('#')).count();
-    let html_heads = html.matches("<h1").count() + html.matches("<h2").count() + html.matches("<h3").count();
+    let html_heads =
+        html.matches("<h1").count() + html.matches("<h2").count() + html.matches("<h3").count();
     assert_eq!(md_heads, html_heads);
 
     // A failing gate: non-zero exit, FAIL in the matrix and in the report.
@@ -339,8 +353,15 @@ fn a_bad_suite_is_one_clear_line() {
     let (ok, _, se) = run(bin().args(["validate", p.to_str().unwrap(), "--quiet"]));
     assert!(!ok);
     let first = se.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
-    assert!(first.contains("suite.toml") && first.contains("case[0] (x).run[0].scene"), "{se}");
-    std::fs::write(&p, "[[case]]\nname = \"x\"\ntitle = \"t\"\nreference = \"housner\"\nrun = []\nbogus = 1\n").unwrap();
+    assert!(
+        first.contains("suite.toml") && first.contains("case[0] (x).run[0].scene"),
+        "{se}"
+    );
+    std::fs::write(
+        &p,
+        "[[case]]\nname = \"x\"\ntitle = \"t\"\nreference = \"housner\"\nrun = []\nbogus = 1\n",
+    )
+    .unwrap();
     let (ok, _, se) = run(bin().args(["validate", p.to_str().unwrap(), "--quiet"]));
     assert!(!ok);
     assert!(se.contains("bogus"), "{se}");
@@ -398,7 +419,10 @@ fn screenshot(out: &Path) {
         .collect();
     let mean = lum.iter().sum::<f64>() / lum.len() as f64;
     let var = lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64;
-    assert!(var > 100.0, "screenshot looks blank (luminance variance {var})");
+    assert!(
+        var > 100.0,
+        "screenshot looks blank (luminance variance {var})"
+    );
     // The paper section's plot: the first engine's curve in the palette's blue (#1f77b4).
     let blue = px
         .iter()
@@ -408,5 +432,8 @@ fn screenshot(out: &Path) {
                 && (p[2] as i32 - 0xb4).abs() < 40
         })
         .count();
-    assert!(blue > 200, "no plotted curve in the screenshot ({blue} blue pixels)");
+    assert!(
+        blue > 200,
+        "no plotted curve in the screenshot ({blue} blue pixels)"
+    );
 }

@@ -86,13 +86,11 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
     };
     let (results, stats) = validate(&cases, &gates, &opts).map_err(anyhow::Error::msg)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    std::fs::create_dir_all(&a.out)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.out.display()))?;
+    std::fs::create_dir_all(&a.out).map_err(|e| anyhow::anyhow!("{}: {e}", a.out.display()))?;
     for r in &results {
         for run in &r.runs {
             if let Ok(c) = &run.comparison {
-                write_comparison(&a.out.join(&run.dir), c, &command)
-                    .map_err(anyhow::Error::msg)?;
+                write_comparison(&a.out.join(&run.dir), c, &command).map_err(anyhow::Error::msg)?;
             }
         }
     }
@@ -134,6 +132,10 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
     if bad > 0 {
         bail!("{bad} of {} gates not as expected", gate_results.len());
     }
-    println!("{} of {} gates as expected", gate_results.len(), gate_results.len());
+    println!(
+        "{} of {} gates as expected",
+        gate_results.len(),
+        gate_results.len()
+    );
     Ok(())
 }

@@ -41,7 +41,8 @@
 //! - Displacement per block (absolute series only), m: `displacement_x_final` (horizontal
 //!   displacement of the centroid from the first to the last sample of the window, relative to
 //!   the ground: sliding) and `max_drift` (largest distance of the centroid from its first
-//!   position: nothing may move in a standing assembly).
+//!   position: nothing may move in a standing assembly); `max_drift` of block `(run)`: the
+//!   largest of every block's.
 //! - Cost (block `(run)`): `wall_time` (s), `steps`, `solver_iterations`.
 
 pub mod grid;
@@ -622,6 +623,19 @@ pub fn compare_runs(
             push(lab, "max_drift".into(), dx.1, dr.1, "m");
         }
     }
+    // The largest drift of any block (standing assemblies: nothing may move).
+    let drift = |tr: &Trajectory| {
+        (0..scene.blocks.len())
+            .filter_map(|i| displacement(tr, i, window).1)
+            .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |x| x.max(d))))
+    };
+    push(
+        RUN_ROW,
+        "max_drift".into(),
+        drift(&run.trajectory),
+        drift(&reference.trajectory),
+        "m",
+    );
     let c = (&run.cost, &reference.cost);
     push(
         RUN_ROW,

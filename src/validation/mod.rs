@@ -137,7 +137,10 @@ pub fn load_suite(path: &Path) -> Result<Vec<Case>, SuiteError> {
             return Err(err(at("name"), "another case has this name".into()));
         }
         if c.run.is_empty() {
-            return Err(err(at("run"), "a case needs at least one [[case.run]]".into()));
+            return Err(err(
+                at("run"),
+                "a case needs at least one [[case.run]]".into(),
+            ));
         }
         let reference = if c.reference.contains('/') || c.reference.ends_with(".csv") {
             let p = base.join(&c.reference);
@@ -305,7 +308,10 @@ fn worst(results: &[&GateResult]) -> Option<String> {
     Some(format!(
         "{}{}: {} (tol {})",
         w.gate.metric,
-        w.block.as_ref().map(|b| format!(" of {b}")).unwrap_or_default(),
+        w.block
+            .as_ref()
+            .map(|b| format!(" of {b}"))
+            .unwrap_or_default(),
         w.checked
             .map(crate::report::num)
             .unwrap_or_else(|| "none".into()),
@@ -365,7 +371,10 @@ impl CaseResult {
                 return Cell::Skipped(s.reason().unwrap_or("").to_string());
             }
         }
-        let failed = statuses.iter().filter(|s| matches!(s, Status::Failed(_))).count();
+        let failed = statuses
+            .iter()
+            .filter(|s| matches!(s, Status::Failed(_)))
+            .count();
         Cell::NoGate(if failed > 0 {
             format!("{failed} of {} runs failed", statuses.len())
         } else {
@@ -380,7 +389,13 @@ impl CaseResult {
 
 fn slug(s: &str) -> String {
     s.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '-' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '-'
+            }
+        })
         .collect()
 }
 

@@ -77,7 +77,12 @@ pub fn stack_events(c: &Comparison, name: &str, tr: &Trajectory) -> StackEvents 
             .find(|e| e.label == label && e.measured)
             .and_then(|e| e.impacts.first().copied())
     };
-    let bottom = c.scene.blocks.first().map(|b| b.name.clone()).unwrap_or_default();
+    let bottom = c
+        .scene
+        .blocks
+        .first()
+        .map(|b| b.name.clone())
+        .unwrap_or_default();
     let iface = if c.scene.blocks.len() >= 2 {
         format!("{}/{}", c.scene.blocks[0].name, c.scene.blocks[1].name)
     } else {
@@ -88,7 +93,11 @@ pub fn stack_events(c: &Comparison, name: &str, tr: &Trajectory) -> StackEvents 
         .map(|(k, _)| {
             let mut worst: Option<f64> = Some(0.0);
             for e in &ev {
-                let r = e.rest_times.iter().find(|(kk, _)| kk == k).and_then(|x| x.1);
+                let r = e
+                    .rest_times
+                    .iter()
+                    .find(|(kk, _)| kk == k)
+                    .and_then(|x| x.1);
                 worst = match (worst, r) {
                     (Some(a), Some(b)) => Some(a.max(b)),
                     _ => None,
@@ -239,7 +248,9 @@ fn paper_section(d: &mut Doc, r: &CaseResult, claims: &PaperClaims) {
         let mut row = vec![
             format!("`{}`", e.name),
             e.first_ground_impact.map(num).unwrap_or_else(|| "-".into()),
-            e.first_upper_crossing.map(num).unwrap_or_else(|| "-".into()),
+            e.first_upper_crossing
+                .map(num)
+                .unwrap_or_else(|| "-".into()),
         ];
         row.extend(e.rest.iter().map(|(_, t)| secs(*t)));
         rows.push(row);
@@ -254,12 +265,8 @@ fn paper_section(d: &mut Doc, r: &CaseResult, claims: &PaperClaims) {
     rows.push(paper);
     d.table(&head, &rows);
     // Plain statement.
-    let at = |e: &StackEvents, key: &str| {
-        e.rest
-            .iter()
-            .find(|(k, _)| k == key)
-            .and_then(|(_, t)| *t)
-    };
+    let at =
+        |e: &StackEvents, key: &str| e.rest.iter().find(|(k, _)| k == key).and_then(|(_, t)| *t);
     let span = |key: &str| {
         let v: Vec<f64> = evs.iter().filter_map(|e| at(e, key)).collect();
         if v.is_empty() {
@@ -368,8 +375,16 @@ fn case_section(d: &mut Doc, r: &CaseResult, root_rel: &dyn Fn(&Path) -> String)
         return;
     }
     let head: Vec<String> = [
-        "gate", "engine", "block", "metric", "value", "reference", "checked", "tolerance",
-        "expected", "result",
+        "gate",
+        "engine",
+        "block",
+        "metric",
+        "value",
+        "reference",
+        "checked",
+        "tolerance",
+        "expected",
+        "result",
     ]
     .map(String::from)
     .to_vec();
@@ -416,7 +431,12 @@ fn case_section(d: &mut Doc, r: &CaseResult, root_rel: &dyn Fn(&Path) -> String)
         d.p(&format!("Known failures: {}", known.join(" — ")));
     }
     for g in r.gates.iter().filter(|g| g.outcome.is_bad()) {
-        d.p(&format!("{}: `{}`: {}", g.outcome.word(), g.gate.name, g.message));
+        d.p(&format!(
+            "{}: `{}`: {}",
+            g.outcome.word(),
+            g.gate.name,
+            g.message
+        ));
     }
 }
 
@@ -444,11 +464,13 @@ pub fn render(
         prov.command
     ));
     d.h(2, "Summary matrix");
-    d.p("Each cell: pass (every gate of the engine on the case as expected, known failures \
+    d.p(
+        "Each cell: pass (every gate of the engine on the case as expected, known failures \
          included and counted), FAIL (a gate failed, or a known failure passes), skipped (the \
          engine cannot model the case, or is not built), no gate (ran, nothing checked), \
          reference (the case's reference engine); worst: the gate whose checked error is \
-         largest relative to its tolerance.");
+         largest relative to its tolerance.",
+    );
     let (head, rows) = matrix(results, engines);
     d.table(&head, &rows);
     let total: usize = results.iter().map(|r| r.gates.len()).sum();
