@@ -366,10 +366,8 @@ impl CaseResult {
         if statuses.is_empty() {
             return Cell::NotRun;
         }
-        if let Some(s) = statuses.iter().find(|s| matches!(s, Status::Skipped(_))) {
-            if statuses.iter().all(|s| matches!(s, Status::Skipped(_))) {
-                return Cell::Skipped(s.reason().unwrap_or("").to_string());
-            }
+        if statuses.iter().all(|s| matches!(s, Status::Skipped(_))) {
+            return Cell::Skipped(statuses[0].reason().unwrap_or("").to_string());
         }
         let failed = statuses
             .iter()

@@ -265,20 +265,29 @@ fn rand_suffix() -> u64 {
     N.fetch_add(1, Ordering::Relaxed)
 }
 
-/// A block sliding with constant deceleration `mu g` from `v0` (relative to the ground) until
-/// it stops, starting at `x0`, then at rest; optionally first accelerated relative to the
-/// ground by `a_rel` for `t_push` s. Closed form, sampled every `dt` up to `t_end`.
-fn sliding_trajectory(
-    name: &str,
+/// A sliding block: starts at `x0`, `z0` with velocity `v0` relative to the ground, is first
+/// accelerated relative to the ground by `a_rel` for `t_push` s (0: no push), then slides with
+/// constant deceleration `mu_g` until it stops.
+#[derive(Clone, Copy)]
+struct Slide {
     x0: f64,
     z0: f64,
     v0: f64,
     a_rel: f64,
     t_push: f64,
     mu_g: f64,
-    dt: f64,
-    t_end: f64,
-) -> Trajectory {
+}
+
+/// The closed-form history of a [`Slide`], sampled every `dt` up to `t_end`.
+fn sliding_trajectory(name: &str, sl: &Slide, dt: f64, t_end: f64) -> Trajectory {
+    let Slide {
+        x0,
+        z0,
+        v0,
+        a_rel,
+        t_push,
+        mu_g,
+    } = *sl;
     let mut tr = Trajectory::new(&[name.to_string()]);
     // State at the end of the push.
     let v1 = v0 + a_rel * t_push;
@@ -406,7 +415,15 @@ upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, sho
         let g = scene.gravity;
         let lay = scene.layout();
         let (x0, z0) = (lay.blocks[0].x, lay.blocks[0].z);
-        let tr = sliding_trajectory(&b.name, x0, z0, v0, 0.0, 0.0, mu * g, 1e-3, scene.duration);
+        let slide = Slide {
+            x0,
+            z0,
+            v0,
+            a_rel: 0.0,
+            t_push: 0.0,
+            mu_g: mu * g,
+        };
+        let tr = sliding_trajectory(&b.name, &slide, 1e-3, scene.duration);
         let d = v0 * v0 / (2.0 * mu * g);
         let mut r = header("sliding-block: closed-form sliding under Coulomb friction");
         let _ = writeln!(
@@ -431,23 +448,23 @@ upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, sho
                 ..
             }) => (amplitude, duration),
             _ => {
-                return Err("sliding-block-ground-acceleration: expects a rectangular pulse".into());
+                return Err(
+                    "sliding-block-ground-acceleration: expects a rectangular pulse".into(),
+                );
             }
         };
         let lay2 = scene2.layout();
         // Relative to the ground the block accelerates by -(a - mu g) during the pulse.
         let a_rel = -(a - mu2 * g);
-        let tr2 = sliding_trajectory(
-            &b2.name,
-            lay2.blocks[0].x,
-            lay2.blocks[0].z,
-            0.0,
+        let slide2 = Slide {
+            x0: lay2.blocks[0].x,
+            z0: lay2.blocks[0].z,
+            v0: 0.0,
             a_rel,
-            t1,
-            mu2 * g,
-            1e-3,
-            scene2.duration,
-        );
+            t_push: t1,
+            mu_g: mu2 * g,
+        };
+        let tr2 = sliding_trajectory(&b2.name, &slide2, 1e-3, scene2.duration);
         let v1 = a_rel * t1;
         let d2 = 0.5 * a_rel * t1 * t1 - v1 * v1 / (2.0 * mu2 * g);
         let mut r2 = header(
