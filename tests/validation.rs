@@ -329,7 +329,7 @@ fn validate_subset_matrix_and_report() {
     assert!(line_has(&so, "slender", "FAIL (1)"), "{so}");
     assert!(se.contains("1 of 5 gates not as expected"), "{se}");
     let html_bad = std::fs::read_to_string(out_bad.join("report.html")).unwrap();
-    assert!(html_bad.contains("FAIL (1 gates)"), "no FAIL in the report");
+    assert!(html_bad.contains("FAIL (1 gate)"), "no FAIL in the report");
 
     screenshot(&out);
     let _ = std::fs::remove_dir_all(&dir);
@@ -436,4 +436,57 @@ fn screenshot(out: &Path) {
         blue > 200,
         "no plotted curve in the screenshot ({blue} blue pixels)"
     );
+}
+
+/// The suite and both gate files load; every gate belongs to a case; every case has its
+/// reference data with provenance; in the full gate file every engine but the case's reference
+/// is gated on every case, and `make test`'s gate file is a subset of it.
+#[test]
+fn suite_and_gate_files_are_consistent() {
+    use rockbench::compare::ReferenceSpec;
+    use rockbench::gates::load_gates;
+    use rockbench::validation::{assign_gates, load_suite};
+    let cases = load_suite(&root().join("validation/suite.toml")).unwrap();
+    let full = load_gates(&root().join("validation/gates-full.toml")).unwrap();
+    let quick = load_gates(&root().join("validation/gates.toml")).unwrap();
+    let owner = assign_gates(&cases, &full).unwrap();
+    assign_gates(&cases, &quick).unwrap();
+    for g in &quick {
+        assert!(
+            full.iter().any(|f| f.name == g.name),
+            "{} not in gates-full",
+            g.name
+        );
+    }
+    for (k, c) in cases.iter().enumerate() {
+        let refs = c
+            .references
+            .as_ref()
+            .unwrap_or_else(|| panic!("{}: no references", c.name));
+        assert!(refs.join("PROVENANCE.md").is_file(), "{}", c.name);
+        for e in ["native", "rapier", "mujoco", "pybullet"] {
+            if c.reference == ReferenceSpec::Engine(e.into()) {
+                continue;
+            }
+            assert!(
+                full.iter()
+                    .zip(&owner)
+                    .any(|(g, o)| *o == k && g.engine == e),
+                "case {}: no gate on {e}",
+                c.name
+            );
+        }
+    }
+    // Every scene in validation/scenes is a run of some case.
+    for f in std::fs::read_dir(root().join("validation/scenes")).unwrap() {
+        let p = f.unwrap().path();
+        assert!(
+            cases.iter().any(|c| c
+                .runs
+                .iter()
+                .any(|r| r.scene_path.canonicalize().unwrap() == p.canonicalize().unwrap())),
+            "{} is in no case",
+            p.display()
+        );
+    }
 }

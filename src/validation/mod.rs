@@ -315,7 +315,7 @@ fn worst(results: &[&GateResult]) -> Option<String> {
         w.checked
             .map(crate::report::num)
             .unwrap_or_else(|| "none".into()),
-        w.gate.tolerance
+        crate::report::num(w.gate.tolerance)
     ))
 }
 
