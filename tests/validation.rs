@@ -490,3 +490,47 @@ fn suite_and_gate_files_are_consistent() {
         );
     }
 }
+
+/// Gate files: `include` takes another file's gates first (a cycle is an error naming the
+/// field), and `target` replaces the reference's value by a stated number.
+#[test]
+fn gate_include_and_target() {
+    let dir = tmp("include");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let g = |name: &str, target: f64| {
+        format!(
+            "[[gate]]\nname = \"{name}\"\nscene = \"{}\"\nengine = \"native\"\nreference = \"housner\"\nmetric = \"impact_time_1\"\ntolerance = 5e-4\ntarget = {target}\n",
+            scene.display()
+        )
+    };
+    // Housner's first impact is at 0.46738 s; native's within 1e-4 s of it.
+    std::fs::write(dir.join("a.toml"), g("near-stated", 0.4674)).unwrap();
+    std::fs::write(
+        dir.join("b.toml"),
+        format!("include = [\"a.toml\"]\n\n{}", g("far-stated", 0.3)),
+    )
+    .unwrap();
+    let gates = rockbench::gates::load_gates(&dir.join("b.toml")).unwrap();
+    let names: Vec<&str> = gates.iter().map(|x| x.name.as_str()).collect();
+    assert_eq!(names, ["near-stated", "far-stated"]);
+    assert_eq!(gates[1].target, Some(0.3));
+    let (ok, so, se) = run(bin().args([
+        "gate",
+        dir.join("b.toml").to_str().unwrap(),
+        "--no-cache",
+        "--quiet",
+    ]));
+    assert!(!ok, "{so}");
+    assert!(so.contains("FAIL: far-stated"), "{so}");
+    assert!(!so.contains("FAIL: near-stated"), "{so}");
+    assert!(se.contains("1 of 2 gates failed"), "{se}");
+    // A file that includes itself.
+    std::fs::write(
+        dir.join("c.toml"),
+        format!("include = [\"c.toml\"]\n\n{}", g("x", 0.4674)),
+    )
+    .unwrap();
+    let e = rockbench::gates::load_gates(&dir.join("c.toml")).unwrap_err();
+    assert!(e.to_string().contains("include[0]"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
