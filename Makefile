@@ -28,10 +28,11 @@ demo: build .venv
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
 test: test-no-default-features test-rust test-python
 
-test-no-default-features:
+# The validation tests load the earthquake case, whose record `make records` downloads.
+test-no-default-features: records
 	$(CARGO) test --release --no-default-features
 
-test-rust: chromium
+test-rust: chromium records
 	$(CARGO) test --release
 	$(MAKE) gates
 

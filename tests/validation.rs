@@ -446,6 +446,12 @@ fn suite_and_gate_files_are_consistent() {
     use rockbench::compare::ReferenceSpec;
     use rockbench::gates::load_gates;
     use rockbench::validation::{assign_gates, load_suite};
+    let record = root().join("validation/records/elcentro-1940.AT2");
+    assert!(
+        record.is_file(),
+        "{} is missing: run `make records` (make test does)",
+        record.display()
+    );
     let cases = load_suite(&root().join("validation/suite.toml")).unwrap();
     let full = load_gates(&root().join("validation/gates-full.toml")).unwrap();
     let quick = load_gates(&root().join("validation/gates.toml")).unwrap();
