@@ -11,32 +11,29 @@ VENV := .venv
 VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
-.PHONY: all build demo test test-rust test-no-default-features test-python stubtest \
-	settings-sweep rapier-sweep gates compare-demo chromium bench bench-steps fmt clippy clean .venv
+.PHONY: all build demo validate references records test test-rust test-no-default-features \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium bench bench-steps \
+	fmt clippy clean .venv
 
 all: build
 
 build:
 	$(CARGO) build --release
 
-# The main job: the paper's two-block case on every engine, and the slender block against the
-# Housner engine. Outputs under out/demo/.
+# The main job: the paper's two-block case on every engine, compared with the native engine;
+# writes out/demo/report.html (and report.md, metrics.csv, each engine's trajectory).
 demo: build .venv
-	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine native --out out/demo/two-block/native
-	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine rapier --out out/demo/two-block/rapier
-	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine mujoco --out out/demo/two-block/mujoco
-	$(BIN) run validation/scenes/two-block-free-rocking.toml --engine pybullet --out out/demo/two-block/pybullet
-	$(BIN) run validation/scenes/housner-slender.toml --engine housner --out out/demo/housner-slender/housner
-	$(BIN) run validation/scenes/housner-slender.toml --engine native --out out/demo/housner-slender/native
+	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --reference native --out out/demo
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
 test: test-no-default-features test-rust test-python
 
-test-no-default-features: chromium
+# The validation tests load the earthquake case, whose record `make records` downloads.
+test-no-default-features: chromium records
 	$(CARGO) test --release --no-default-features
 
-test-rust: chromium
+test-rust: chromium records
 	$(CARGO) test --release
 	$(MAKE) gates
 
@@ -47,9 +44,27 @@ test-python: .venv build
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
 
-# Accuracy gates (validation/gates.toml); runs are cached in .cache/rockbench/.
-gates: build
+# Accuracy gates (validation/gates.toml: native, housner and rapier on every case, MuJoCo and
+# PyBullet on a few key ones); runs are cached in .cache/rockbench/.
+gates: build .venv
 	$(BIN) gate validation/gates.toml --junit out/gates/junit.xml --quiet
+
+# The whole validation suite (validation/suite.toml) on every engine with the full gate file
+# (validation/gates-full.toml): out/validation/report.html with the summary matrix.
+validate: build .venv records chromium
+	$(BIN) validate validation/suite.toml --gates validation/gates-full.toml --out out/validation
+
+# Regenerate the generated validation scenes and reference-data/ (about 20 s); the test
+# `references_are_reproduced` checks the committed ones against the generator.
+references: build
+	$(BIN) references
+
+# The El Centro 1940 record of the earthquake case, from the quakeio wheel on PyPI (not
+# committed; see reference-data/earthquake-elcentro/PROVENANCE.md).
+records: validation/records/elcentro-1940.AT2
+
+validation/records/elcentro-1940.AT2: validation/records/fetch_elcentro.py | $(VENV)/.requirements.stamp
+	$(VPY) validation/records/fetch_elcentro.py $@
 
 # Cross-validation reports of the validation scenes.
 compare-demo: build .venv

@@ -7,9 +7,10 @@
 //! - **Peak amplitude**: max |phi| before the first impact and between consecutive impacts.
 //! - **Rest time** at epsilon: the earliest sample time after which |phi| stays below epsilon
 //!   to the end of the history (`None` if the last sample is not below it).
-//! - **Overturning**: |phi| reaches pi/2, or ends beyond the block's critical angle
-//!   atan(B/H) and still growing; the overturn time is the last upward crossing of the
-//!   critical angle before that.
+//! - **Overturning**: |phi| reaches pi/2 (to within [`ON_SIDE_TOLERANCE`]: a block that fell
+//!   onto its side rests a hair below pi/2 in a contact engine), or ends beyond the block's
+//!   critical angle atan(B/H) and still growing; the overturn time is the last upward crossing
+//!   of the critical angle before that.
 
 use serde::{Deserialize, Serialize};
 
@@ -22,6 +23,9 @@ pub const REST_THRESHOLDS: [(&str, f64); 4] = [
     ("1e-2", 1e-2),
     ("3e-2", 3e-2),
 ];
+/// A block whose |phi| comes this close to pi/2 lies on its side, rad (an overturned block in
+/// the native engine comes to rest at pi/2 - 3e-7 rad on the pulse-overturning cases).
+pub const ON_SIDE_TOLERANCE: f64 = 1e-3;
 /// The default rest threshold.
 pub const DEFAULT_REST: f64 = 1e-4;
 
@@ -110,7 +114,7 @@ pub fn overturning(t: &[f64], phi: &[f64], critical: f64) -> (bool, Option<f64>)
     }
     let flat = phi
         .iter()
-        .position(|p| p.abs() >= std::f64::consts::FRAC_PI_2);
+        .position(|p| p.abs() >= std::f64::consts::FRAC_PI_2 - ON_SIDE_TOLERANCE);
     let end = match flat {
         Some(k) => k,
         None => {
@@ -205,5 +209,19 @@ mod tests {
         assert!((at.unwrap() - 0.1f64.sqrt()).abs() < 1e-3);
         let (over, _) = overturning(&t, &[0.1; 10], 0.4);
         assert!(!over);
+    }
+
+    #[test]
+    fn a_block_at_rest_on_its_side_has_overturned() {
+        // Rises past the critical angle, then lies still just below pi/2.
+        let t = grid(3001, 1e-3);
+        let side = std::f64::consts::FRAC_PI_2 - 3e-7;
+        let phi: Vec<f64> = t.iter().map(|&x| (0.3 + x * x).min(side)).collect();
+        let (over, at) = overturning(&t, &phi, 0.4);
+        assert!(over);
+        assert!((at.unwrap() - 0.1f64.sqrt()).abs() < 1e-3);
+        // Still at rest well below pi/2: not overturned.
+        let phi: Vec<f64> = t.iter().map(|&x| (0.3 + x * x).min(1.0)).collect();
+        assert!(!overturning(&t, &phi, 0.4).0);
     }
 }

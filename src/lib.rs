@@ -24,7 +24,8 @@
 //! [`geometry`] (contact detection) · [`native`] (the theta step and its QP solvers) ·
 //! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`] ·
 //! [`metrics`] (comparing two trajectories) · [`compare`] (running engines against a reference)
-//! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML).
+//! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML) · [`validation`] (the validation suite,
+//! its reference-data generator and report).
 
 pub mod bench;
 pub mod cli;
@@ -42,3 +43,4 @@ pub mod report;
 pub mod scene;
 pub mod summary;
 pub mod trajectory;
+pub mod validation;

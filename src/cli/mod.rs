@@ -4,7 +4,9 @@ mod bench;
 mod check;
 mod compare;
 mod gate;
+mod references;
 mod run;
+mod validate;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -35,6 +37,11 @@ enum Command {
     /// Work-precision benchmark: every engine at every step size, median wall time against
     /// the error; writes DIR/work_precision.{csv,md,svg}.
     Bench(bench::BenchArgs),
+    /// Run the validation suite on every engine with its gates; writes DIR/report.html with
+    /// the summary matrix (case x engine).
+    Validate(validate::ValidateArgs),
+    /// Regenerate the generated validation scenes and reference-data/ (or check them).
+    References(references::ReferencesArgs),
 }
 
 /// Parse the command line and run it.
@@ -46,5 +53,7 @@ pub fn main() -> Result<()> {
         Command::Check(a) => check::check(a),
         Command::Compare(a) => compare::compare_cmd(a),
         Command::Gate(a) => gate::gate_cmd(a),
+        Command::Validate(a) => validate::validate_cmd(a),
+        Command::References(a) => references::references_cmd(a),
     }
 }

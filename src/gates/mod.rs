@@ -18,6 +18,8 @@
 //!                                        # metric has a reference value); value: |value|
 //!                                        # (default otherwise: error metrics);
 //!                                        # rel-diff: |value - reference| / |reference|
+//! target = 3.5                           # optional: a stated number (closed form, published
+//!                                        # claim) used instead of the reference's value
 //! expect = "pass"                        # or "known-failure", with `reason`
 //! reason = "..."
 //! ```
@@ -76,6 +78,9 @@ impl Check {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct GateFileRaw {
+    /// Other gate files whose gates come first (relative paths).
+    #[serde(default)]
+    include: Vec<String>,
     #[serde(default)]
     gate: Vec<GateRaw>,
 }
@@ -95,6 +100,8 @@ struct GateRaw {
     tolerance: f64,
     #[serde(default)]
     check: Option<Check>,
+    #[serde(default)]
+    target: Option<f64>,
     #[serde(default = "default_expect")]
     expect: Expect,
     #[serde(default)]
@@ -118,12 +125,19 @@ pub struct Gate {
     pub metric: String,
     pub tolerance: f64,
     pub check: Option<Check>,
+    /// A stated number compared instead of the reference's value.
+    pub target: Option<f64>,
     pub expect: Expect,
     pub reason: Option<String>,
 }
 
 /// Read and check a gate file. Every problem is one line naming the gate and the field.
+/// `include = ["other.toml"]` (relative to the file) takes another file's gates first.
 pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
+    load_gates_nested(path, 0)
+}
+
+fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> {
     let file = path.display().to_string();
     let err = |field: String, message: String| GateError {
         file: file.clone(),
@@ -155,11 +169,27 @@ pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
                 e.inner().message().lines().next().unwrap_or("").to_string(),
             )
         })?;
-    if raw.gate.is_empty() {
+    if raw.gate.is_empty() && raw.include.is_empty() {
         return Err(err("gate".into(), "no [[gate]] in the file".into()));
     }
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut gates: Vec<Gate> = Vec::new();
+    for (k, inc) in raw.include.iter().enumerate() {
+        if depth >= 8 {
+            return Err(err(
+                format!("include[{k}]"),
+                "includes nested more than 8 deep (a cycle?)".into(),
+            ));
+        }
+        let p = base.join(inc);
+        if !p.is_file() {
+            return Err(err(
+                format!("include[{k}]"),
+                format!("no gate file {}", p.display()),
+            ));
+        }
+        gates.extend(load_gates_nested(&p, depth + 1)?);
+    }
     let mut scenes: BTreeMap<(PathBuf, Vec<String>), Scene> = BTreeMap::new();
     for (i, g) in raw.gate.into_iter().enumerate() {
         let at = |f: &str| {
@@ -191,6 +221,14 @@ pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
             return Err(err(
                 at("tolerance"),
                 format!("must be a finite number >= 0 (got {})", g.tolerance),
+            ));
+        }
+        if let Some(t) = g.target
+            && !t.is_finite()
+        {
+            return Err(err(
+                at("target"),
+                format!("must be a finite number (got {t})"),
             ));
         }
         match (g.expect, &g.reason) {
@@ -263,6 +301,7 @@ pub fn load_gates(path: &Path) -> Result<Vec<Gate>, GateError> {
             metric: g.metric,
             tolerance: g.tolerance,
             check: g.check,
+            target: g.target,
             expect: g.expect,
             reason: g.reason,
         });
@@ -456,6 +495,10 @@ fn evaluate(g: &Gate, rows: &[MetricRow], run: Option<&EngineRun>) -> GateResult
                 run,
             );
         }
+    };
+    let row = &MetricRow {
+        reference: g.target.or(row.reference),
+        ..row.clone()
     };
     let check = g.check.unwrap_or(if row.reference.is_some() {
         Check::AbsDiff

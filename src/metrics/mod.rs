@@ -38,6 +38,11 @@
 //!   `energy_final` (at the end of the window) and `energy_rms_diff` (on the grid), with
 //!   `E = m (vx^2 + vz^2) / 2 + I omega^2 / 2 + m g (z - z_rest)`, `z_rest` the centroid height
 //!   of the block in the upright stack.
+//! - Displacement per block (absolute series only), m: `displacement_x_final` (horizontal
+//!   displacement of the centroid from the first to the last sample of the window, relative to
+//!   the ground: sliding) and `max_drift` (largest distance of the centroid from its first
+//!   position: nothing may move in a standing assembly); `max_drift` of block `(run)`: the
+//!   largest of every block's.
 //! - Cost (block `(run)`): `wall_time` (s), `steps`, `solver_iterations`.
 
 pub mod grid;
@@ -411,6 +416,20 @@ pub fn rest_height(scene: &Scene, i: usize) -> f64 {
     z
 }
 
+/// Horizontal displacement of block `i`'s centroid from its first to its last sample in the
+/// window, and its largest distance from its first position (`hypot(x - x0, z - z0)`), m.
+pub fn displacement(tr: &Trajectory, i: usize, window: (f64, f64)) -> (Option<f64>, Option<f64>) {
+    let k0 = tr.t.partition_point(|t| *t < window.0);
+    let k1 = tr.t.partition_point(|t| *t <= window.1);
+    if k1 <= k0 {
+        return (None, None);
+    }
+    let h = &tr.blocks[i];
+    let (x0, z0) = (h.x[k0], h.z[k0]);
+    let drift = (k0..k1).fold(0.0f64, |m, k| m.max((h.x[k] - x0).hypot(h.z[k] - z0)));
+    (Some(h.x[k1 - 1] - x0), Some(drift))
+}
+
 /// Every metric of `run` against `reference` (see the module docs).
 pub fn compare_runs(
     scene: &Scene,
@@ -596,8 +615,27 @@ pub fn compare_runs(
             );
             let (rms, _) = grid::rms_and_max(&ga, &gr, eh.t.len());
             push(lab, "energy_rms_diff".into(), Some(rms), None, "J/m");
+            let (dx, dr) = (
+                displacement(&run.trajectory, s.block, window),
+                displacement(&reference.trajectory, s.block, window),
+            );
+            push(lab, "displacement_x_final".into(), dx.0, dr.0, "m");
+            push(lab, "max_drift".into(), dx.1, dr.1, "m");
         }
     }
+    // The largest drift of any block (standing assemblies: nothing may move).
+    let drift = |tr: &Trajectory| {
+        (0..scene.blocks.len())
+            .filter_map(|i| displacement(tr, i, window).1)
+            .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |x| x.max(d))))
+    };
+    push(
+        RUN_ROW,
+        "max_drift".into(),
+        drift(&run.trajectory),
+        drift(&reference.trajectory),
+        "m",
+    );
     let c = (&run.cost, &reference.cost);
     push(
         RUN_ROW,
@@ -632,6 +670,8 @@ pub fn is_known_metric(name: &str) -> bool {
         "energy_initial",
         "energy_final",
         "energy_rms_diff",
+        "displacement_x_final",
+        "max_drift",
         "wall_time",
         "steps",
         "solver_iterations",

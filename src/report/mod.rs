@@ -15,7 +15,7 @@ use std::path::Path;
 use svg::{Curve, Marker, Plot};
 
 /// Colours: the reference is black and dashed, engines take these in order.
-const PALETTE: [&str; 7] = [
+pub(crate) const PALETTE: [&str; 7] = [
     "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf",
 ];
 
@@ -24,14 +24,14 @@ pub const WORDING_NORMALISED_RMS: f64 = 0.01;
 pub const WORDING_IMPACT_TIME_S: f64 = 5e-3;
 pub const WORDING_REST_RELATIVE: f64 = 0.10;
 
-/// HTML and Markdown written side by side.
-struct Doc {
-    html: String,
-    md: String,
-    plots: Vec<(String, String)>,
+/// HTML and Markdown written side by side (also used by the validation suite's report).
+pub(crate) struct Doc {
+    pub(crate) html: String,
+    pub(crate) md: String,
+    pub(crate) plots: Vec<(String, String)>,
 }
 
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -55,15 +55,32 @@ fn md_cell(s: &str) -> String {
 }
 
 impl Doc {
-    fn h(&mut self, level: usize, text: &str) {
+    pub(crate) fn new() -> Doc {
+        Doc {
+            html: String::new(),
+            md: String::new(),
+            plots: Vec::new(),
+        }
+    }
+    /// A link to a relative path, as its own paragraph.
+    pub(crate) fn link(&mut self, text: &str, href: &str) {
+        let _ = writeln!(
+            self.html,
+            "<p><a href=\"{}\">{}</a></p>",
+            esc(href),
+            inline_html(text)
+        );
+        let _ = writeln!(self.md, "[{text}]({href})\n");
+    }
+    pub(crate) fn h(&mut self, level: usize, text: &str) {
         let _ = writeln!(self.html, "<h{level}>{}</h{level}>", inline_html(text));
         let _ = writeln!(self.md, "{} {text}\n", "#".repeat(level));
     }
-    fn p(&mut self, text: &str) {
+    pub(crate) fn p(&mut self, text: &str) {
         let _ = writeln!(self.html, "<p>{}</p>", inline_html(text));
         let _ = writeln!(self.md, "{text}\n");
     }
-    fn table(&mut self, head: &[String], rows: &[Vec<String>]) {
+    pub(crate) fn table(&mut self, head: &[String], rows: &[Vec<String>]) {
         self.html.push_str("<table><thead><tr>");
         for h in head {
             let _ = write!(self.html, "<th>{}</th>", inline_html(h));
@@ -95,11 +112,11 @@ impl Doc {
         }
         self.md.push('\n');
     }
-    fn pre(&mut self, text: &str) {
+    pub(crate) fn pre(&mut self, text: &str) {
         let _ = writeln!(self.html, "<pre>{}</pre>", esc(text));
         let _ = writeln!(self.md, "```\n{text}\n```\n");
     }
-    fn plot(&mut self, file: &str, plot: &Plot) {
+    pub(crate) fn plot(&mut self, file: &str, plot: &Plot) {
         let svg = plot.render();
         let _ = writeln!(self.html, "<figure>{svg}</figure>");
         let _ = writeln!(self.md, "![{}](plots/{file})\n", plot.title);
@@ -974,7 +991,7 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
     (html, d.md, d.plots)
 }
 
-const CSS: &str = "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:1.5em auto;\
+pub(crate) const CSS: &str = "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:1.5em auto;\
 padding:0 1em;color:#222;line-height:1.4}table{border-collapse:collapse;margin:0.6em 0 1.2em;\
 font-size:0.88em}th,td{border:1px solid #ccc;padding:3px 7px;text-align:right}\
 th{background:#f2f2f2}td:first-child,th:first-child{text-align:left}code{background:#f4f4f4;\
