@@ -20,14 +20,18 @@ fn sliding_block_stops_at_the_closed_form_distance_under_both_laws() {
     for law in ["associative", "coulomb"] {
         let b = slide(law);
         let x = *b.x.last().unwrap();
-        assert!((x / want - 1.0).abs() < 5e-3, "{law}: stopped at {x} m, closed form {want} m");
+        assert!(
+            (x / want - 1.0).abs() < 5e-3,
+            "{law}: stopped at {x} m, closed form {want} m"
+        );
         assert!(b.vx.last().unwrap().abs() < 1e-9, "{law}: still moving");
     }
 }
 
 #[test]
 fn associative_friction_dilates_and_coulomb_friction_does_not() {
-    let lift = |b: &rockbench::trajectory::BlockHistory| b.z.iter().fold(0.0f64, |m, z| m.max(z - 0.5));
+    let lift =
+        |b: &rockbench::trajectory::BlockHistory| b.z.iter().fold(0.0f64, |m, z| m.max(z - 0.5));
     let a = lift(&slide("associative"));
     let c = lift(&slide("coulomb"));
     // Associative: thrown up by about mu v dt per step while sliding (mm).

@@ -6,5 +6,6 @@ harness as worker processes (``python -m rockbench.worker``).
 """
 
 from rockbench._native import Run, Scene, __version__, engine_names, load_scene, run
+from rockbench.compare import compare
 
-__all__ = ["Run", "Scene", "__version__", "engine_names", "load_scene", "run"]
+__all__ = ["Run", "Scene", "__version__", "compare", "engine_names", "load_scene", "run"]

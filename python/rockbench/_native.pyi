@@ -7,7 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
-__all__ = ["__version__", "Scene", "Run", "load_scene", "run", "engine_names"]
+__all__ = ["__version__", "Scene", "Run", "load_scene", "run", "engine_names", "compare_rows"]
 
 @final
 class Scene:
@@ -54,3 +54,9 @@ def run(
     overrides: Sequence[str] = ...,
 ) -> Run: ...
 def engine_names() -> list[str]: ...
+def compare_rows(
+    scene: Scene | str | os.PathLike[str] | dict[str, Any],
+    engines: Sequence[str],
+    reference: str = "native",
+    overrides: Sequence[str] = ...,
+) -> tuple[list[dict[str, Any]], dict[str, str]]: ...

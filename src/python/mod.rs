@@ -278,6 +278,45 @@ fn run(
     })
 }
 
+/// Run engines on a scene and compare them with a reference (an engine name or a
+/// trajectory.csv path): the metric rows of `rockbench compare` as a list of dicts (scene,
+/// engine, block, metric, value, reference, unit), plus each engine's status. GIL released.
+#[pyfunction]
+#[pyo3(signature = (scene, engines, reference = "native", overrides = Vec::new()))]
+fn compare_rows(
+    py: Python<'_>,
+    scene: &Bound<'_, PyAny>,
+    engines: Vec<String>,
+    reference: &str,
+    overrides: Vec<String>,
+) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
+    let scene = scene_from(scene, &overrides)?;
+    let opts = crate::compare::CompareOptions::new(
+        engines,
+        crate::compare::ReferenceSpec::parse(reference),
+    );
+    let c = py
+        .detach(move || crate::compare::compare(&scene, &opts))
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let rows = serde_json::to_value(&c.rows).expect("metric rows serialise");
+    let status: serde_json::Map<String, serde_json::Value> = c
+        .runs
+        .iter()
+        .map(|r| {
+            let word = r.status.word();
+            let text = match r.status.reason() {
+                Some(why) => format!("{word}: {why}"),
+                None => word.to_string(),
+            };
+            (r.engine.clone(), serde_json::Value::String(text))
+        })
+        .collect();
+    Ok((
+        convert::json_to_py(py, &rows)?.unbind(),
+        convert::json_to_py(py, &serde_json::Value::Object(status))?.unbind(),
+    ))
+}
+
 /// Names of the engines `run` accepts.
 #[pyfunction]
 fn engine_names() -> Vec<&'static str> {
@@ -293,5 +332,6 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(engine_names, m)?)?;
+    m.add_function(wrap_pyfunction!(compare_rows, m)?)?;
     Ok(())
 }

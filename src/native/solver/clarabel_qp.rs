@@ -350,7 +350,12 @@ impl ContactSolver for ClarabelSolver {
             // Free flight: the unconstrained minimiser u = -q / P, no solver needed.
             let sc = problem.scaled();
             return Ok(StepSolution {
-                dq: sc.q.iter().zip(&sc.p).map(|(q, p)| -q / p * problem.dt).collect(),
+                dq: sc
+                    .q
+                    .iter()
+                    .zip(&sc.p)
+                    .map(|(q, p)| -q / p * problem.dt)
+                    .collect(),
                 normal: Vec::new(),
                 tangential: Vec::new(),
                 iterations: 0,

@@ -1,0 +1,29 @@
+"""`rockbench.compare` returns the Rust metrics as a pandas DataFrame."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+import rockbench
+from conftest import scene_path
+
+
+def test_compare_returns_the_metrics_as_a_dataframe() -> None:
+    df = rockbench.compare(scene_path("housner-slender"), engines=["native", "housner"], reference="housner")
+    assert isinstance(df, pd.DataFrame)
+    assert list(df.columns) == ["scene", "engine", "block", "metric", "value", "reference", "unit"]
+    assert df.attrs["status"] == {"native": "ok", "housner": "ok"}
+    first = df[(df.engine == "native") & (df.block == "block") & (df.metric == "impact_time_1")].iloc[0]
+    # Native (theta 0.7, dt 1e-3) against Housner's 0.4674 s.
+    assert abs(first.reference - 0.4674) < 1e-4
+    assert abs(first.value - first.reference) < 1e-3
+    rms = df[(df.engine == "native") & (df.block == "block") & (df.metric == "rotation_rms_error")]
+    assert 0 < rms.value.iloc[0] < 5e-3
+
+
+def test_compare_lists_a_skipped_engine_with_its_reason() -> None:
+    df = rockbench.compare(scene_path("two-block-free-rocking"), engines=["native", "housner"], reference="native")
+    assert df.attrs["status"]["native"] == "ok"
+    assert df.attrs["status"]["housner"].startswith("skipped: ")
+    assert "single block" in df.attrs["status"]["housner"]
+    assert set(df.engine) <= {"native"}
