@@ -29,8 +29,10 @@ pub mod engines;
 pub mod events;
 pub mod excitation;
 pub mod geometry;
+pub mod invariants;
 pub mod native;
 
 pub mod scene;
+pub mod stress;
 pub mod summary;
 pub mod trajectory;

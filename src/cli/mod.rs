@@ -2,6 +2,7 @@
 
 mod check;
 mod run;
+mod stress;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -23,6 +24,8 @@ enum Command {
     Run(run::RunArgs),
     /// Check a scene file without running it.
     Check(check::CheckArgs),
+    /// Stability map: every engine over a grid of scenes, with the invariants of each run.
+    Stress(stress::StressArgs),
 }
 
 /// Parse the command line and run it.
@@ -31,5 +34,6 @@ pub fn main() -> Result<()> {
     match cli.command {
         Command::Run(a) => run::run(a),
         Command::Check(a) => check::check(a),
+        Command::Stress(a) => stress::stress(a),
     }
 }

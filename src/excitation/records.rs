@@ -83,9 +83,20 @@ pub fn parse_at2(text: &str) -> Result<Samples, String> {
         ));
     }
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(format!("line 4: DT = {dt} must be positive"));
+        return Err(format!(
+            "line 4: DT = {} must be positive",
+            crate::scene::num(dt)
+        ));
     }
-    let mut v = Vec::with_capacity(npts);
+    let span = (npts - 1) as f64 * dt;
+    if !span.is_finite() {
+        return Err(format!(
+            "line 4: NPTS = {npts} samples at DT = {} s span a time that is not finite",
+            crate::scene::num(dt)
+        ));
+    }
+    // The header is not trusted for the allocation: a value takes at least two bytes.
+    let mut v = Vec::with_capacity(npts.min(text.len() / 2 + 1));
     for (k, line) in lines.iter().enumerate().skip(4) {
         for tok in line.split_whitespace() {
             let x: f64 = tok

@@ -10,7 +10,10 @@ mod load;
 mod validate;
 
 pub use layout::{BlockState, Layout};
-pub use load::{apply_override, load_scene, load_scene_with_overrides, parse_scene_str};
+pub use load::{
+    apply_override, check_scene_str, load_scene, load_scene_with_overrides, parse_scene_str,
+};
+pub(crate) use validate::num;
 
 use crate::native::NativeSettings;
 use serde::{Deserialize, Serialize};
