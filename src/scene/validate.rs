@@ -189,6 +189,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
         }
     }
     check_overturning(scene, &layout)?;
+    check_initial_overlaps(scene, &layout)?;
 
     // Excitation.
     if let Some(exc) = &scene.excitation {
@@ -327,6 +328,70 @@ fn check_run_length(scene: &Scene) -> Result<(), SceneError> {
                 "duration / output_interval = {samples:e} samples; at most {MAX_SAMPLES:e} are allowed"
             ),
         ));
+    }
+    Ok(())
+}
+
+/// The scene field that rotates block `i` initially: the nearest block down its support
+/// chain with a relative rotation, else the tilt.
+fn rotation_field(scene: &Scene, layout: &Layout, i: usize) -> String {
+    let mut k = Some(i);
+    while let Some(j) = k {
+        let name = &scene.blocks[j].name;
+        if scene.initial.blocks.get(name).is_some_and(|s| s.rotation != 0.0) {
+            return format!("initial.blocks.{name}.rotation");
+        }
+        k = layout.supports[j];
+    }
+    "initial.tilt".to_string()
+}
+
+/// In the initial (rotated) position no block may reach into the ground or another block.
+fn check_initial_overlaps(scene: &Scene, layout: &Layout) -> Result<(), SceneError> {
+    let n = scene.blocks.len();
+    let verts: Vec<[(f64, f64); 4]> = (0..n)
+        .map(|i| {
+            let b = &scene.blocks[i];
+            let st = &layout.blocks[i];
+            let (sn, cs) = st.phi.sin_cos();
+            let (hb, hh) = (b.width / 2.0, b.height / 2.0);
+            [(-hb, -hh), (hb, -hh), (hb, hh), (-hb, hh)]
+                .map(|(lx, lz)| (st.x + cs * lx - sn * lz, st.z + sn * lx + cs * lz))
+        })
+        .collect();
+    let size = |i: usize| scene.blocks[i].width + scene.blocks[i].height;
+    for i in 0..n {
+        let low = verts[i].iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        if -low > 1e-9 * size(i) {
+            return Err(SceneError::new(
+                &scene.source,
+                rotation_field(scene, layout, i),
+                format!(
+                    "the initial rotation puts a corner of `{}` {:.3e} m into the ground",
+                    scene.blocks[i].name,
+                    -low
+                ),
+            ));
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            let d = crate::invariants::overlap_depth(&verts[i], &verts[j]);
+            if d > 1e-9 * (size(i) + size(j)) {
+                let mut field = rotation_field(scene, layout, i);
+                if field == "initial.tilt" {
+                    field = rotation_field(scene, layout, j);
+                }
+                return Err(SceneError::new(
+                    &scene.source,
+                    field,
+                    format!(
+                        "in its initial position `{}` overlaps `{}` by {d:.3e} m",
+                        scene.blocks[i].name, scene.blocks[j].name,
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }

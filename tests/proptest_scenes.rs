@@ -1,0 +1,252 @@
+//! Random scenes: every one is either refused with a one-line scene error, or run by every
+//! engine to a trajectory that passes the invariants (finite, penetration, energy, standing,
+//! mirror, rerun), or ends in a typed engine error. Never a panic.
+//!
+//! `PROPTEST_CASES` sets the number of cases (default 200 in `make test`; `make proptest`
+//! runs 10,000). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
+//! milliseconds.
+
+use proptest::prelude::*;
+use rockbench::engines::{ENGINE_NAMES, EngineError, engine_by_name};
+use rockbench::invariants::{Extra, Tolerances, run_checked};
+use rockbench::scene::check_scene_str;
+use std::fmt::Write as _;
+use std::path::Path;
+
+#[derive(Debug, Clone)]
+struct RBlock {
+    width: f64,
+    height: f64,
+    density: f64,
+    /// Offset as a fraction of the narrower of this block and the block below.
+    offset_frac: f64,
+    rotation: f64,
+    omega: f64,
+    vx: f64,
+    friction: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+enum RExcitation {
+    None,
+    Pulse {
+        kind: &'static str,
+        amplitude: f64,
+        period: f64,
+        start: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct RScene {
+    blocks: Vec<RBlock>,
+    tilt: f64,
+    friction: f64,
+    theta: f64,
+    dt: f64,
+    duration: f64,
+    gravity: f64,
+    moving_ground: bool,
+    dual: bool,
+    excitation: RExcitation,
+}
+
+fn log_uniform(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    (lo.ln()..hi.ln()).prop_map(f64::exp)
+}
+
+fn block() -> impl Strategy<Value = RBlock> {
+    (
+        log_uniform(0.05, 5.0),
+        log_uniform(0.05, 5.0),
+        log_uniform(10.0, 1e4),
+        prop_oneof![4 => -0.45..0.45f64, 1 => -0.7..0.7f64],
+        prop_oneof![2 => Just(0.0), 1 => -0.3..0.3f64],
+        prop_oneof![2 => Just(0.0), 1 => -1.0..1.0f64],
+        prop_oneof![3 => Just(0.0), 1 => -0.5..0.5f64],
+        prop::option::weighted(0.2, 0.0..2.0f64),
+    )
+        .prop_map(
+            |(width, height, density, offset_frac, rotation, omega, vx, friction)| RBlock {
+                width,
+                height,
+                density,
+                offset_frac,
+                rotation,
+                omega,
+                vx,
+                friction,
+            },
+        )
+}
+
+fn excitation() -> impl Strategy<Value = RExcitation> {
+    prop_oneof![
+        2 => Just(RExcitation::None),
+        1 => (
+            prop_oneof![Just("half-sine"), Just("one-sine"), Just("rectangular")],
+            -30.0..30.0f64,
+            0.02..1.0f64,
+            0.0..0.1f64
+        )
+            .prop_map(|(kind, amplitude, period, start)| RExcitation::Pulse {
+                kind,
+                amplitude,
+                period,
+                start
+            }),
+    ]
+}
+
+fn scene() -> impl Strategy<Value = RScene> {
+    (
+        prop::collection::vec(block(), 1..5),
+        prop_oneof![2 => Just(0.0), 3 => -0.6..0.6f64],
+        0.0..2.0f64,
+        prop_oneof![1 => Just(0.5), 1 => Just(1.0), 3 => 0.5..=1.0f64],
+        log_uniform(5e-4, 5e-3),
+        0.01..0.25f64,
+        prop_oneof![4 => Just(9.81), 1 => 0.5..30.0f64],
+        any::<bool>(),
+        any::<bool>(),
+        excitation(),
+    )
+        .prop_map(
+            |(blocks, tilt, friction, theta, dt, duration, gravity, moving_ground, dual, excitation)| {
+                RScene {
+                    blocks,
+                    tilt,
+                    friction,
+                    theta,
+                    dt,
+                    duration,
+                    gravity,
+                    moving_ground,
+                    dual,
+                    excitation,
+                }
+            },
+        )
+}
+
+impl RScene {
+    fn toml(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "name = \"random\"\nduration = {:e}\ngravity = {:e}\noutput_interval = {:e}",
+            self.duration, self.gravity, self.dt
+        );
+        for (i, b) in self.blocks.iter().enumerate() {
+            let below = if i == 0 { b.width } else { self.blocks[i - 1].width };
+            let offset = b.offset_frac * b.width.min(below);
+            let _ = writeln!(
+                s,
+                "\n[[blocks]]\nname = \"b{i}\"\nwidth = {:e}\nheight = {:e}\ndensity = {:e}\noffset = {:e}",
+                b.width, b.height, b.density, offset
+            );
+        }
+        let _ = writeln!(s, "\n[initial]\ntilt = {:e}", self.tilt);
+        for (i, b) in self.blocks.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "\n[initial.blocks.b{i}]\nrotation = {:e}\nomega = {:e}\nvx = {:e}",
+                if i == 0 { 0.0 } else { b.rotation },
+                b.omega,
+                b.vx
+            );
+        }
+        let _ = writeln!(s, "\n[contact]\nfriction = {:e}", self.friction);
+        for (i, b) in self.blocks.iter().enumerate() {
+            if let Some(mu) = b.friction {
+                let _ = writeln!(s, "\n[contact.interfaces.b{i}]\nfriction = {mu:e}");
+            }
+        }
+        let _ = writeln!(
+            s,
+            "\n[native]\ntheta = {:e}\ndt = {:e}\nformulation = \"{}\"",
+            self.theta,
+            self.dt,
+            if self.dual { "dual" } else { "primal" }
+        );
+        if let RExcitation::Pulse {
+            kind,
+            amplitude,
+            period,
+            start,
+        } = &self.excitation
+        {
+            let _ = writeln!(
+                s,
+                "\n[excitation]\napplied_as = \"{}\"\n\n[excitation.horizontal]\nkind = \"{kind}\"\namplitude = {amplitude:e}\nduration = {period:e}\nstart = {start:e}",
+                if self.moving_ground {
+                    "moving-ground"
+                } else {
+                    "inertial-forces"
+                }
+            );
+        }
+        s
+    }
+}
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: cases(),
+        max_shrink_iters: 200,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn random_scene_gives_valid_trajectory_or_typed_error(r in scene()) {
+        let text = r.toml();
+        let scene = match check_scene_str(&text, false, "random.toml", &[], Path::new(".")) {
+            Ok(s) => s,
+            Err(e) => {
+                // A refused scene: one line naming the file and the field.
+                let line = e.to_string();
+                prop_assert!(!line.contains('\n'), "multi-line error: {line}");
+                prop_assert!(line.starts_with("random.toml: "), "{line}");
+                prop_assert!(!e.field.is_empty() && !e.message.is_empty(), "{line}");
+                return Ok(());
+            }
+        };
+        let tol = Tolerances::default();
+        for name in ENGINE_NAMES {
+            let engine = engine_by_name(name).unwrap();
+            match run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true }) {
+                Ok((out, report)) => {
+                    prop_assert!(out.trajectory.is_finite(), "{name}: non-finite trajectory\n{text}");
+                    prop_assert!(!out.trajectory.is_empty());
+                    let last = *out.trajectory.t.last().unwrap();
+                    // The native engine takes whole steps: its last sample may pass the
+                    // duration by less than one step.
+                    let slack = 1e-9 * scene.duration.max(1.0);
+                    prop_assert!(
+                        last >= scene.duration - slack && last < scene.duration + scene.native.dt + slack,
+                        "{name}: trajectory ends at {last}, duration {}", scene.duration
+                    );
+                    let v: Vec<String> = report
+                        .violations()
+                        .iter()
+                        .map(|c| format!("{}: {}", c.name, c.detail))
+                        .collect();
+                    prop_assert!(v.is_empty(), "{name}: invariants violated: {}\n{text}", v.join("; "));
+                }
+                // Typed errors are acceptable outcomes; their messages are single lines.
+                Err(e @ (EngineError::Unsupported { .. } | EngineError::Failed { .. } | EngineError::Scene(_))) => {
+                    prop_assert!(!e.to_string().contains('\n'), "{name}: {e}");
+                }
+                Err(e) => prop_assert!(false, "{name}: unexpected error kind: {e}\n{text}"),
+            }
+        }
+    }
+}
