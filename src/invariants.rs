@@ -15,9 +15,11 @@
 //!   every vertex moves by less than `drift` (1e-9 m) over the whole run.
 //! - **mirror**: the scene mirrored about `x = 0` gives the mirrored motion
 //!   (`x -> -x`, `phi -> -phi`, `vx -> -vx`, `omega -> -omega`) within `mirror_rel` of the
-//!   largest block dimension (m) or rad, up to the first impact of the original run (after it
-//!   the motion of a stack is sensitive to round-off, so only the single-block case is compared
-//!   over the whole run).
+//!   largest block dimension (m) or rad, up to the first impact of the original run. After an
+//!   impact, round-off decides discrete contact events (the step in which a corner closes, a
+//!   contact kept or dropped), so the two runs may then differ by far more than round-off
+//!   (measured: up to 9e-4 rad after several impacts of a single block at theta = 0.5), and a
+//!   stack is chaotic after its first impact.
 //! - **rerun**: running the same scene twice gives a bit-identical trajectory.
 //!
 //! The tolerances are [`Tolerances::default`], chosen by measurement on the native and Housner
@@ -451,11 +453,7 @@ pub fn check_mirror(
             "the mirrored run has different sample times or blocks".into(),
         );
     }
-    let until = if scene.blocks.len() == 1 {
-        f64::INFINITY
-    } else {
-        first_impact(scene, tr)
-    };
+    let until = first_impact(scene, tr);
     let len = largest_dimension(scene);
     let mut worst = 0.0f64;
     let mut who = String::new();

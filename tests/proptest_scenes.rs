@@ -112,7 +112,18 @@ fn scene() -> impl Strategy<Value = RScene> {
         excitation(),
     )
         .prop_map(
-            |(blocks, tilt, friction, theta, dt, duration, gravity, moving_ground, dual, excitation)| {
+            |(
+                blocks,
+                tilt,
+                friction,
+                theta,
+                dt,
+                duration,
+                gravity,
+                moving_ground,
+                dual,
+                excitation,
+            )| {
                 RScene {
                     blocks,
                     tilt,
@@ -138,7 +149,11 @@ impl RScene {
             self.duration, self.gravity, self.dt
         );
         for (i, b) in self.blocks.iter().enumerate() {
-            let below = if i == 0 { b.width } else { self.blocks[i - 1].width };
+            let below = if i == 0 {
+                b.width
+            } else {
+                self.blocks[i - 1].width
+            };
             let offset = b.offset_frac * b.width.min(below);
             let _ = writeln!(
                 s,

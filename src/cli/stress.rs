@@ -23,7 +23,7 @@ pub struct StressArgs {
     #[arg(long, default_value = "validation/stress-known.toml")]
     known: PathBuf,
     /// A run longer than this (s) is abandoned and counted as failed.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = 600.0)]
     timeout: f64,
     /// Only the cells of these factors (comma-separated; default all).
     #[arg(long, value_delimiter = ',')]

@@ -338,7 +338,12 @@ fn rotation_field(scene: &Scene, layout: &Layout, i: usize) -> String {
     let mut k = Some(i);
     while let Some(j) = k {
         let name = &scene.blocks[j].name;
-        if scene.initial.blocks.get(name).is_some_and(|s| s.rotation != 0.0) {
+        if scene
+            .initial
+            .blocks
+            .get(name)
+            .is_some_and(|s| s.rotation != 0.0)
+        {
             return format!("initial.blocks.{name}.rotation");
         }
         k = layout.supports[j];
@@ -368,8 +373,7 @@ fn check_initial_overlaps(scene: &Scene, layout: &Layout) -> Result<(), SceneErr
                 rotation_field(scene, layout, i),
                 format!(
                     "the initial rotation puts a corner of `{}` {:.3e} m into the ground",
-                    scene.blocks[i].name,
-                    -low
+                    scene.blocks[i].name, -low
                 ),
             ));
         }
