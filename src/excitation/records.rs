@@ -24,7 +24,7 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
             continue;
         }
         let cols: Vec<&str> = line
-            .split(|c: char| c == ',' || c == ';' || c == '\t' || c == ' ')
+            .split([',', ';', '\t', ' '])
             .filter(|s| !s.is_empty())
             .collect();
         let nums: Result<Vec<f64>, _> = cols.iter().map(|c| c.parse::<f64>()).collect();
@@ -43,14 +43,14 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
                 if !n[0].is_finite() || !n[1].is_finite() {
                     return Err(format!("line {}: value is not finite", ln + 1));
                 }
-                if let Some(&last) = t.last() {
-                    if n[0] <= last {
-                        return Err(format!(
-                            "line {}: time {} does not increase (previous {last})",
-                            ln + 1,
-                            n[0]
-                        ));
-                    }
+                if let Some(&last) = t.last()
+                    && n[0] <= last
+                {
+                    return Err(format!(
+                        "line {}: time {} does not increase (previous {last})",
+                        ln + 1,
+                        n[0]
+                    ));
                 }
                 t.push(n[0]);
                 v.push(n[1]);

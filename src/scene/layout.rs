@@ -89,8 +89,8 @@ impl Layout {
                 Some(x) => {
                     let span = (x - b.width / 2.0, x + b.width / 2.0);
                     let mut best: (f64, Option<usize>, f64) = (0.0, None, 0.0);
-                    for j in 0..i {
-                        let (xj, zj): (f64, f64) = upright[j];
+                    for (j, &(xj, zj)) in upright.iter().enumerate().take(i) {
+                        let (xj, zj): (f64, f64) = (xj, zj);
                         let bj = &scene.blocks[j];
                         let ov = overlap(span, (xj - bj.width / 2.0, xj + bj.width / 2.0));
                         if ov <= 0.0 {

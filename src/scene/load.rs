@@ -137,10 +137,11 @@ fn reject_non_finite(v: &toml::Value, path: String, file: &str) -> Result<(), Sc
 /// plainly (scene values are bare numbers in SI units: `duration = 5`, never `"5 s"`).
 fn clean_serde_message(m: &str) -> String {
     let m = m.lines().next().unwrap_or("").trim();
-    if let Some(rest) = m.strip_prefix("invalid type: ") {
-        if let Some(got) = rest.strip_suffix(", expected f64") {
-            return format!("expected a number in SI units without a unit suffix, got {got}");
-        }
+    if let Some(got) = m
+        .strip_prefix("invalid type: ")
+        .and_then(|rest| rest.strip_suffix(", expected f64"))
+    {
+        return format!("expected a number in SI units without a unit suffix, got {got}");
     }
     m.to_string()
 }

@@ -263,13 +263,13 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
             ),
         );
     }
-    if let Some(r) = scene.housner.restitution {
-        if !r.is_finite() || !(0.0..=1.0).contains(&r) {
-            return err(
-                "housner.restitution".into(),
-                format!("must be in [0, 1] (got {})", num(r)),
-            );
-        }
+    if let Some(r) = scene.housner.restitution
+        && (!r.is_finite() || !(0.0..=1.0).contains(&r))
+    {
+        return err(
+            "housner.restitution".into(),
+            format!("must be in [0, 1] (got {})", num(r)),
+        );
     }
     Ok(())
 }
@@ -365,8 +365,8 @@ fn check_initial_overlaps(scene: &Scene, layout: &Layout) -> Result<(), SceneErr
         })
         .collect();
     let size = |i: usize| scene.blocks[i].width + scene.blocks[i].height;
-    for i in 0..n {
-        let low = verts[i].iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+    for (i, v) in verts.iter().enumerate() {
+        let low = v.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
         if -low > 1e-9 * size(i) {
             return Err(SceneError::new(
                 &scene.source,
