@@ -169,6 +169,21 @@ mod tests {
         assert!(e.contains("NPTS = 5") && e.contains("only 3"), "{e}");
     }
 
+    /// A header claiming 1e18 samples must not reserve memory for them.
+    #[test]
+    fn at2_huge_npts_is_an_error_not_an_allocation() {
+        let text = NEW.replace("NPTS=    5", "NPTS=1000000000000000000");
+        let e = parse_at2(&text).unwrap_err();
+        assert!(e.contains("NPTS = 1000000000000000000") && e.contains("only 5"), "{e}");
+    }
+
+    #[test]
+    fn at2_time_span_overflow_is_an_error() {
+        let text = NEW.replace("DT=   .0100", "DT=  1E308");
+        let e = parse_at2(&text).unwrap_err();
+        assert!(e.contains("not finite"), "{e}");
+    }
+
     #[test]
     fn csv_with_header_and_comments() {
         let s = parse_two_column("# comment\ntime,acc\n0,0\n0.1,1.5\n0.2,-1\n").unwrap();
