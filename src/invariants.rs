@@ -98,8 +98,9 @@ impl Check {
 }
 
 /// The names of all checks, in report order.
-pub const CHECK_NAMES: [&str; 6] = [
+pub const CHECK_NAMES: [&str; 7] = [
     "finite",
+    "complete",
     "penetration",
     "energy",
     "standing",
@@ -234,6 +235,50 @@ pub fn check_finite(tr: &Trajectory) -> Check {
         bad as f64,
         0.0,
         format!("{bad} non-finite values"),
+    )
+}
+
+/// The samples cover the run: times strictly increase from 0 to the duration (an engine
+/// taking whole steps may pass it by less than one native step), one history per block.
+pub fn check_complete(scene: &Scene, tr: &Trajectory) -> Check {
+    let slack = 1e-9 * scene.duration.max(1.0);
+    let last = tr.t.last().copied().unwrap_or(f64::NAN);
+    let mut problems = Vec::new();
+    if tr.blocks.len() != scene.blocks.len() {
+        problems.push(format!(
+            "{} block histories for {} blocks",
+            tr.blocks.len(),
+            scene.blocks.len()
+        ));
+    }
+    if tr.blocks.iter().any(|b| {
+        [&b.x, &b.z, &b.phi, &b.vx, &b.vz, &b.omega]
+            .iter()
+            .any(|v| v.len() != tr.t.len())
+    }) {
+        problems.push("histories of different lengths".into());
+    }
+    if tr.t.first().is_none_or(|&t0| t0.abs() > slack) {
+        problems.push("does not start at t = 0".into());
+    }
+    if !tr.t.windows(2).all(|w| w[1] > w[0]) {
+        problems.push("times do not increase".into());
+    }
+    if !(last >= scene.duration - slack && last < scene.duration + scene.native.dt + slack) {
+        problems.push(format!(
+            "ends at {last} s, the duration is {} s",
+            scene.duration
+        ));
+    }
+    Check::measured(
+        "complete",
+        problems.len() as f64,
+        0.0,
+        if problems.is_empty() {
+            format!("{} samples from 0 to {last} s", tr.len())
+        } else {
+            problems.join("; ")
+        },
     )
 }
 
@@ -530,8 +575,10 @@ pub fn check_rerun(a: &Trajectory, b: &Trajectory) -> Check {
 /// The checks that need one trajectory only.
 pub fn check_single(scene: &Scene, tr: &Trajectory, tol: &Tolerances) -> InvariantReport {
     let finite = check_finite(tr);
-    let mut checks = vec![finite.clone()];
-    if finite.passed {
+    let complete = check_complete(scene, tr);
+    let ok = finite.passed && complete.passed;
+    let mut checks = vec![finite, complete];
+    if ok {
         checks.push(check_penetration(scene, tr, tol));
         checks.push(check_energy(scene, tr, tol));
         checks.push(check_standing(scene, tr, tol));

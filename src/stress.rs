@@ -27,12 +27,13 @@
 //! are matched against a list of known, explained cases (`validation/stress-known.toml`); the
 //! command fails when any is unexplained.
 
-use crate::engines::{EngineError, engine_by_name};
+use crate::engines::{Engine, EngineError, engine_by_name};
 use crate::invariants::{CHECK_NAMES, InvariantReport, Tolerances};
 use crate::scene::{Scene, check_scene_str};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::Arc;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -404,6 +405,21 @@ pub fn run_cell(
     timeout: Duration,
     known: &KnownList,
 ) -> CellResult {
+    run_cell_with(engine, Arc::new(engine_by_name), cell, tol, timeout, known)
+}
+
+/// Makes the engine of a cell (in the worker thread).
+pub type EngineFactory = Arc<dyn Fn(&str) -> Result<Box<dyn Engine>, EngineError> + Send + Sync>;
+
+/// [`run_cell`] with the engine made by `make` (tests use it to inject faulty engines).
+pub fn run_cell_with(
+    engine: &str,
+    make: EngineFactory,
+    cell: &Cell,
+    tol: &Tolerances,
+    timeout: Duration,
+    known: &KnownList,
+) -> CellResult {
     let mut r = CellResult {
         engine: engine.to_string(),
         factor: cell.factor.to_string(),
@@ -424,7 +440,7 @@ pub fn run_cell(
             return finish(r, known);
         }
     };
-    if let Err(e) = engine_by_name(engine) {
+    if let Err(e) = make(engine) {
         r.status = Status::Skipped;
         r.reason = e.to_string();
         return r;
@@ -437,7 +453,7 @@ pub fn run_cell(
         .name(format!("stress {engine} {}={}", cell.factor, cell.label))
         .spawn(move || {
             let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                let e = engine_by_name(&name)?;
+                let e = make(&name)?;
                 let t0 = Instant::now();
                 let main = e.run(&scene);
                 let wall = t0.elapsed().as_secs_f64();
@@ -579,7 +595,7 @@ pub fn totals(results: &[CellResult]) -> Totals {
     t
 }
 
-const CSV_HEADER: &str = "engine,factor,value,status,wall_s,steps,finite,penetration_m,penetration_limit_m,energy_growth_rel,standing_drift_m,mirror_diff,rerun_bit_diffs,violations,unexplained,reason";
+const CSV_HEADER: &str = "engine,factor,value,status,wall_s,steps,finite,complete,penetration_m,penetration_limit_m,energy_growth_rel,standing_drift_m,mirror_diff,rerun_bit_diffs,violations,unexplained,reason";
 
 fn csv_escape(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -604,7 +620,7 @@ pub fn csv(results: &[CellResult]) -> String {
         let viol: Vec<String> = r.issues.iter().map(|i| i.check.clone()).collect();
         let _ = writeln!(
             s,
-            "{},{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.engine,
             r.factor,
             r.label,
@@ -612,6 +628,7 @@ pub fn csv(results: &[CellResult]) -> String {
             r.wall_s,
             r.steps,
             check_value(r, "finite"),
+            check_value(r, "complete"),
             check_value(r, "penetration"),
             r.invariants
                 .get("penetration")
@@ -770,7 +787,7 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
     .map(|(c, w)| format!("<span style=\"background:{c};padding:2px 8px;margin-right:6px;border:1px solid #555\">{w}</span>"))
     .collect();
     format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations, {} unexplained issues. One factor at a time around the base case (see <code>rockbench stress --help</code>); hover a cell for its details.</p>\n<p>{legend}</p>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / issues</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations, {} unexplained issues. One factor at a time around the base case (see <code>rockbench stress --help</code>); hover a cell for its details.</p>\n<p>{legend}</p>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>complete</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / issues</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
         t.cells,
         t.finished,
         t.failed,
@@ -863,5 +880,120 @@ mod tests {
         );
         assert_eq!(r.status, Status::Skipped);
         assert_eq!(r.unexplained(), 0);
+    }
+}
+
+/// Engine faults: a panic, a hang past the timeout, NaN and a truncated trajectory are each a
+/// failed cell or a violated invariant with its reason, and the map goes on.
+#[cfg(test)]
+mod fault_tests {
+    use super::*;
+    use crate::engines::RunOutput;
+
+    #[derive(Clone, Copy)]
+    enum Fault {
+        Panic,
+        Hang,
+        NaN,
+        Truncated,
+        Error,
+    }
+
+    struct Faulty(Fault);
+
+    impl Engine for Faulty {
+        fn name(&self) -> &'static str {
+            "faulty"
+        }
+        fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+            let mut out = engine_by_name("housner").unwrap().run(scene)?;
+            match self.0 {
+                Fault::Panic => panic!("worker crashed"),
+                Fault::Hang => loop {
+                    std::thread::sleep(Duration::from_millis(50));
+                },
+                Fault::NaN => out.trajectory.blocks[0].phi[5] = f64::NAN,
+                Fault::Truncated => {
+                    let n = out.trajectory.len() / 2;
+                    out.trajectory.t.truncate(n);
+                    for b in &mut out.trajectory.blocks {
+                        for v in [
+                            &mut b.x,
+                            &mut b.z,
+                            &mut b.phi,
+                            &mut b.vx,
+                            &mut b.vz,
+                            &mut b.omega,
+                        ] {
+                            v.truncate(n);
+                        }
+                    }
+                }
+                Fault::Error => {
+                    return Err(EngineError::Failed {
+                        engine: "faulty",
+                        message: "worker exited with status 3".into(),
+                    });
+                }
+            }
+            Ok(out)
+        }
+    }
+
+    fn run(fault: Fault) -> CellResult {
+        let cell = grid(true)
+            .into_iter()
+            .find(|c| c.factor == "theta")
+            .unwrap();
+        run_cell_with(
+            "faulty",
+            Arc::new(move |_: &str| Ok(Box::new(Faulty(fault)) as Box<dyn Engine>)),
+            &cell,
+            &Tolerances::default(),
+            Duration::from_millis(1500),
+            &KnownList::default(),
+        )
+    }
+
+    #[test]
+    fn a_panicking_engine_is_a_failed_cell_with_its_message() {
+        let r = run(Fault::Panic);
+        assert_eq!(r.status, Status::Failed);
+        assert!(r.reason.contains("panic: worker crashed"), "{}", r.reason);
+        assert_eq!(r.unexplained(), 1);
+    }
+
+    #[test]
+    fn a_hanging_engine_is_abandoned_after_the_timeout() {
+        let t0 = Instant::now();
+        let r = run(Fault::Hang);
+        assert!(t0.elapsed() < Duration::from_secs(10));
+        assert_eq!(r.status, Status::Failed);
+        assert!(r.reason.contains("timed out after 1.5 s"), "{}", r.reason);
+    }
+
+    #[test]
+    fn nan_and_truncated_trajectories_violate_invariants() {
+        let r = run(Fault::NaN);
+        assert_eq!(r.status, Status::Finished);
+        assert!(r.invariants.get("finite").unwrap().violated());
+        let r = run(Fault::Truncated);
+        assert!(
+            r.invariants.get("complete").unwrap().violated(),
+            "{:?}",
+            r.invariants.get("complete")
+        );
+        assert!(r.unexplained() >= 1);
+    }
+
+    #[test]
+    fn an_engine_error_is_a_failed_cell_with_its_reason() {
+        let r = run(Fault::Error);
+        assert_eq!(r.status, Status::Failed);
+        assert!(
+            r.reason.contains("worker exited with status 3"),
+            "{}",
+            r.reason
+        );
     }
 }

@@ -174,7 +174,10 @@ mod tests {
     fn at2_huge_npts_is_an_error_not_an_allocation() {
         let text = NEW.replace("NPTS=    5", "NPTS=1000000000000000000");
         let e = parse_at2(&text).unwrap_err();
-        assert!(e.contains("NPTS = 1000000000000000000") && e.contains("only 5"), "{e}");
+        assert!(
+            e.contains("NPTS = 1000000000000000000") && e.contains("only 5"),
+            "{e}"
+        );
     }
 
     #[test]
