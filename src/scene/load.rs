@@ -133,10 +133,12 @@ fn reject_non_finite(v: &toml::Value, path: String, file: &str) -> Result<(), Sc
     }
 }
 
-/// First line of a deserialisation message; a wrong type where a number belongs is said
+/// A deserialisation message; a wrong type where a number belongs is said
 /// plainly (scene values are bare numbers in SI units: `duration = 5`, never `"5 s"`).
 fn clean_serde_message(m: &str) -> String {
-    let m = m.lines().next().unwrap_or("").trim();
+    // Deserialisation runs on a JSON tree, so messages are single lines; a newline can only
+    // come from a quoted key or value, which `SceneError::new` escapes.
+    let m = m.trim();
     if let Some(got) = m
         .strip_prefix("invalid type: ")
         .and_then(|rest| rest.strip_suffix(", expected f64"))

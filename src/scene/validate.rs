@@ -46,6 +46,19 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
         if b.name.trim().is_empty() {
             return err(f("name"), "must not be empty".into());
         }
+        if let Some(c) = b
+            .name
+            .chars()
+            .find(|&c| c.is_control() || c == ',' || c == '"')
+        {
+            return err(
+                f("name"),
+                format!(
+                    "`{}` contains {:?}; block names become trajectory.csv column names",
+                    b.name, c
+                ),
+            );
+        }
         if !names.insert(b.name.as_str()) {
             return err(f("name"), format!("duplicate block name `{}`", b.name));
         }
