@@ -12,6 +12,7 @@ export RUSTC_BOOTSTRAP=1
 # -s none: the code under test is safe Rust (no C), so coverage without a sanitizer runs
 # faster; -a keeps debug assertions (integer overflow checks) on.
 
+failed=()
 for t in "${TARGETS[@]}"; do
     mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
     dict=()
@@ -19,5 +20,10 @@ for t in "${TARGETS[@]}"; do
     echo "== fuzzing $t for $SECS s"
     cargo fuzz run --fuzz-dir fuzz -s none -a "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
         -max_total_time="$SECS" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-        -artifact_prefix="fuzz/artifacts/$t/" "${dict[@]}"
+        -artifact_prefix="fuzz/artifacts/$t/" "${dict[@]}" || failed+=("$t")
 done
+if [ ${#failed[@]} -gt 0 ]; then
+    echo "fuzz: crashes in ${failed[*]}: inputs under fuzz/artifacts/; add each to tests/fuzz_regressions/<target>/" >&2
+    exit 1
+fi
+echo "fuzz: no crash in ${TARGETS[*]} ($SECS s each)"
