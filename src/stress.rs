@@ -37,6 +37,45 @@ use std::sync::Arc;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+/// The factors of the grid and what each varies (the base case is in the module docs).
+pub const FACTORS: [(&str, &str); 11] = [
+    (
+        "dt",
+        "time step 1e-5 .. 5e-3 s; base block, 1 s (quick: 0.5 s)",
+    ),
+    ("theta", "theta 0.5 .. 1; base block"),
+    (
+        "slenderness",
+        "H/B 1 .. 20 with B = 1 m, tilt 0.4 atan(B/H)",
+    ),
+    ("size", "H 0.05 .. 20 m with H/B = 2.5"),
+    (
+        "mass_ratio",
+        "upper/lower density 1e-3 .. 1e3; the paper's two-block stack tilted 0.15 rad",
+    ),
+    ("friction", "friction coefficient 0.05 .. 2; base block"),
+    (
+        "blocks",
+        "standing column of 1 .. 100 bricks 1.0 x 0.5 m, 2 s (quick: 0.2 s)",
+    ),
+    (
+        "wall_courses",
+        "standing running-bond wall of 2 .. 10 courses, 2 s (quick: 0.2 s)",
+    ),
+    ("duration", "1 .. 60 s; base block"),
+    (
+        "standing_time",
+        "standing column of 10 bricks for 1 .. 60 s (full map only)",
+    ),
+    (
+        "excitation",
+        "base block upright under a half-sine pulse (period 0.5 s) of k g tan(alpha), k 0.5 .. 20",
+    ),
+];
+
+/// The base case every factor varies around.
+pub const BASE_CASE: &str = "one block B = 1 m, H = 2.5 m, density 2500 kg/m^3, tilt 0.15 rad, friction 0.7, theta 0.7, dt 1e-3 s, 4 s (quick: 1 s), no excitation";
+
 /// One cell of the grid: a factor, its value and the scene that varies it.
 #[derive(Debug, Clone)]
 pub struct Cell {
@@ -784,10 +823,10 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
         ("#d0d0d0", "engine not built"),
     ]
     .iter()
-    .map(|(c, w)| format!("<span style=\"background:{c};padding:2px 8px;margin-right:6px;border:1px solid #555\">{w}</span>"))
+    .map(|(c, w)| format!("<span style=\"display:inline-block;background:{c};padding:2px 8px;margin:2px 6px 2px 0;border:1px solid #555\">{w}</span>"))
     .collect();
     format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations, {} unexplained issues. One factor at a time around the base case (see <code>rockbench stress --help</code>); hover a cell for its details.</p>\n<p>{legend}</p>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>complete</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / issues</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations, {} unexplained issues. One factor at a time around the base case: {}. Hover a cell for its details.</p>\n<ul>{}</ul>\n<p>{legend}</p>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>complete</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / issues</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
         t.cells,
         t.finished,
         t.failed,
@@ -795,6 +834,11 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
         t.skipped,
         t.violations,
         t.unexplained,
+        html_escape(BASE_CASE),
+        FACTORS
+            .iter()
+            .map(|(f, d)| format!("<li><b>{f}</b>: {}</li>", html_escape(d)))
+            .collect::<String>(),
         html_escape(&serde_json::to_string_pretty(meta).unwrap_or_default())
     )
 }
@@ -840,6 +884,10 @@ mod tests {
         assert_eq!(range("friction"), (0.05, 2.0));
         assert_eq!(range("blocks"), (1.0, 100.0));
         assert_eq!(range("duration").1, 60.0);
+        let mut in_grid: Vec<&str> = g.iter().map(|c| c.factor).collect();
+        in_grid.dedup();
+        let listed: Vec<&str> = FACTORS.iter().map(|f| f.0).collect();
+        assert_eq!(in_grid, listed, "FACTORS must describe the grid, in order");
         let col = g
             .iter()
             .find(|c| c.factor == "blocks" && c.value == 100.0)
