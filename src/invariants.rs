@@ -657,7 +657,7 @@ mod tests {
         a.blocks[0].z[0] = 0.0;
         let mut b = a.clone();
         assert_eq!(bit_differences(&a, &b), 0);
-        b.blocks[0].phi[1] = 0.1 + 1e-17; // same f64: 0.1 + 1e-17 rounds to 0.1
+        b.blocks[0].phi[1] = 0.1 + 1e-18; // the same f64: 1e-18 is below half an ulp of 0.1
         assert_eq!(bit_differences(&a, &b), 0);
         b.blocks[0].phi[1] = f64::from_bits(0.1f64.to_bits() + 1);
         assert_eq!(bit_differences(&a, &b), 1);
