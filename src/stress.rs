@@ -20,6 +20,7 @@
 //! | `duration` | 1 .. 60 s | base block |
 //! | `standing_time` | 1 .. 60 s | a standing column of 10 bricks (full map only) |
 //! | `excitation` | half-sine pulse (period 0.5 s), amplitude k g tan(alpha), k 0.5 .. 20 | the base block upright |
+//! | `eccentricity` | centre of a 1.53 x 4.9 m block offset by e = 0 .. 0.8 of a 0.105 m post's half-width | standing, 2 s (full map only) |
 //!
 //! A cell's status: `finished`, `failed` (engine error, panic or timeout, with the reason),
 //! `unsupported` (the engine refuses the scene by design, e.g. Housner on a stack) or
@@ -38,7 +39,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 /// The factors of the grid and what each varies (the base case is in the module docs).
-pub const FACTORS: [(&str, &str); 11] = [
+pub const FACTORS: [(&str, &str); 12] = [
     (
         "dt",
         "time step 1e-5 .. 5e-3 s; base block, 1 s (quick: 0.5 s)",
@@ -70,6 +71,10 @@ pub const FACTORS: [(&str, &str); 11] = [
     (
         "excitation",
         "base block upright under a half-sine pulse (period 0.5 s) of k g tan(alpha), k 0.5 .. 20",
+    ),
+    (
+        "eccentricity",
+        "standing 1.53 x 4.9 m block on a 0.105 x 0.34 m post, its centre offset by e times the post's half-width, e 0 .. 0.8, 2 s (full map only)",
     ),
 ];
 
@@ -339,6 +344,29 @@ pub fn grid(quick: bool) -> Vec<Cell> {
             s.duration = 2.0;
         }
         add("excitation", k, s);
+    }
+    for e in pick(&[0.0, 0.5, 0.8], &[]) {
+        let post_b = 0.105;
+        let mut s = base.clone();
+        s.duration = 2.0;
+        s.tilt = 0.0;
+        s.blocks = vec![
+            B {
+                name: "post".into(),
+                w: post_b,
+                h: 0.34,
+                density: 736.0,
+                place: Place::Offset(0.0),
+            },
+            B {
+                name: "block".into(),
+                w: 1.53,
+                h: 4.9,
+                density: 2065.0,
+                place: Place::Offset(e * post_b / 2.0),
+            },
+        ];
+        add("eccentricity", e, s);
     }
     cells
 }
