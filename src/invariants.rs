@@ -396,7 +396,8 @@ pub fn check_energy(scene: &Scene, tr: &Trajectory, tol: &Tolerances) -> Check {
     )
 }
 
-/// A scene at rest: no excitation, no initial rotation, angular or sliding velocity.
+/// A scene at rest that can stay at rest: no excitation, no initial rotation, angular or
+/// sliding velocity, and statically stable (see [`is_statically_stable`]).
 pub fn is_standing(scene: &Scene) -> bool {
     !scene.has_excitation()
         && scene.initial.tilt == 0.0
@@ -405,6 +406,77 @@ pub fn is_standing(scene: &Scene) -> bool {
             .blocks
             .values()
             .all(|s| s.rotation == 0.0 && s.omega == 0.0 && s.vx == 0.0)
+        && is_statically_stable(scene)
+}
+
+/// Upright and at rest, every block with everything it carries (the blocks stacked on it by
+/// `offset`) has its centre of mass strictly inside its base as far as it touches what is
+/// under it (the ground, or the tops of the blocks at its bottom level). A block whose load
+/// overhangs its support falls, legitimately.
+pub fn is_statically_stable(scene: &Scene) -> bool {
+    let layout = scene.layout();
+    let n = scene.blocks.len();
+    let span = |i: usize| {
+        let (x, _) = layout.upright[i];
+        let b = scene.blocks[i].width / 2.0;
+        (x - b, x + b)
+    };
+    for i in 0..n {
+        let (_, zi) = layout.upright[i];
+        let bottom = zi - scene.blocks[i].height / 2.0;
+        let (lo_i, hi_i) = span(i);
+        // Contact span: the block's base where it meets the ground or blocks below.
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        if bottom.abs() <= 1e-12 * (1.0 + zi.abs()) {
+            (lo, hi) = (lo_i, hi_i);
+        } else {
+            for j in 0..n {
+                let (_, zj) = layout.upright[j];
+                let top = zj + scene.blocks[j].height / 2.0;
+                if j == i || (top - bottom).abs() > 1e-9 * (1.0 + bottom.abs()) {
+                    continue;
+                }
+                let (lo_j, hi_j) = span(j);
+                let (a, b) = (lo_i.max(lo_j), hi_i.min(hi_j));
+                if b > a {
+                    lo = lo.min(a);
+                    hi = hi.max(b);
+                }
+            }
+        }
+        if hi <= lo {
+            return false;
+        }
+        // Centre of mass of the block and what it carries through a pure stack (blocks placed
+        // by `offset` on the block below). Blocks placed by `x` (walls) may rest on several
+        // blocks, so each is checked on its own there.
+        let carried: Vec<usize> = (0..n)
+            .filter(|&j| {
+                let mut k = Some(j);
+                while let Some(kk) = k {
+                    if kk == i {
+                        return true;
+                    }
+                    if scene.blocks[kk].x.is_some() {
+                        return false;
+                    }
+                    k = layout.supports[kk];
+                }
+                false
+            })
+            .collect();
+        let m: f64 = carried.iter().map(|&j| scene.blocks[j].mass()).sum();
+        let cx = carried
+            .iter()
+            .map(|&j| scene.blocks[j].mass() * layout.upright[j].0)
+            .sum::<f64>()
+            / m;
+        let margin = 1e-9 * (hi - lo);
+        if !(cx > lo + margin && cx < hi - margin) {
+            return false;
+        }
+    }
+    true
 }
 
 pub fn check_standing(scene: &Scene, tr: &Trajectory, tol: &Tolerances) -> Check {

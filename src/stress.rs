@@ -200,19 +200,26 @@ fn column(n: usize, duration: f64) -> Spec {
 }
 
 /// A running-bond wall: even courses of 4 bricks 1.0 x 0.5 m, odd courses of 3 bricks
-/// shifted by half a brick.
+/// shifted by half a brick with a half brick at each end.
 fn wall(courses: usize, duration: f64) -> Spec {
     let mut blocks = Vec::new();
     for c in 0..courses {
-        let xs: &[f64] = if c % 2 == 0 {
-            &[-1.5, -0.5, 0.5, 1.5]
+        // (centre, width): odd courses end in half bricks, so every brick rests on two.
+        let bricks: &[(f64, f64)] = if c % 2 == 0 {
+            &[(-1.5, 1.0), (-0.5, 1.0), (0.5, 1.0), (1.5, 1.0)]
         } else {
-            &[-1.0, 0.0, 1.0]
+            &[
+                (-1.75, 0.5),
+                (-1.0, 1.0),
+                (0.0, 1.0),
+                (1.0, 1.0),
+                (1.75, 0.5),
+            ]
         };
-        for (k, &x) in xs.iter().enumerate() {
+        for (k, &(x, w)) in bricks.iter().enumerate() {
             blocks.push(B {
                 name: format!("c{c}b{k}"),
-                w: 1.0,
+                w,
                 h: 0.5,
                 density: 2500.0,
                 place: Place::X(x),
@@ -930,6 +937,7 @@ mod tests {
         let lay = w.layout();
         assert!(lay.supports[4].is_some());
         assert!((lay.blocks[4].z - 0.75).abs() < 1e-12);
+        assert_eq!(w.blocks.len(), 9);
     }
 
     #[test]

@@ -189,3 +189,52 @@ fn the_housner_engine_is_exactly_mirror_symmetric() {
         assert_eq!(*p, -*q);
     }
 }
+
+#[test]
+fn standing_applies_only_to_statically_stable_scenes() {
+    let s = |sets: &[&str]| scene("two-block-free-rocking.toml", sets);
+    assert!(is_standing(&s(&["initial.tilt=0.0"])));
+    let offset = |o: f64| {
+        let mut sc = s(&["initial.tilt=0.0"]);
+        sc.blocks[1].offset = o;
+        sc
+    };
+    // The statue's centre 0.6 m off the 1.25 m pedestal's centre: 0.025 m inside its edge.
+    assert!(is_standing(&offset(0.6)));
+    // 0.65 m off: beyond the edge, it falls.
+    assert!(!is_standing(&offset(0.65)));
+    // Every grid column, wall and eccentric post of the stress map is standing.
+    for c in rockbench::stress::grid(false) {
+        if ["blocks", "wall_courses", "standing_time", "eccentricity"].contains(&c.factor) {
+            assert!(
+                is_standing(c.scene.as_ref().unwrap()),
+                "{}={}",
+                c.factor,
+                c.label
+            );
+        }
+    }
+}
+
+#[test]
+fn an_overhanging_block_is_not_standing_and_falls() {
+    let dir = std::env::temp_dir().join(format!("rb-overhang-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("overhang.toml");
+    std::fs::write(
+        &p,
+        "name = \"overhang\"\nduration = 0.3\n[[blocks]]\nname = \"b0\"\nwidth = 1.0\nheight = 1.0\n[[blocks]]\nname = \"b1\"\nwidth = 1.0\nheight = 1.0\noffset = 0.6\n",
+    )
+    .unwrap();
+    let s = rockbench::scene::load_scene(&p).unwrap();
+    assert!(!is_statically_stable(&s));
+    assert!(!is_standing(&s));
+    let t = run("native", &s);
+    // Its centre of mass 0.1 m beyond the edge: it tips over the right edge.
+    assert!(
+        t.blocks[1].phi.last().unwrap() < &-0.05,
+        "{:?}",
+        t.blocks[1].phi.last()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
