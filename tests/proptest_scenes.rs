@@ -253,6 +253,16 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
     },
 ];
 
+/// A panic excused only for the native engine's dual formulation, whose Clarabel call panics
+/// (qdldl: "index out of bounds: the len is 0 but the index is 0") on a step with no contact
+/// in reach, e.g. a slab thrown into the air by associative friction; pinned by the ignored
+/// test `native_dual_step_without_contacts_does_not_panic` in tests/native_defects.rs.
+fn excused_panic(engine: &str, scene: &Scene, message: &str) -> bool {
+    engine == "native"
+        && scene.native.formulation == rockbench::native::Formulation::Dual
+        && message.contains("index out of bounds: the len is 0 but the index is 0")
+}
+
 fn excused(engine: &str, check: &str, value: f64, scene: &Scene) -> Option<&'static str> {
     KNOWN_DEFECTS
         .iter()
@@ -292,7 +302,22 @@ proptest! {
         let tol = Tolerances::default();
         for name in ENGINE_NAMES {
             let engine = engine_by_name(name).unwrap();
-            match run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true }) {
+            let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true })
+            }));
+            let res = match res {
+                Ok(r) => r,
+                Err(p) => {
+                    let msg = p
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| p.downcast_ref::<String>().cloned())
+                        .unwrap_or_default();
+                    prop_assert!(excused_panic(name, &scene, &msg), "{name} panicked: {msg}\n{text}");
+                    continue;
+                }
+            };
+            match res {
                 Ok((out, report)) => {
                     prop_assert!(out.trajectory.is_finite(), "{name}: non-finite trajectory\n{text}");
                     prop_assert!(!out.trajectory.is_empty());
