@@ -2,8 +2,8 @@
 //! engine to a trajectory that passes the invariants (finite, penetration, energy, standing,
 //! mirror, rerun), or ends in a typed engine error. Never a panic.
 //!
-//! `PROPTEST_CASES` sets the number of cases (default 200 in `make test`; `make proptest`
-//! runs 10,000). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
+//! `PROPTEST_CASES` sets the number of cases (default 200 in `make test`, with a fixed seed;
+//! `make proptest` runs 10,000 with a new seed, or PROPTEST_RNG_SEED). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
 //! milliseconds.
 
 use proptest::prelude::*;
@@ -255,6 +255,15 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
                  growth reaches 6.1e-6 (3.6e-7 at dt 1e-3; none at theta 0.7)",
     },
     KnownDefect {
+        engine: "housner",
+        check: "energy",
+        below: 1e-6,
+        applies: |_| true,
+        reason: "RK4 truncation, not round-off: the default max_step (1e-4 s) is not scaled with \
+                 the block's frequency parameter p, so small blocks gain energy (9.4e-9 of m g H \
+                 for H = 0.05 m, falling as max_step^5); see validation/stress-known.toml",
+    },
+    KnownDefect {
         engine: "native",
         check: "penetration",
         below: 1e-3,
@@ -293,6 +302,20 @@ fn excused(engine: &str, check: &str, value: f64, scene: &Scene) -> Option<&'sta
         .map(|k| k.reason)
 }
 
+/// `make test` (no PROPTEST_CASES) runs a fixed seed, so CI is reproducible; `make proptest`
+/// draws a new seed each run unless PROPTEST_RNG_SEED is set.
+fn seed() -> proptest::test_runner::RngSeed {
+    use proptest::test_runner::RngSeed;
+    match std::env::var("PROPTEST_RNG_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        Some(s) => RngSeed::Fixed(s),
+        None if std::env::var("PROPTEST_CASES").is_err() => RngSeed::Fixed(20_261_121),
+        None => RngSeed::Random,
+    }
+}
+
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
         .ok()
@@ -305,6 +328,7 @@ proptest! {
         cases: cases(),
         max_shrink_iters: 200,
         failure_persistence: None,
+        rng_seed: seed(),
         ..ProptestConfig::default()
     })]
 
