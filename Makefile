@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium bench bench-steps \
-	fmt clippy clean .venv
+	stress proptest fuzz fmt clippy clean .venv
 
 all: build
 
@@ -36,6 +36,7 @@ test-no-default-features: chromium records
 test-rust: chromium records
 	$(CARGO) test --release
 	$(MAKE) gates
+	$(BIN) stress --quick --out out/stress-quick
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
@@ -95,6 +96,21 @@ $(VENV)/.requirements.stamp: python/requirements.txt
 $(VENV)/.native.stamp: $(VENV)/.requirements.stamp $(RUST_SOURCES) pyproject.toml
 	cd $(CURDIR) && VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin develop --release --quiet
 	touch $@
+
+# The full stability map (every engine built in; about 15-30 min on 2 cores).
+stress: build
+	$(BIN) stress --out out/stress
+
+# Random scenes, nightly-sized: PROPTEST_CASES (default 10000) cases.
+PROPTEST_CASES ?= 10000
+proptest:
+	PROPTEST_CASES=$(PROPTEST_CASES) $(CARGO) test --release --test proptest_scenes
+
+# Fuzz the scene parser and the record readers, FUZZ_SECONDS (default 600) per target.
+# Installs cargo-fuzz if missing; runs on stable Rust (RUSTC_BOOTSTRAP=1, see fuzz/run.sh).
+FUZZ_SECONDS ?= 600
+fuzz:
+	FUZZ_SECONDS=$(FUZZ_SECONDS) fuzz/run.sh
 
 fmt:
 	$(CARGO) fmt --all

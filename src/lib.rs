@@ -36,11 +36,13 @@ pub mod excitation;
 pub mod gates;
 pub mod geometry;
 pub mod metrics;
+pub mod invariants;
 pub mod native;
 #[cfg(feature = "python")]
 pub mod python;
 pub mod report;
 pub mod scene;
+pub mod stress;
 pub mod summary;
 pub mod trajectory;
 pub mod validation;

@@ -7,6 +7,7 @@ mod gate;
 mod references;
 mod run;
 mod validate;
+mod stress;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -42,6 +43,8 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// Regenerate the generated validation scenes and reference-data/ (or check them).
     References(references::ReferencesArgs),
+    /// Stability map: every engine over a grid of scenes, with the invariants of each run.
+    Stress(stress::StressArgs),
 }
 
 /// Parse the command line and run it.
@@ -55,5 +58,6 @@ pub fn main() -> Result<()> {
         Command::Gate(a) => gate::gate_cmd(a),
         Command::Validate(a) => validate::validate_cmd(a),
         Command::References(a) => references::references_cmd(a),
+        Command::Stress(a) => stress::stress(a),
     }
 }

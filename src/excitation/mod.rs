@@ -324,6 +324,17 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
             })?;
             let a: Vec<f64> = s.v.iter().map(|x| x * unit * scale).collect();
             let (v, d) = integrate_piecewise_linear(&s.t, &a);
+            if !a.iter().chain(&v).chain(&d).all(|x| x.is_finite()) {
+                return Err(SceneError::new(
+                    file,
+                    format!("{field}.scale"),
+                    format!(
+                        "{}: the scaled acceleration (scale {}) or its velocity or displacement is not finite",
+                        path.display(),
+                        crate::scene::num(*scale)
+                    ),
+                ));
+            }
             Component::AccelerationRecord { t: s.t, a, v, d }
         }
         MotionSpec::Displacement { file: rec, scale } => {
@@ -347,10 +358,23 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
                     ),
                 ));
             }
-            Component::DisplacementRecord {
-                t: s.t,
-                d: s.v.iter().map(|x| x * scale).collect(),
+            let d: Vec<f64> = s.v.iter().map(|x| x * scale).collect();
+            let slopes_finite =
+                s.t.windows(2)
+                    .zip(d.windows(2))
+                    .all(|(t, d)| ((d[1] - d[0]) / (t[1] - t[0])).is_finite());
+            if !d.iter().all(|x| x.is_finite()) || !slopes_finite {
+                return Err(SceneError::new(
+                    file,
+                    format!("{field}.scale"),
+                    format!(
+                        "{}: the scaled displacement (scale {}) or its velocity is not finite",
+                        path.display(),
+                        crate::scene::num(*scale)
+                    ),
+                ));
             }
+            Component::DisplacementRecord { t: s.t, d }
         }
     })
 }
@@ -411,7 +435,10 @@ mod tests {
             let c = pulse(shape);
             let h = 1e-5;
             let (mut v, mut d) = (0.0, 0.0);
-            for k in 0..80_000 {
+            // Exactly 80,000 midpoint steps to t = 0.8 (summing `t += h` would take one step
+            // too many through round-off).
+            let n = (0.8f64 / h).round() as usize;
+            for k in 0..n {
                 let a0 = c.acc((k as f64 + 0.5) * h);
                 d += v * h + 0.5 * a0 * h * h;
                 v += a0 * h;

@@ -83,9 +83,20 @@ pub fn parse_at2(text: &str) -> Result<Samples, String> {
         ));
     }
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(format!("line 4: DT = {dt} must be positive"));
+        return Err(format!(
+            "line 4: DT = {} must be positive",
+            crate::scene::num(dt)
+        ));
     }
-    let mut v = Vec::with_capacity(npts);
+    let span = (npts - 1) as f64 * dt;
+    if !span.is_finite() {
+        return Err(format!(
+            "line 4: NPTS = {npts} samples at DT = {} s span a time that is not finite",
+            crate::scene::num(dt)
+        ));
+    }
+    // The header is not trusted for the allocation: a value takes at least two bytes.
+    let mut v = Vec::with_capacity(npts.min(text.len() / 2 + 1));
     for (k, line) in lines.iter().enumerate().skip(4) {
         for tok in line.split_whitespace() {
             let x: f64 = tok
@@ -156,6 +167,24 @@ mod tests {
         let text = NEW.replace(" 0.4 0.5\n", "");
         let e = parse_at2(&text).unwrap_err();
         assert!(e.contains("NPTS = 5") && e.contains("only 3"), "{e}");
+    }
+
+    /// A header claiming 1e18 samples must not reserve memory for them.
+    #[test]
+    fn at2_huge_npts_is_an_error_not_an_allocation() {
+        let text = NEW.replace("NPTS=    5", "NPTS=1000000000000000000");
+        let e = parse_at2(&text).unwrap_err();
+        assert!(
+            e.contains("NPTS = 1000000000000000000") && e.contains("only 5"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn at2_time_span_overflow_is_an_error() {
+        let text = NEW.replace("DT=   .0100", "DT=  1E308");
+        let e = parse_at2(&text).unwrap_err();
+        assert!(e.contains("not finite"), "{e}");
     }
 
     #[test]

@@ -18,9 +18,21 @@ pub fn load_scene_with_overrides(path: &Path, overrides: &[String]) -> Result<Sc
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     let base_dir = path.parent().map(|p| p.to_path_buf()).unwrap_or_default();
-    let mut scene = parse_scene_str(&text, is_json, &file, overrides)?;
-    scene.base_dir = base_dir;
-    scene.source = file;
+    check_scene_str(&text, is_json, &file, overrides, &base_dir)
+}
+
+/// Parse scene text, apply overrides and run every check, as [`load_scene_with_overrides`]
+/// does for a file; record files are read relative to `base_dir`.
+pub fn check_scene_str(
+    text: &str,
+    is_json: bool,
+    file: &str,
+    overrides: &[String],
+    base_dir: &Path,
+) -> Result<Scene, SceneError> {
+    let mut scene = parse_scene_str(text, is_json, file, overrides)?;
+    scene.base_dir = base_dir.to_path_buf();
+    scene.source = file.to_string();
     super::validate::validate(&scene)?;
     Ok(scene)
 }
@@ -49,6 +61,20 @@ pub fn parse_scene_str(
         reject_non_finite(&toml::Value::Table(table.clone()), String::new(), file)?;
         serde_json::to_value(table).map_err(|e| SceneError::new(file, "(file)", e.to_string()))?
     };
+    if !value.is_object() {
+        let kind = match &value {
+            serde_json::Value::Array(_) => "an array",
+            serde_json::Value::String(_) => "a string",
+            serde_json::Value::Number(_) => "a number",
+            serde_json::Value::Bool(_) => "a boolean",
+            _ => "null",
+        };
+        return Err(SceneError::new(
+            file,
+            "(top level)",
+            format!("a scene must be a table of fields, not {kind}"),
+        ));
+    }
     for o in overrides {
         apply_override(&mut value, o).map_err(|m| SceneError::new(file, "--set", m))?;
     }
@@ -84,7 +110,7 @@ fn reject_non_finite(v: &toml::Value, path: String, file: &str) -> Result<(), Sc
         toml::Value::Float(f) if !f.is_finite() => Err(SceneError::new(
             file,
             path,
-            format!("must be a finite number (got {f})"),
+            format!("must be a finite number (got {})", super::num(*f)),
         )),
         toml::Value::Table(t) => {
             for (k, x) in t {
@@ -107,8 +133,19 @@ fn reject_non_finite(v: &toml::Value, path: String, file: &str) -> Result<(), Sc
     }
 }
 
+/// A deserialisation message; a wrong type where a number belongs is said
+/// plainly (scene values are bare numbers in SI units: `duration = 5`, never `"5 s"`).
 fn clean_serde_message(m: &str) -> String {
-    m.lines().next().unwrap_or("").trim().to_string()
+    // Deserialisation runs on a JSON tree, so messages are single lines; a newline can only
+    // come from a quoted key or value, which `SceneError::new` escapes.
+    let m = m.trim();
+    if let Some(got) = m
+        .strip_prefix("invalid type: ")
+        .and_then(|rest| rest.strip_suffix(", expected f64"))
+    {
+        return format!("expected a number in SI units without a unit suffix, got {got}");
+    }
+    m.to_string()
 }
 
 /// Set `a.b.c=value` in a JSON tree; the value is parsed as a TOML value when it can be,
@@ -129,9 +166,12 @@ pub fn apply_override(root: &mut serde_json::Value, assignment: &str) -> Result<
     let mut node = root;
     let parts: Vec<&str> = key.split('.').collect();
     for (k, part) in parts.iter().enumerate() {
+        if part.is_empty() {
+            return Err(format!("`{key}` has an empty component"));
+        }
         let obj = node
             .as_object_mut()
-            .ok_or_else(|| format!("`{key}`: `{part}` is not inside a table"))?;
+            .ok_or_else(|| format!("`{key}`: `{}` is not a table", parts[..k].join(".")))?;
         if k + 1 == parts.len() {
             obj.insert(part.to_string(), parsed);
             return Ok(());

@@ -10,7 +10,10 @@ mod load;
 mod validate;
 
 pub use layout::{BlockState, Layout};
-pub use load::{apply_override, load_scene, load_scene_with_overrides, parse_scene_str};
+pub use load::{
+    apply_override, check_scene_str, load_scene, load_scene_with_overrides, parse_scene_str,
+};
+pub(crate) use validate::num;
 
 use crate::engines::rapier_settings::RapierSettings;
 use crate::native::NativeSettings;
@@ -30,11 +33,28 @@ pub struct SceneError {
 impl SceneError {
     pub fn new(file: &str, field: impl Into<String>, message: impl Into<String>) -> Self {
         SceneError {
-            file: file.to_string(),
-            field: field.into(),
-            message: message.into(),
+            file: one_line(file),
+            field: one_line(&field.into()),
+            message: one_line(&message.into()),
         }
     }
+}
+
+/// Control characters (a newline inside a key or a value quoted in a message) escaped, so an
+/// error stays one line.
+fn one_line(s: &str) -> String {
+    if !s.chars().any(char::is_control) {
+        return s.to_string();
+    }
+    s.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 fn default_gravity() -> f64 {

@@ -12,7 +12,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
             return Err(SceneError::new(
                 file,
                 field,
-                format!("must be a positive number (got {v})"),
+                format!("must be a positive number (got {})", num(v)),
             ));
         }
         Ok(())
@@ -22,7 +22,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
             return Err(SceneError::new(
                 file,
                 field,
-                format!("must be finite (got {v})"),
+                format!("must be finite (got {})", num(v)),
             ));
         }
         Ok(())
@@ -46,12 +46,37 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
         if b.name.trim().is_empty() {
             return err(f("name"), "must not be empty".into());
         }
+        if let Some(c) = b
+            .name
+            .chars()
+            .find(|&c| c.is_control() || c == ',' || c == '"')
+        {
+            return err(
+                f("name"),
+                format!(
+                    "`{}` contains {:?}; block names become trajectory.csv column names",
+                    b.name, c
+                ),
+            );
+        }
         if !names.insert(b.name.as_str()) {
             return err(f("name"), format!("duplicate block name `{}`", b.name));
         }
         positive(&f("width"), b.width)?;
         positive(&f("height"), b.height)?;
         positive(&f("density"), b.density)?;
+        if !(b.mass().is_finite() && b.mass() > 0.0 && b.inertia().is_finite() && b.inertia() > 0.0)
+        {
+            return err(
+                format!("blocks[{i}]"),
+                format!(
+                    "mass {} kg/m and moment of inertia {} kg m^2/m of `{}` must be finite and positive (sizes or density out of range)",
+                    b.mass(),
+                    b.inertia(),
+                    b.name
+                ),
+            );
+        }
         finite(&f("offset"), b.offset)?;
         if let Some(x) = b.x {
             finite(&f("x"), x)?;
@@ -77,14 +102,17 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
         if s.rotation.abs() >= std::f64::consts::FRAC_PI_2 {
             return err(
                 f("rotation"),
-                format!("|rotation| must be below pi/2 (got {})", s.rotation),
+                format!("|rotation| must be below pi/2 (got {})", num(s.rotation)),
             );
         }
     }
     if scene.initial.tilt.abs() >= std::f64::consts::FRAC_PI_2 {
         return err(
             "initial.tilt".into(),
-            format!("|tilt| must be below pi/2 (got {})", scene.initial.tilt),
+            format!(
+                "|tilt| must be below pi/2 (got {})",
+                num(scene.initial.tilt)
+            ),
         );
     }
 
@@ -94,7 +122,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
             return Err(SceneError::new(
                 file,
                 field,
-                format!("must be a non-negative number (got {mu})"),
+                format!("must be a non-negative number (got {})", num(mu)),
             ));
         }
         Ok(())
@@ -115,6 +143,21 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
     // Geometry: every block rests on something, nothing overlaps, nothing starts past
     // overturning.
     let layout = Layout::of(scene);
+    for (i, b) in layout.blocks.iter().enumerate() {
+        let (ux, uz) = layout.upright[i];
+        if ![b.x, b.z, b.phi, b.vx, b.vz, b.omega, ux, uz]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return err(
+                format!("blocks[{i}]"),
+                format!(
+                    "the initial position or velocity of `{}` is not finite (offsets, sizes or initial state out of range)",
+                    scene.blocks[i].name
+                ),
+            );
+        }
+    }
     for i in 1..scene.blocks.len() {
         let b = &scene.blocks[i];
         if b.x.is_none() {
@@ -159,6 +202,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
         }
     }
     check_overturning(scene, &layout)?;
+    check_initial_overlaps(scene, &layout)?;
 
     // Excitation.
     if let Some(exc) = &scene.excitation {
@@ -211,15 +255,161 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
 
     scene.native.validate(file)?;
     scene.rapier.validate(file)?;
+    check_run_length(scene)?;
     positive("housner.max_step", scene.housner.max_step)?;
     positive("housner.event_tolerance", scene.housner.event_tolerance)?;
+    let tol_floor = MIN_EVENT_TOLERANCE_REL * scene.duration.max(1.0);
+    if scene.housner.event_tolerance < tol_floor {
+        return err(
+            "housner.event_tolerance".into(),
+            format!(
+                "must be at least {tol_floor:e} s (1e-13 of max(duration, 1 s)); below that time round-off stops the event bisection (got {})",
+                num(scene.housner.event_tolerance)
+            ),
+        );
+    }
+    let housner_steps = scene.duration / scene.housner.max_step;
+    if housner_steps > MAX_STEPS {
+        return err(
+            "housner.max_step".into(),
+            format!(
+                "duration / max_step = {housner_steps:e} steps; at most {MAX_STEPS:e} are allowed (a unit slip?)"
+            ),
+        );
+    }
     if let Some(r) = scene.housner.restitution
         && (!r.is_finite() || !(0.0..=1.0).contains(&r))
     {
         return err(
             "housner.restitution".into(),
-            format!("must be in [0, 1] (got {r})"),
+            format!("must be in [0, 1] (got {})", num(r)),
         );
+    }
+    Ok(())
+}
+
+/// A number as written in messages: plain when short, otherwise in scientific notation
+/// (`1e300`, not three hundred digits).
+pub(crate) fn num(v: f64) -> String {
+    let plain = format!("{v}");
+    if plain.len() <= 12 {
+        plain
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Most time steps a run may take (duration / dt): beyond this a scene is almost surely a
+/// unit slip (ms for s) and would run for days.
+pub const MAX_STEPS: f64 = 1e9;
+/// Most trajectory samples a run may write (duration / output_interval): 1e7 samples are
+/// about 0.5 GB per block in memory.
+pub const MAX_SAMPLES: f64 = 1e7;
+/// Smallest Housner event tolerance relative to max(duration, 1 s).
+pub const MIN_EVENT_TOLERANCE_REL: f64 = 1e-13;
+
+/// Time step against duration, and the number of steps and samples.
+fn check_run_length(scene: &Scene) -> Result<(), SceneError> {
+    let file = scene.source.as_str();
+    let dt = scene.native.dt;
+    if dt > scene.duration {
+        return Err(SceneError::new(
+            file,
+            "native.dt",
+            format!(
+                "{} s is larger than the duration ({} s): not a single step fits",
+                num(dt),
+                num(scene.duration)
+            ),
+        ));
+    }
+    let steps = scene.duration / dt;
+    if steps > MAX_STEPS {
+        return Err(SceneError::new(
+            file,
+            "native.dt",
+            format!(
+                "duration / dt = {steps:e} steps; at most {MAX_STEPS:e} are allowed (a unit slip?)"
+            ),
+        ));
+    }
+    let samples = scene.duration / scene.output_interval;
+    if samples > MAX_SAMPLES {
+        return Err(SceneError::new(
+            file,
+            "output_interval",
+            format!(
+                "duration / output_interval = {samples:e} samples; at most {MAX_SAMPLES:e} are allowed"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The scene field that rotates block `i` initially: the nearest block down its support
+/// chain with a relative rotation, else the tilt.
+fn rotation_field(scene: &Scene, layout: &Layout, i: usize) -> String {
+    let mut k = Some(i);
+    while let Some(j) = k {
+        let name = &scene.blocks[j].name;
+        if scene
+            .initial
+            .blocks
+            .get(name)
+            .is_some_and(|s| s.rotation != 0.0)
+        {
+            return format!("initial.blocks.{name}.rotation");
+        }
+        k = layout.supports[j];
+    }
+    "initial.tilt".to_string()
+}
+
+/// In the initial (rotated) position no block may reach into the ground or another block.
+fn check_initial_overlaps(scene: &Scene, layout: &Layout) -> Result<(), SceneError> {
+    let n = scene.blocks.len();
+    let verts: Vec<[(f64, f64); 4]> = (0..n)
+        .map(|i| {
+            let b = &scene.blocks[i];
+            let st = &layout.blocks[i];
+            let (sn, cs) = st.phi.sin_cos();
+            let (hb, hh) = (b.width / 2.0, b.height / 2.0);
+            [(-hb, -hh), (hb, -hh), (hb, hh), (-hb, hh)]
+                .map(|(lx, lz)| (st.x + cs * lx - sn * lz, st.z + sn * lx + cs * lz))
+        })
+        .collect();
+    let size = |i: usize| scene.blocks[i].width + scene.blocks[i].height;
+    for (i, v) in verts.iter().enumerate() {
+        let low = v.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        if -low > 1e-9 * size(i) {
+            return Err(SceneError::new(
+                &scene.source,
+                rotation_field(scene, layout, i),
+                format!(
+                    "the initial rotation puts a corner of `{}` {:.3e} m into the ground",
+                    scene.blocks[i].name, -low
+                ),
+            ));
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            let d = crate::invariants::overlap_depth(&verts[i], &verts[j]);
+            if d > 1e-9 * (size(i) + size(j)) {
+                let mut field = rotation_field(scene, layout, i);
+                if field == "initial.tilt" {
+                    field = rotation_field(scene, layout, j);
+                }
+                return Err(SceneError::new(
+                    &scene.source,
+                    field,
+                    format!(
+                        "in its initial position `{}` overlaps `{}` by {d:.3e} m",
+                        scene.blocks[i].name, scene.blocks[j].name,
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -294,7 +484,8 @@ fn check_overturning(scene: &Scene, layout: &Layout) -> Result<(), SceneError> {
                 &scene.source,
                 field,
                 format!(
-                    "rotation {rel} rad puts the centre of mass of `{}` and what it carries past its pivot corner: the stack would start overturning",
+                    "rotation {} rad puts the centre of mass of `{}` and what it carries past its pivot corner: the stack would start overturning",
+                    num(rel),
                     b.name
                 ),
             ));

@@ -1,0 +1,166 @@
+//! `rockbench stress [--quick] [--engines ...] --out DIR`: the stability map.
+
+use crate::engines::ENGINE_NAMES;
+use crate::invariants::Tolerances;
+use crate::stress::{CellResult, KnownList, csv, grid, html, run_cell, totals};
+use anyhow::{Context, Result, bail};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(clap::Args)]
+pub struct StressArgs {
+    /// The small grid for CI (runs in well under a minute in release mode).
+    #[arg(long)]
+    quick: bool,
+    /// Engines to run, comma-separated (default: every engine built in). Engines that are not
+    /// built into this binary are reported as skipped.
+    #[arg(long, value_delimiter = ',')]
+    engines: Vec<String>,
+    /// Output directory: stress.csv, <engine>.csv, <engine>.html, stress.json.
+    #[arg(long, default_value = "out/stress")]
+    out: PathBuf,
+    /// Known, explained violations and failures.
+    #[arg(long, default_value = "validation/stress-known.toml")]
+    known: PathBuf,
+    /// A run longer than this (s) is abandoned and counted as failed.
+    #[arg(long, default_value_t = 600.0)]
+    timeout: f64,
+    /// Only the cells of these factors (comma-separated; default all).
+    #[arg(long, value_delimiter = ',')]
+    factors: Vec<String>,
+}
+
+pub fn stress(a: StressArgs) -> Result<()> {
+    let engines: Vec<String> = if a.engines.is_empty() {
+        ENGINE_NAMES.iter().map(|s| s.to_string()).collect()
+    } else {
+        a.engines.clone()
+    };
+    if !(a.timeout.is_finite() && a.timeout > 0.0) {
+        bail!(
+            "--timeout: must be a positive number of seconds (got {})",
+            a.timeout
+        );
+    }
+    let known = if a.known.exists() {
+        KnownList::load(&a.known).map_err(anyhow::Error::msg)?
+    } else {
+        KnownList::default()
+    };
+    let tol = Tolerances::default();
+    let cells: Vec<_> = grid(a.quick)
+        .into_iter()
+        .filter(|c| a.factors.is_empty() || a.factors.iter().any(|f| f == c.factor))
+        .collect();
+    if cells.is_empty() {
+        bail!("--factors: no cell matches {:?}", a.factors);
+    }
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let meta = serde_json::json!({
+        "rockbench": env!("CARGO_PKG_VERSION"),
+        "command": std::env::args().collect::<Vec<_>>().join(" "),
+        "grid": if a.quick { "quick" } else { "full" },
+        "design": format!("one factor at a time around the base case: {}", crate::stress::BASE_CASE),
+        "factors": crate::stress::FACTORS.iter().map(|(f, d)| serde_json::json!({"factor": f, "varies": d})).collect::<Vec<_>>(),
+        "tolerances": tol,
+        "timeout_s": a.timeout,
+        "known": a.known.display().to_string(),
+        "engines": engines,
+    });
+    let mut all: Vec<CellResult> = Vec::new();
+    let mut unexplained = 0;
+    for engine in &engines {
+        let mut results = Vec::new();
+        for cell in &cells {
+            let r = run_cell(
+                engine,
+                cell,
+                &tol,
+                Duration::from_secs_f64(a.timeout),
+                &known,
+            );
+            if r.status != crate::stress::Status::Skipped {
+                let issues: Vec<String> = r
+                    .issues
+                    .iter()
+                    .map(|i| {
+                        format!(
+                            "{}{}",
+                            i.check,
+                            if i.explanation.is_some() {
+                                " (known)"
+                            } else {
+                                " UNEXPLAINED"
+                            }
+                        )
+                    })
+                    .collect();
+                println!(
+                    "{engine:<8} {:<14} {:<8} {:<11} {:>8.3} s  {}",
+                    r.factor,
+                    r.label,
+                    r.status.as_str(),
+                    r.wall_s,
+                    if issues.is_empty() {
+                        String::new()
+                    } else {
+                        issues.join(", ")
+                    }
+                );
+                for i in r.issues.iter().filter(|i| i.explanation.is_none()) {
+                    println!("         {}: {}", i.check, i.detail);
+                }
+            }
+            results.push(r);
+        }
+        let t = totals(&results);
+        println!(
+            "{engine}: {} cells, {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations; {} unexplained issues; {:.1} s in runs",
+            t.cells,
+            t.finished,
+            t.failed,
+            t.unsupported,
+            t.skipped,
+            t.violations,
+            t.unexplained,
+            t.wall_s
+        );
+        unexplained += t.unexplained;
+        let w = |name: String, text: String| -> Result<()> {
+            let p = a.out.join(name);
+            std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
+        };
+        w(format!("{engine}.csv"), csv(&results))?;
+        let mut m = meta.clone();
+        m["engine"] = engine.clone().into();
+        m["totals"] = serde_json::to_value(&t)?;
+        w(format!("{engine}.html"), html(engine, &results, &m))?;
+        all.extend(results);
+    }
+    std::fs::write(a.out.join("stress.csv"), csv(&all))?;
+    let per_engine: serde_json::Map<String, serde_json::Value> = engines
+        .iter()
+        .map(|e| {
+            let r: Vec<CellResult> = all.iter().filter(|r| &r.engine == e).cloned().collect();
+            (
+                e.clone(),
+                serde_json::to_value(totals(&r)).unwrap_or_default(),
+            )
+        })
+        .collect();
+    let mut m = meta;
+    m["totals"] = per_engine.into();
+    m["cells"] = serde_json::to_value(&all)?;
+    std::fs::write(
+        a.out.join("stress.json"),
+        serde_json::to_string_pretty(&m)? + "\n",
+    )?;
+    println!("wrote {}", a.out.display());
+    if unexplained > 0 {
+        bail!(
+            "{unexplained} unexplained invariant violations or failed runs (see {}/stress.csv)",
+            a.out.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,1083 @@
+//! The stability map (`rockbench stress`): runs every engine over a grid of scenes and
+//! records, per cell, whether the run finished (or failed, and why), its wall time and the
+//! [`invariants`](crate::invariants).
+//!
+//! The grid is one-factor-at-a-time around a base case: each factor is varied over its range
+//! with every other setting at the base value. The base case is a single block B = 1 m,
+//! H = 2.5 m, density 2500 kg/m^3, released from a tilt of 0.15 rad, friction 0.7, theta 0.7,
+//! dt 1e-3 s, 4 s (1 s in the quick grid), no excitation. Factors:
+//!
+//! | factor | varied | around |
+//! |---|---|---|
+//! | `dt` | time step 1e-5 .. 5e-3 s | base block, 1 s (quick: 0.5 s): 1e5 steps at 1e-5 |
+//! | `theta` | 0.5 .. 1 | base block |
+//! | `slenderness` | H/B 1 .. 20 (B = 1 m, tilt 0.4 atan(B/H)) | base block |
+//! | `size` | H 0.05 .. 20 m (H/B = 2.5) | base block |
+//! | `mass_ratio` | upper/lower density 1e-3 .. 1e3 | the paper's two-block stack |
+//! | `friction` | 0.05 .. 2 | base block |
+//! | `blocks` | a standing column of 1 .. 100 bricks 1.0 x 0.5 m | 2 s at rest |
+//! | `wall_courses` | a standing running-bond wall of 2 .. 10 courses | 2 s at rest |
+//! | `duration` | 1 .. 60 s | base block |
+//! | `standing_time` | 1 .. 60 s | a standing column of 10 bricks (full map only) |
+//! | `excitation` | half-sine pulse (period 0.5 s), amplitude k g tan(alpha), k 0.5 .. 20 | the base block upright |
+//! | `eccentricity` | centre of a 1.53 x 4.9 m block offset by e = 0 .. 0.8 of a 0.105 m post's half-width | standing, 2 s (full map only) |
+//!
+//! A cell's status: `finished`, `failed` (engine error, panic or timeout, with the reason),
+//! `unsupported` (the engine refuses the scene by design, e.g. Housner on a stack) or
+//! `skipped` (the engine is not built into this binary). Violated invariants and failed runs
+//! are matched against a list of known, explained cases (`validation/stress-known.toml`); the
+//! command fails when any is unexplained.
+
+use crate::engines::{Engine, EngineError, engine_by_name};
+use crate::invariants::{CHECK_NAMES, InvariantReport, Tolerances};
+use crate::scene::{Scene, check_scene_str};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// The factors of the grid and what each varies (the base case is in the module docs).
+pub const FACTORS: [(&str, &str); 12] = [
+    (
+        "dt",
+        "time step 1e-5 .. 5e-3 s; base block, 1 s (quick: 0.5 s)",
+    ),
+    ("theta", "theta 0.5 .. 1; base block"),
+    (
+        "slenderness",
+        "H/B 1 .. 20 with B = 1 m, tilt 0.4 atan(B/H)",
+    ),
+    ("size", "H 0.05 .. 20 m with H/B = 2.5"),
+    (
+        "mass_ratio",
+        "upper/lower density 1e-3 .. 1e3; the paper's two-block stack tilted 0.15 rad",
+    ),
+    ("friction", "friction coefficient 0.05 .. 2; base block"),
+    (
+        "blocks",
+        "standing column of 1 .. 100 bricks 1.0 x 0.5 m, 2 s (quick: 0.2 s)",
+    ),
+    (
+        "wall_courses",
+        "standing running-bond wall of 2 .. 10 courses, 2 s (quick: 0.2 s)",
+    ),
+    ("duration", "1 .. 60 s; base block"),
+    (
+        "standing_time",
+        "standing column of 10 bricks for 1 .. 60 s (full map only)",
+    ),
+    (
+        "excitation",
+        "base block upright under a half-sine pulse (period 0.5 s) of k g tan(alpha), k 0.5 .. 20",
+    ),
+    (
+        "eccentricity",
+        "standing 1.53 x 4.9 m block on a 0.105 x 0.34 m post, its centre offset by e times the post's half-width, e 0 .. 0.8, 2 s (full map only)",
+    ),
+];
+
+/// The base case every factor varies around.
+pub const BASE_CASE: &str = "one block B = 1 m, H = 2.5 m, density 2500 kg/m^3, tilt 0.15 rad, friction 0.7, theta 0.7, dt 1e-3 s, 4 s (quick: 1 s), no excitation";
+
+/// One cell of the grid: a factor, its value and the scene that varies it.
+#[derive(Debug, Clone)]
+pub struct Cell {
+    pub factor: &'static str,
+    pub value: f64,
+    pub label: String,
+    pub scene: Result<Scene, String>,
+}
+
+/// A block of a generated scene.
+#[derive(Debug, Clone)]
+struct B {
+    name: String,
+    w: f64,
+    h: f64,
+    density: f64,
+    place: Place,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Place {
+    Offset(f64),
+    X(f64),
+}
+
+/// A generated scene, written as TOML and read through the ordinary checks.
+#[derive(Debug, Clone)]
+struct Spec {
+    duration: f64,
+    blocks: Vec<B>,
+    tilt: f64,
+    friction: f64,
+    theta: f64,
+    dt: f64,
+    pulse: Option<f64>,
+}
+
+impl Spec {
+    fn base(quick: bool) -> Spec {
+        Spec {
+            duration: if quick { 1.0 } else { 4.0 },
+            blocks: vec![B {
+                name: "block".into(),
+                w: 1.0,
+                h: 2.5,
+                density: 2500.0,
+                place: Place::Offset(0.0),
+            }],
+            tilt: 0.15,
+            friction: 0.7,
+            theta: 0.7,
+            dt: 1e-3,
+            pulse: None,
+        }
+    }
+
+    fn toml(&self, name: &str) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "name = {name:?}\nduration = {:e}\noutput_interval = {:e}",
+            self.duration,
+            1e-3f64.max(self.dt)
+        );
+        for b in &self.blocks {
+            let _ = writeln!(
+                s,
+                "\n[[blocks]]\nname = {:?}\nwidth = {:e}\nheight = {:e}\ndensity = {:e}",
+                b.name, b.w, b.h, b.density
+            );
+            match b.place {
+                Place::Offset(o) => {
+                    let _ = writeln!(s, "offset = {o:e}");
+                }
+                Place::X(x) => {
+                    let _ = writeln!(s, "x = {x:e}");
+                }
+            }
+        }
+        let _ = writeln!(s, "\n[initial]\ntilt = {:e}", self.tilt);
+        let _ = writeln!(s, "\n[contact]\nfriction = {:e}", self.friction);
+        let _ = writeln!(
+            s,
+            "\n[native]\ntheta = {:e}\ndt = {:e}",
+            self.theta, self.dt
+        );
+        if let Some(a) = self.pulse {
+            let _ = writeln!(
+                s,
+                "\n[excitation.horizontal]\nkind = \"half-sine\"\namplitude = {a:e}\nperiod = 0.5"
+            );
+        }
+        s
+    }
+
+    fn scene(&self, name: &str) -> Result<Scene, String> {
+        check_scene_str(&self.toml(name), false, name, &[], Path::new("."))
+            .map_err(|e| e.to_string())
+    }
+}
+
+fn column(n: usize, duration: f64) -> Spec {
+    Spec {
+        duration,
+        blocks: (0..n)
+            .map(|i| B {
+                name: format!("b{i}"),
+                w: 1.0,
+                h: 0.5,
+                density: 2500.0,
+                place: Place::Offset(0.0),
+            })
+            .collect(),
+        tilt: 0.0,
+        ..Spec::base(false)
+    }
+}
+
+/// A running-bond wall: even courses of 4 bricks 1.0 x 0.5 m, odd courses of 3 bricks
+/// shifted by half a brick with a half brick at each end.
+fn wall(courses: usize, duration: f64) -> Spec {
+    let mut blocks = Vec::new();
+    for c in 0..courses {
+        // (centre, width): odd courses end in half bricks, so every brick rests on two.
+        let bricks: &[(f64, f64)] = if c % 2 == 0 {
+            &[(-1.5, 1.0), (-0.5, 1.0), (0.5, 1.0), (1.5, 1.0)]
+        } else {
+            &[
+                (-1.75, 0.5),
+                (-1.0, 1.0),
+                (0.0, 1.0),
+                (1.0, 1.0),
+                (1.75, 0.5),
+            ]
+        };
+        for (k, &(x, w)) in bricks.iter().enumerate() {
+            blocks.push(B {
+                name: format!("c{c}b{k}"),
+                w,
+                h: 0.5,
+                density: 2500.0,
+                place: Place::X(x),
+            });
+        }
+    }
+    Spec {
+        duration,
+        blocks,
+        tilt: 0.0,
+        ..Spec::base(false)
+    }
+}
+
+fn label(v: f64) -> String {
+    let s = format!("{v}");
+    if s.len() <= 6 { s } else { format!("{v:e}") }
+}
+
+/// The grid: the full map, or the small `--quick` one for CI.
+pub fn grid(quick: bool) -> Vec<Cell> {
+    let base = Spec::base(quick);
+    let pick =
+        |full: &[f64], q: &[f64]| -> Vec<f64> { if quick { q.to_vec() } else { full.to_vec() } };
+    let mut cells = Vec::new();
+    let mut add = |factor: &'static str, value: f64, spec: Spec| {
+        let label = label(value);
+        let scene = spec.scene(&format!("stress {factor}={label}"));
+        cells.push(Cell {
+            factor,
+            value,
+            label,
+            scene,
+        });
+    };
+    for dt in pick(
+        &[1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 2e-3, 5e-3],
+        &[1e-4, 1e-3, 5e-3],
+    ) {
+        let duration = if quick { 0.5 } else { 1.0 };
+        add(
+            "dt",
+            dt,
+            Spec {
+                dt,
+                duration,
+                ..base.clone()
+            },
+        );
+    }
+    for theta in pick(&[0.5, 0.55, 0.6, 0.7, 0.8, 0.9, 1.0], &[0.5, 0.7, 1.0]) {
+        add(
+            "theta",
+            theta,
+            Spec {
+                theta,
+                ..base.clone()
+            },
+        );
+    }
+    for r in pick(&[1.0, 1.5, 2.5, 5.0, 10.0, 20.0], &[1.0, 20.0]) {
+        let mut s = base.clone();
+        s.blocks[0].h = r;
+        s.tilt = 0.4 * (1.0 / r).atan();
+        add("slenderness", r, s);
+    }
+    for h in pick(&[0.05, 0.2, 1.0, 2.5, 5.0, 20.0], &[0.05, 20.0]) {
+        let mut s = base.clone();
+        s.blocks[0].h = h;
+        s.blocks[0].w = h / 2.5;
+        add("size", h, s);
+    }
+    for ratio in pick(&[1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0, 1e3], &[1e-3, 1e3]) {
+        let mut s = base.clone();
+        s.blocks = vec![
+            B {
+                name: "pedestal".into(),
+                w: 1.25,
+                h: 1.25,
+                density: 2500.0,
+                place: Place::Offset(0.0),
+            },
+            B {
+                name: "statue".into(),
+                w: 1.0,
+                h: 2.5,
+                density: 2500.0 * ratio,
+                place: Place::Offset(0.0),
+            },
+        ];
+        add("mass_ratio", ratio, s);
+    }
+    for mu in pick(&[0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 2.0], &[0.05, 2.0]) {
+        add(
+            "friction",
+            mu,
+            Spec {
+                friction: mu,
+                ..base.clone()
+            },
+        );
+    }
+    let stand = if quick { 0.2 } else { 2.0 };
+    for n in pick(&[1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0], &[1.0, 5.0, 20.0]) {
+        add("blocks", n, column(n as usize, stand));
+    }
+    for c in pick(&[2.0, 5.0, 10.0], &[3.0]) {
+        add("wall_courses", c, wall(c as usize, stand));
+    }
+    for d in pick(&[1.0, 10.0, 60.0], &[2.0]) {
+        add(
+            "duration",
+            d,
+            Spec {
+                duration: d,
+                ..base.clone()
+            },
+        );
+    }
+    for d in pick(&[1.0, 10.0, 60.0], &[]) {
+        add("standing_time", d, column(10, d));
+    }
+    let alpha = (1.0f64 / 2.5).atan();
+    for k in pick(&[0.5, 1.5, 2.0, 3.0, 5.0, 10.0, 20.0], &[0.5, 3.0, 20.0]) {
+        let mut s = base.clone();
+        s.tilt = 0.0;
+        s.pulse = Some(k * 9.81 * alpha.tan());
+        if quick {
+            s.duration = 2.0;
+        }
+        add("excitation", k, s);
+    }
+    for e in pick(&[0.0, 0.5, 0.8], &[]) {
+        let post_b = 0.105;
+        let mut s = base.clone();
+        s.duration = 2.0;
+        s.tilt = 0.0;
+        s.blocks = vec![
+            B {
+                name: "post".into(),
+                w: post_b,
+                h: 0.34,
+                density: 736.0,
+                place: Place::Offset(0.0),
+            },
+            B {
+                name: "block".into(),
+                w: 1.53,
+                h: 4.9,
+                density: 2065.0,
+                place: Place::Offset(e * post_b / 2.0),
+            },
+        ];
+        add("eccentricity", e, s);
+    }
+    cells
+}
+
+/// Outcome of one cell for one engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    Finished,
+    Failed,
+    Unsupported,
+    Skipped,
+}
+
+impl Status {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Finished => "finished",
+            Status::Failed => "failed",
+            Status::Unsupported => "unsupported",
+            Status::Skipped => "skipped",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CellResult {
+    pub engine: String,
+    pub factor: String,
+    pub value: f64,
+    pub label: String,
+    pub status: Status,
+    pub reason: String,
+    pub wall_s: f64,
+    pub steps: u64,
+    pub invariants: InvariantReport,
+    /// Violated checks (and `run` for a failed run) with the known explanation, if any.
+    pub issues: Vec<Issue>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Issue {
+    pub check: String,
+    pub detail: String,
+    pub explanation: Option<String>,
+}
+
+impl CellResult {
+    pub fn unexplained(&self) -> usize {
+        self.issues
+            .iter()
+            .filter(|i| i.explanation.is_none())
+            .count()
+    }
+}
+
+/// A known, explained violation or failure (`validation/stress-known.toml`).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Known {
+    pub engine: String,
+    pub factor: String,
+    /// The cell's value label as printed in the map, or `*` for every value.
+    pub value: String,
+    /// An invariant name, or `run` for a failed run.
+    pub check: String,
+    pub reason: String,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KnownList {
+    #[serde(default)]
+    pub known: Vec<Known>,
+}
+
+impl KnownList {
+    pub fn load(path: &Path) -> Result<KnownList, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        toml::from_str(&text)
+            .map_err(|e| format!("{}: {}", path.display(), e.message().replace('\n', " ")))
+    }
+    fn explain(&self, engine: &str, factor: &str, label: &str, check: &str) -> Option<String> {
+        self.known
+            .iter()
+            .find(|k| {
+                k.engine == engine
+                    && k.factor == factor
+                    && (k.value == "*" || k.value == label)
+                    && k.check == check
+            })
+            .map(|k| k.reason.clone())
+    }
+}
+
+/// Run one engine on one cell, in a worker thread: a panic is a failed run with its message,
+/// and a run that exceeds `timeout` is abandoned as failed.
+pub fn run_cell(
+    engine: &str,
+    cell: &Cell,
+    tol: &Tolerances,
+    timeout: Duration,
+    known: &KnownList,
+) -> CellResult {
+    run_cell_with(engine, Arc::new(engine_by_name), cell, tol, timeout, known)
+}
+
+/// Makes the engine of a cell (in the worker thread).
+pub type EngineFactory = Arc<dyn Fn(&str) -> Result<Box<dyn Engine>, EngineError> + Send + Sync>;
+
+/// [`run_cell`] with the engine made by `make` (tests use it to inject faulty engines).
+pub fn run_cell_with(
+    engine: &str,
+    make: EngineFactory,
+    cell: &Cell,
+    tol: &Tolerances,
+    timeout: Duration,
+    known: &KnownList,
+) -> CellResult {
+    let mut r = CellResult {
+        engine: engine.to_string(),
+        factor: cell.factor.to_string(),
+        value: cell.value,
+        label: cell.label.clone(),
+        status: Status::Finished,
+        reason: String::new(),
+        wall_s: 0.0,
+        steps: 0,
+        invariants: InvariantReport::default(),
+        issues: Vec::new(),
+    };
+    let scene = match &cell.scene {
+        Ok(s) => s.clone(),
+        Err(e) => {
+            r.status = Status::Failed;
+            r.reason = format!("the generated scene is invalid: {e}");
+            return finish(r, known);
+        }
+    };
+    if let Err(e) = make(engine) {
+        r.status = Status::Skipped;
+        r.reason = e.to_string();
+        return r;
+    }
+    let (tx, rx) = mpsc::channel();
+    let name = engine.to_string();
+    let tol = *tol;
+    let start = Instant::now();
+    let spawned = std::thread::Builder::new()
+        .name(format!("stress {engine} {}={}", cell.factor, cell.label))
+        .spawn(move || {
+            let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                let e = make(&name)?;
+                let t0 = Instant::now();
+                let main = e.run(&scene);
+                let wall = t0.elapsed().as_secs_f64();
+                let out = main?;
+                // The invariant runs (mirror, rerun) are timed apart from the main run.
+                let report = crate::invariants::check_single(&scene, &out.trajectory, &tol);
+                let (_, extra) = run_checked_extra(e.as_ref(), &scene, &out, &tol)?;
+                let mut report = report;
+                report.checks.extend(extra.checks);
+                Ok::<_, EngineError>((out.steps, wall, report))
+            }));
+            let _ = tx.send(res.map_err(|p| {
+                p.downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "unknown panic".into())
+            }));
+        });
+    if let Err(e) = spawned {
+        r.status = Status::Failed;
+        r.reason = format!("cannot start a worker thread: {e}");
+        return finish(r, known);
+    }
+    match rx.recv_timeout(timeout) {
+        Ok(Ok(Ok((steps, wall, report)))) => {
+            r.steps = steps;
+            r.wall_s = wall;
+            r.invariants = report;
+        }
+        Ok(Ok(Err(e))) => {
+            r.wall_s = start.elapsed().as_secs_f64();
+            match e {
+                EngineError::Unsupported { reason, .. } => {
+                    r.status = Status::Unsupported;
+                    r.reason = reason;
+                }
+                other => {
+                    r.status = Status::Failed;
+                    r.reason = other.to_string();
+                }
+            }
+        }
+        Ok(Err(panic)) => {
+            r.wall_s = start.elapsed().as_secs_f64();
+            r.status = Status::Failed;
+            r.reason = format!("panic: {panic}");
+        }
+        Err(_) => {
+            r.wall_s = start.elapsed().as_secs_f64();
+            r.status = Status::Failed;
+            r.reason = format!(
+                "timed out after {} s (run abandoned)",
+                timeout.as_secs_f64()
+            );
+        }
+    }
+    finish(r, known)
+}
+
+/// The mirror and rerun checks of an already finished run.
+fn run_checked_extra(
+    engine: &dyn crate::engines::Engine,
+    scene: &Scene,
+    out: &crate::engines::RunOutput,
+    tol: &Tolerances,
+) -> Result<((), InvariantReport), EngineError> {
+    let mut report = InvariantReport::default();
+    let mirrored = crate::invariants::mirror_scene(scene);
+    report.checks.push(match engine.run(&mirrored) {
+        Ok(m) => crate::invariants::check_mirror(scene, &out.trajectory, &m.trajectory, tol),
+        Err(e) => failed_check("mirror", e),
+    });
+    report.checks.push(match engine.run(scene) {
+        Ok(again) => crate::invariants::check_rerun(&out.trajectory, &again.trajectory),
+        Err(e) => failed_check("rerun", e),
+    });
+    Ok(((), report))
+}
+
+fn failed_check(name: &'static str, e: EngineError) -> crate::invariants::Check {
+    crate::invariants::Check {
+        name,
+        applies: true,
+        passed: false,
+        value: f64::INFINITY,
+        limit: 0.0,
+        detail: format!("the run failed: {e}"),
+    }
+}
+
+fn finish(mut r: CellResult, known: &KnownList) -> CellResult {
+    let explain = |check: &str| known.explain(&r.engine, &r.factor, &r.label, check);
+    let mut issues = Vec::new();
+    if r.status == Status::Failed {
+        issues.push(Issue {
+            check: "run".into(),
+            detail: r.reason.clone(),
+            explanation: explain("run"),
+        });
+    }
+    for c in r.invariants.violations() {
+        issues.push(Issue {
+            check: c.name.to_string(),
+            detail: c.detail.clone(),
+            explanation: explain(c.name),
+        });
+    }
+    r.issues = issues;
+    r
+}
+
+/// Per-engine totals.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Totals {
+    pub cells: usize,
+    pub finished: usize,
+    pub failed: usize,
+    pub unsupported: usize,
+    pub skipped: usize,
+    pub violations: usize,
+    pub unexplained: usize,
+    pub wall_s: f64,
+}
+
+pub fn totals(results: &[CellResult]) -> Totals {
+    let mut t = Totals::default();
+    for r in results {
+        t.cells += 1;
+        match r.status {
+            Status::Finished => t.finished += 1,
+            Status::Failed => t.failed += 1,
+            Status::Unsupported => t.unsupported += 1,
+            Status::Skipped => t.skipped += 1,
+        }
+        t.violations += r.invariants.violations().len();
+        t.unexplained += r.unexplained();
+        t.wall_s += r.wall_s;
+    }
+    t
+}
+
+const CSV_HEADER: &str = "engine,factor,value,status,wall_s,steps,finite,complete,penetration_m,penetration_limit_m,energy_growth_rel,standing_drift_m,mirror_diff,rerun_bit_diffs,violations,unexplained,reason";
+
+fn csv_escape(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\"").replace('\n', " "))
+    } else {
+        s.to_string()
+    }
+}
+
+fn check_value(r: &CellResult, name: &str) -> String {
+    match r.invariants.get(name) {
+        Some(c) if c.applies => format!("{:e}", c.value),
+        Some(_) => "n/a".into(),
+        None => String::new(),
+    }
+}
+
+pub fn csv(results: &[CellResult]) -> String {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for r in results {
+        let viol: Vec<String> = r.issues.iter().map(|i| i.check.clone()).collect();
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.engine,
+            r.factor,
+            r.label,
+            r.status.as_str(),
+            r.wall_s,
+            r.steps,
+            check_value(r, "finite"),
+            check_value(r, "complete"),
+            check_value(r, "penetration"),
+            r.invariants
+                .get("penetration")
+                .map(|c| format!("{:e}", c.limit))
+                .unwrap_or_default(),
+            check_value(r, "energy"),
+            check_value(r, "standing"),
+            check_value(r, "mirror"),
+            check_value(r, "rerun"),
+            viol.join(" "),
+            r.unexplained(),
+            csv_escape(&r.reason)
+        );
+    }
+    s
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn colour(r: &CellResult) -> (&'static str, &'static str) {
+    match r.status {
+        Status::Skipped => ("#d0d0d0", "skipped"),
+        Status::Unsupported => ("#e4e4e4", "unsupported"),
+        _ if r.unexplained() > 0 => ("#e0524c", "failed or violated, unexplained"),
+        Status::Failed => ("#f0a35e", "failed, explained"),
+        Status::Finished if !r.issues.is_empty() => ("#f4d35e", "violation, explained"),
+        Status::Finished => ("#6cbf6c", "finished, invariants hold"),
+    }
+}
+
+/// A self-contained HTML page with an inline SVG map (one row per factor, one cell per
+/// value) and the table of every cell.
+pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> String {
+    let mut factors: Vec<&str> = Vec::new();
+    for r in results {
+        if !factors.contains(&r.factor.as_str()) {
+            factors.push(&r.factor);
+        }
+    }
+    let cols = factors
+        .iter()
+        .map(|f| results.iter().filter(|r| r.factor == *f).count())
+        .max()
+        .unwrap_or(1);
+    let (cw, ch, lw) = (92.0, 40.0, 130.0);
+    let width = lw + cw * cols as f64 + 10.0;
+    let height = ch * factors.len() as f64 + 10.0;
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width}\" height=\"{height}\" font-family=\"sans-serif\" font-size=\"12\">\n"
+    );
+    for (row, f) in factors.iter().enumerate() {
+        let y = 5.0 + ch * row as f64;
+        let _ = writeln!(
+            svg,
+            "<text x=\"4\" y=\"{}\" font-weight=\"bold\">{f}</text>",
+            y + ch / 2.0 + 4.0
+        );
+        for (col, r) in results.iter().filter(|r| r.factor == *f).enumerate() {
+            let x = lw + cw * col as f64;
+            let (fill, what) = colour(r);
+            let mut tip = format!(
+                "{}={}: {} ({what}), {:.2} s wall",
+                r.factor,
+                r.label,
+                r.status.as_str(),
+                r.wall_s
+            );
+            if !r.reason.is_empty() {
+                let _ = write!(tip, "\n{}", r.reason);
+            }
+            for c in &r.invariants.checks {
+                if c.applies {
+                    let _ = write!(
+                        tip,
+                        "\n{}: {} ({})",
+                        c.name,
+                        if c.passed { "ok" } else { "VIOLATED" },
+                        c.detail
+                    );
+                }
+            }
+            for i in &r.issues {
+                if let Some(e) = &i.explanation {
+                    let _ = write!(tip, "\nknown ({}): {e}", i.check);
+                }
+            }
+            let _ = writeln!(
+                svg,
+                "<g><title>{}</title><rect x=\"{x}\" y=\"{y}\" width=\"{}\" height=\"{}\" rx=\"4\" fill=\"{fill}\" stroke=\"#555\"/><text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text><text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{}</text></g>",
+                html_escape(&tip),
+                cw - 4.0,
+                ch - 4.0,
+                x + (cw - 4.0) / 2.0,
+                y + 15.0,
+                html_escape(&r.label),
+                x + (cw - 4.0) / 2.0,
+                y + 29.0,
+                if r.status == Status::Finished {
+                    format!("{:.2} s", r.wall_s)
+                } else {
+                    r.status.as_str().to_string()
+                }
+            );
+        }
+    }
+    svg.push_str("</svg>\n");
+    let t = totals(results);
+    let mut rows = String::new();
+    for r in results {
+        let checks: Vec<String> = CHECK_NAMES
+            .iter()
+            .map(|n| match r.invariants.get(n) {
+                Some(c) if !c.applies => "n/a".to_string(),
+                Some(c) => format!("{}{:.2e}", if c.passed { "" } else { "✗ " }, c.value),
+                None => "".to_string(),
+            })
+            .collect();
+        let issues: Vec<String> = r
+            .issues
+            .iter()
+            .map(|i| match &i.explanation {
+                Some(e) => format!("{} (known: {})", i.check, e),
+                None => format!("{} UNEXPLAINED: {}", i.check, i.detail),
+            })
+            .collect();
+        let _ = writeln!(
+            rows,
+            "<tr style=\"background:{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{}</td>{}<td>{}</td></tr>",
+            colour(r).0,
+            html_escape(&r.factor),
+            html_escape(&r.label),
+            r.status.as_str(),
+            r.wall_s,
+            r.steps,
+            checks
+                .iter()
+                .map(|c| format!("<td>{}</td>", html_escape(c)))
+                .collect::<String>(),
+            html_escape(&format!("{} {}", r.reason, issues.join("; ")))
+        );
+    }
+    let legend: String = [
+        ("#6cbf6c", "finished, invariants hold"),
+        ("#f4d35e", "violation, explained"),
+        ("#f0a35e", "failed, explained"),
+        ("#e0524c", "failed or violated, unexplained"),
+        ("#e4e4e4", "unsupported by the engine"),
+        ("#d0d0d0", "engine not built"),
+    ]
+    .iter()
+    .map(|(c, w)| format!("<span style=\"display:inline-block;background:{c};padding:2px 8px;margin:2px 6px 2px 0;border:1px solid #555\">{w}</span>"))
+    .collect();
+    format!(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations, {} unexplained issues. One factor at a time around the base case: {}. Hover a cell for its details.</p>\n<ul>{}</ul>\n<p>{legend}</p>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>complete</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / issues</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
+        t.cells,
+        t.finished,
+        t.failed,
+        t.unsupported,
+        t.skipped,
+        t.violations,
+        t.unexplained,
+        html_escape(BASE_CASE),
+        FACTORS
+            .iter()
+            .map(|(f, d)| format!("<li><b>{f}</b>: {}</li>", html_escape(d)))
+            .collect::<String>(),
+        html_escape(&serde_json::to_string_pretty(meta).unwrap_or_default())
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_generated_scene_is_valid() {
+        for quick in [true, false] {
+            for c in grid(quick) {
+                assert!(
+                    c.scene.is_ok(),
+                    "{}={}: {:?}",
+                    c.factor,
+                    c.label,
+                    c.scene.err()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_full_grid_spans_the_stated_ranges() {
+        let g = grid(false);
+        let range = |f: &str| {
+            let v: Vec<f64> = g
+                .iter()
+                .filter(|c| c.factor == f)
+                .map(|c| c.value)
+                .collect();
+            (
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        };
+        assert_eq!(range("dt"), (1e-5, 5e-3));
+        assert_eq!(range("theta"), (0.5, 1.0));
+        assert_eq!(range("slenderness"), (1.0, 20.0));
+        assert_eq!(range("size"), (0.05, 20.0));
+        assert_eq!(range("mass_ratio"), (1e-3, 1e3));
+        assert_eq!(range("friction"), (0.05, 2.0));
+        assert_eq!(range("blocks"), (1.0, 100.0));
+        assert_eq!(range("duration").1, 60.0);
+        let mut in_grid: Vec<&str> = g.iter().map(|c| c.factor).collect();
+        in_grid.dedup();
+        let listed: Vec<&str> = FACTORS.iter().map(|f| f.0).collect();
+        assert_eq!(in_grid, listed, "FACTORS must describe the grid, in order");
+        let col = g
+            .iter()
+            .find(|c| c.factor == "blocks" && c.value == 100.0)
+            .unwrap();
+        assert_eq!(col.scene.as_ref().unwrap().blocks.len(), 100);
+        let wall = g
+            .iter()
+            .find(|c| c.factor == "wall_courses" && c.value == 2.0)
+            .unwrap();
+        let w = wall.scene.as_ref().unwrap();
+        // Second course rests on the first.
+        let lay = w.layout();
+        assert!(lay.supports[4].is_some());
+        assert!((lay.blocks[4].z - 0.75).abs() < 1e-12);
+        assert_eq!(w.blocks.len(), 9);
+    }
+
+    #[test]
+    fn known_list_matches_engine_factor_value_and_check() {
+        let k: KnownList = toml::from_str(
+            "[[known]]\nengine = \"native\"\nfactor = \"theta\"\nvalue = \"0.5\"\ncheck = \"energy\"\nreason = \"r\"\n",
+        )
+        .unwrap();
+        assert!(k.explain("native", "theta", "0.5", "energy").is_some());
+        assert!(k.explain("native", "theta", "0.6", "energy").is_none());
+        assert!(k.explain("housner", "theta", "0.5", "energy").is_none());
+        assert!(k.explain("native", "theta", "0.5", "mirror").is_none());
+    }
+
+    #[test]
+    fn an_unknown_engine_is_skipped_not_failed() {
+        let cell = &grid(true)[0];
+        let r = run_cell(
+            "no-such-engine",
+            cell,
+            &Tolerances::default(),
+            Duration::from_secs(5),
+            &KnownList::default(),
+        );
+        assert_eq!(r.status, Status::Skipped);
+        assert_eq!(r.unexplained(), 0);
+    }
+}
+
+/// Engine faults: a panic, a hang past the timeout, NaN and a truncated trajectory are each a
+/// failed cell or a violated invariant with its reason, and the map goes on.
+#[cfg(test)]
+mod fault_tests {
+    use super::*;
+    use crate::engines::RunOutput;
+
+    #[derive(Clone, Copy)]
+    enum Fault {
+        Panic,
+        Hang,
+        NaN,
+        Truncated,
+        Error,
+    }
+
+    struct Faulty(Fault);
+
+    impl Engine for Faulty {
+        fn name(&self) -> &'static str {
+            "faulty"
+        }
+        fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+            let mut out = engine_by_name("housner").unwrap().run(scene)?;
+            match self.0 {
+                Fault::Panic => panic!("worker crashed"),
+                Fault::Hang => loop {
+                    std::thread::sleep(Duration::from_millis(50));
+                },
+                Fault::NaN => out.trajectory.blocks[0].phi[5] = f64::NAN,
+                Fault::Truncated => {
+                    let n = out.trajectory.len() / 2;
+                    out.trajectory.t.truncate(n);
+                    for b in &mut out.trajectory.blocks {
+                        for v in [
+                            &mut b.x,
+                            &mut b.z,
+                            &mut b.phi,
+                            &mut b.vx,
+                            &mut b.vz,
+                            &mut b.omega,
+                        ] {
+                            v.truncate(n);
+                        }
+                    }
+                }
+                Fault::Error => {
+                    return Err(EngineError::Failed {
+                        engine: "faulty",
+                        message: "worker exited with status 3".into(),
+                    });
+                }
+            }
+            Ok(out)
+        }
+    }
+
+    fn run(fault: Fault) -> CellResult {
+        let cell = grid(true)
+            .into_iter()
+            .find(|c| c.factor == "theta")
+            .unwrap();
+        run_cell_with(
+            "faulty",
+            Arc::new(move |_: &str| Ok(Box::new(Faulty(fault)) as Box<dyn Engine>)),
+            &cell,
+            &Tolerances::default(),
+            Duration::from_millis(1500),
+            &KnownList::default(),
+        )
+    }
+
+    #[test]
+    fn a_panicking_engine_is_a_failed_cell_with_its_message() {
+        let r = run(Fault::Panic);
+        assert_eq!(r.status, Status::Failed);
+        assert!(r.reason.contains("panic: worker crashed"), "{}", r.reason);
+        assert_eq!(r.unexplained(), 1);
+    }
+
+    #[test]
+    fn a_hanging_engine_is_abandoned_after_the_timeout() {
+        let t0 = Instant::now();
+        let r = run(Fault::Hang);
+        assert!(t0.elapsed() < Duration::from_secs(10));
+        assert_eq!(r.status, Status::Failed);
+        assert!(r.reason.contains("timed out after 1.5 s"), "{}", r.reason);
+    }
+
+    #[test]
+    fn nan_and_truncated_trajectories_violate_invariants() {
+        let r = run(Fault::NaN);
+        assert_eq!(r.status, Status::Finished);
+        assert!(r.invariants.get("finite").unwrap().violated());
+        let r = run(Fault::Truncated);
+        assert!(
+            r.invariants.get("complete").unwrap().violated(),
+            "{:?}",
+            r.invariants.get("complete")
+        );
+        assert!(r.unexplained() >= 1);
+    }
+
+    #[test]
+    fn an_engine_error_is_a_failed_cell_with_its_reason() {
+        let r = run(Fault::Error);
+        assert_eq!(r.status, Status::Failed);
+        assert!(
+            r.reason.contains("worker exited with status 3"),
+            "{}",
+            r.reason
+        );
+    }
+}

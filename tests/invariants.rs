@@ -1,0 +1,240 @@
+//! The invariant checks: they hold on the engines' runs of the validation scenes, and each one
+//! fails on a trajectory broken in the way it is meant to catch.
+
+use rockbench::engines::{Engine, engine_by_name};
+use rockbench::invariants::*;
+use rockbench::scene::{Scene, load_scene_with_overrides};
+use rockbench::trajectory::Trajectory;
+use std::path::Path;
+
+fn scene(name: &str, sets: &[&str]) -> Scene {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("validation/scenes")
+        .join(name);
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    load_scene_with_overrides(&p, &sets).unwrap()
+}
+
+fn run(engine: &str, s: &Scene) -> Trajectory {
+    engine_by_name(engine).unwrap().run(s).unwrap().trajectory
+}
+
+fn all_checks(engine: &str, s: &Scene) -> InvariantReport {
+    let e: Box<dyn Engine> = engine_by_name(engine).unwrap();
+    run_checked(
+        e.as_ref(),
+        s,
+        &Tolerances::default(),
+        Extra {
+            mirror: true,
+            rerun: true,
+        },
+    )
+    .unwrap()
+    .1
+}
+
+fn assert_all_pass(what: &str, r: &InvariantReport, expect_applies: &[&str]) {
+    for c in &r.checks {
+        assert!(!c.violated(), "{what}: {} violated: {}", c.name, c.detail);
+    }
+    for n in expect_applies {
+        let c = r.get(n).unwrap_or_else(|| panic!("{what}: no {n} check"));
+        assert!(c.applies, "{what}: {n} does not apply: {}", c.detail);
+    }
+}
+
+#[test]
+fn native_and_housner_runs_of_the_slender_block_hold_every_invariant() {
+    let s = scene("housner-slender.toml", &["duration=2.0"]);
+    for e in ["native", "housner"] {
+        let r = all_checks(e, &s);
+        assert_all_pass(
+            e,
+            &r,
+            &["finite", "penetration", "energy", "mirror", "rerun"],
+        );
+        assert!(!r.get("standing").unwrap().applies);
+    }
+}
+
+#[test]
+fn native_run_of_the_two_block_stack_holds_every_invariant() {
+    let s = scene("two-block-free-rocking.toml", &["duration=1.5"]);
+    let r = all_checks("native", &s);
+    assert_all_pass(
+        "two-block",
+        &r,
+        &["finite", "penetration", "energy", "mirror", "rerun"],
+    );
+    // The mirror comparison covers the motion up to the first impact (~0.6 s).
+    assert!(
+        r.get("mirror")
+            .unwrap()
+            .detail
+            .contains("first impact at 0.6"),
+        "{}",
+        r.get("mirror").unwrap().detail
+    );
+}
+
+#[test]
+fn a_standing_column_stays_put() {
+    let s = scene(
+        "two-block-free-rocking.toml",
+        &["duration=1.0", "initial.tilt=0.0"],
+    );
+    let r = all_checks("native", &s);
+    assert_all_pass("standing", &r, &["standing", "energy"]);
+    assert!(r.get("standing").unwrap().value < 1e-9);
+}
+
+#[test]
+fn each_check_fails_on_the_fault_it_is_meant_to_catch() {
+    let s = scene("housner-slender.toml", &["duration=1.0"]);
+    let tol = Tolerances::default();
+    let good = run("housner", &s);
+    assert!(check_single(&s, &good, &tol).all_passed());
+
+    // NaN.
+    let mut t = good.clone();
+    t.blocks[0].vx[10] = f64::NAN;
+    assert!(check_finite(&t).violated());
+
+    // Sunk by 1 mm: the lowest corner is 1 mm below the ground (limit 1e-4 * 1 m).
+    let mut t = good.clone();
+    for z in &mut t.blocks[0].z {
+        *z -= 1e-3;
+    }
+    let c = check_penetration(&s, &t, &tol);
+    assert!(c.violated(), "{}", c.detail);
+    assert!((c.value - 1e-3).abs() < 1e-9, "{}", c.value);
+
+    // Energy added at one sample.
+    let mut t = good.clone();
+    t.blocks[0].omega[500] *= 1.01;
+    assert!(check_energy(&s, &t, &tol).violated());
+
+    // A mirrored run that is not mirrored.
+    assert!(check_mirror(&s, &good, &good, &tol).violated());
+    let mut m = good.clone();
+    for b in &mut m.blocks {
+        for v in
+            b.x.iter_mut()
+                .chain(&mut b.phi)
+                .chain(&mut b.vx)
+                .chain(&mut b.omega)
+        {
+            *v = -*v;
+        }
+    }
+    assert!(!check_mirror(&s, &good, &m, &tol).violated());
+
+    // A rerun that differs in the last bit.
+    let mut t = good.clone();
+    t.blocks[0].phi[3] = f64::from_bits(t.blocks[0].phi[3].to_bits() ^ 1);
+    assert_eq!(check_rerun(&good, &t).value, 1.0);
+    assert!(check_rerun(&good, &t).violated());
+
+    // A standing block that creeps by 2e-9 m.
+    let st = scene(
+        "housner-slender.toml",
+        &["duration=1.0", "initial.tilt=0.0"],
+    );
+    let mut t = run("native", &st);
+    assert!(!check_standing(&st, &t, &tol).violated());
+    let n = t.len();
+    t.blocks[0].x[n - 1] += 2e-9;
+    assert!(check_standing(&st, &t, &tol).violated());
+}
+
+#[test]
+fn block_block_penetration_is_measured_on_stacked_pairs() {
+    let s = scene(
+        "two-block-free-rocking.toml",
+        &["duration=0.2", "initial.tilt=0.0"],
+    );
+    let mut t = run("native", &s);
+    let (g, p, _) = max_penetration(&s, &t);
+    assert!(g < 1e-12 && p < 1e-12, "{g} {p}");
+    // Lower the statue by 2 mm into the pedestal.
+    for z in &mut t.blocks[1].z {
+        *z -= 2e-3;
+    }
+    let (_, p, where_) = max_penetration(&s, &t);
+    assert!((p - 2e-3).abs() < 1e-9, "{p}");
+    assert!(where_.contains("`statue` into `pedestal`"), "{where_}");
+}
+
+#[test]
+fn mirroring_twice_gives_the_scene_back() {
+    let s = scene(
+        "two-block-free-rocking.toml",
+        &["initial.blocks.statue.omega=0.3"],
+    );
+    let mut m = mirror_scene(&mirror_scene(&s));
+    m.name = s.name.clone();
+    assert_eq!(m, s);
+    let once = mirror_scene(&s);
+    assert_eq!(once.initial.tilt, -s.initial.tilt);
+    assert_eq!(once.initial.blocks["statue"].omega, -0.3);
+}
+
+#[test]
+fn the_housner_engine_is_exactly_mirror_symmetric() {
+    let s = scene("housner-square.toml", &["duration=2.0"]);
+    let a = run("housner", &s);
+    let b = run("housner", &mirror_scene(&s));
+    for (p, q) in a.blocks[0].phi.iter().zip(&b.blocks[0].phi) {
+        assert_eq!(*p, -*q);
+    }
+}
+
+#[test]
+fn standing_applies_only_to_statically_stable_scenes() {
+    let s = |sets: &[&str]| scene("two-block-free-rocking.toml", sets);
+    assert!(is_standing(&s(&["initial.tilt=0.0"])));
+    let offset = |o: f64| {
+        let mut sc = s(&["initial.tilt=0.0"]);
+        sc.blocks[1].offset = o;
+        sc
+    };
+    // The statue's centre 0.6 m off the 1.25 m pedestal's centre: 0.025 m inside its edge.
+    assert!(is_standing(&offset(0.6)));
+    // 0.65 m off: beyond the edge, it falls.
+    assert!(!is_standing(&offset(0.65)));
+    // Every grid column, wall and eccentric post of the stress map is standing.
+    for c in rockbench::stress::grid(false) {
+        if ["blocks", "wall_courses", "standing_time", "eccentricity"].contains(&c.factor) {
+            assert!(
+                is_standing(c.scene.as_ref().unwrap()),
+                "{}={}",
+                c.factor,
+                c.label
+            );
+        }
+    }
+}
+
+#[test]
+fn an_overhanging_block_is_not_standing_and_falls() {
+    let dir = std::env::temp_dir().join(format!("rb-overhang-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("overhang.toml");
+    std::fs::write(
+        &p,
+        "name = \"overhang\"\nduration = 0.3\n[[blocks]]\nname = \"b0\"\nwidth = 1.0\nheight = 1.0\n[[blocks]]\nname = \"b1\"\nwidth = 1.0\nheight = 1.0\noffset = 0.6\n",
+    )
+    .unwrap();
+    let s = rockbench::scene::load_scene(&p).unwrap();
+    assert!(!is_statically_stable(&s));
+    assert!(!is_standing(&s));
+    let t = run("native", &s);
+    // Its centre of mass 0.1 m beyond the edge: it tips over the right edge.
+    assert!(
+        t.blocks[1].phi.last().unwrap() < &-0.05,
+        "{:?}",
+        t.blocks[1].phi.last()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,398 @@
+//! Random scenes: every one is either refused with a one-line scene error, or run by every
+//! engine to a trajectory that passes the invariants (finite, penetration, energy, standing,
+//! mirror, rerun), or ends in a typed engine error. Never a panic.
+//!
+//! `PROPTEST_CASES` sets the number of cases (default 200 in `make test`, with a fixed seed;
+//! `make proptest` runs 10,000 with a new seed, or PROPTEST_RNG_SEED). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
+//! milliseconds.
+
+use proptest::prelude::*;
+use rockbench::engines::{ENGINE_NAMES, EngineError, engine_by_name};
+use rockbench::invariants::{Extra, Tolerances, run_checked};
+use rockbench::scene::{Scene, check_scene_str};
+use std::fmt::Write as _;
+use std::path::Path;
+
+#[derive(Debug, Clone)]
+struct RBlock {
+    width: f64,
+    height: f64,
+    density: f64,
+    /// Offset as a fraction of the narrower of this block and the block below.
+    offset_frac: f64,
+    rotation: f64,
+    omega: f64,
+    vx: f64,
+    friction: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+enum RExcitation {
+    None,
+    Pulse {
+        kind: &'static str,
+        amplitude: f64,
+        period: f64,
+        start: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct RScene {
+    blocks: Vec<RBlock>,
+    tilt: f64,
+    friction: f64,
+    theta: f64,
+    dt: f64,
+    duration: f64,
+    gravity: f64,
+    moving_ground: bool,
+    dual: bool,
+    excitation: RExcitation,
+}
+
+fn log_uniform(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    (lo.ln()..hi.ln()).prop_map(f64::exp)
+}
+
+fn block() -> impl Strategy<Value = RBlock> {
+    (
+        log_uniform(0.05, 5.0),
+        log_uniform(0.05, 5.0),
+        log_uniform(10.0, 1e4),
+        prop_oneof![4 => -0.45..0.45f64, 1 => -0.7..0.7f64],
+        prop_oneof![2 => Just(0.0), 1 => -0.3..0.3f64],
+        prop_oneof![2 => Just(0.0), 1 => -1.0..1.0f64],
+        prop_oneof![3 => Just(0.0), 1 => -0.5..0.5f64],
+        prop::option::weighted(0.2, 0.0..2.0f64),
+    )
+        .prop_map(
+            |(width, height, density, offset_frac, rotation, omega, vx, friction)| RBlock {
+                width,
+                height,
+                density,
+                offset_frac,
+                rotation,
+                omega,
+                vx,
+                friction,
+            },
+        )
+}
+
+fn excitation() -> impl Strategy<Value = RExcitation> {
+    prop_oneof![
+        2 => Just(RExcitation::None),
+        1 => (
+            prop_oneof![Just("half-sine"), Just("one-sine"), Just("rectangular")],
+            -30.0..30.0f64,
+            0.02..1.0f64,
+            0.0..0.1f64
+        )
+            .prop_map(|(kind, amplitude, period, start)| RExcitation::Pulse {
+                kind,
+                amplitude,
+                period,
+                start
+            }),
+    ]
+}
+
+fn scene() -> impl Strategy<Value = RScene> {
+    (
+        prop::collection::vec(block(), 1..5),
+        prop_oneof![2 => Just(0.0), 3 => -0.6..0.6f64],
+        0.0..2.0f64,
+        prop_oneof![1 => Just(0.5), 1 => Just(1.0), 3 => 0.5..=1.0f64],
+        log_uniform(5e-4, 5e-3),
+        0.01..0.25f64,
+        prop_oneof![4 => Just(9.81), 1 => 0.5..30.0f64],
+        any::<bool>(),
+        any::<bool>(),
+        excitation(),
+    )
+        .prop_map(
+            |(
+                blocks,
+                tilt,
+                friction,
+                theta,
+                dt,
+                duration,
+                gravity,
+                moving_ground,
+                dual,
+                excitation,
+            )| {
+                RScene {
+                    blocks,
+                    tilt,
+                    friction,
+                    theta,
+                    dt,
+                    duration,
+                    gravity,
+                    moving_ground,
+                    dual,
+                    excitation,
+                }
+            },
+        )
+}
+
+impl RScene {
+    fn toml(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "name = \"random\"\nduration = {:e}\ngravity = {:e}\noutput_interval = {:e}",
+            self.duration, self.gravity, self.dt
+        );
+        for (i, b) in self.blocks.iter().enumerate() {
+            let below = if i == 0 {
+                b.width
+            } else {
+                self.blocks[i - 1].width
+            };
+            let offset = b.offset_frac * b.width.min(below);
+            let _ = writeln!(
+                s,
+                "\n[[blocks]]\nname = \"b{i}\"\nwidth = {:e}\nheight = {:e}\ndensity = {:e}\noffset = {:e}",
+                b.width, b.height, b.density, offset
+            );
+        }
+        let _ = writeln!(s, "\n[initial]\ntilt = {:e}", self.tilt);
+        for (i, b) in self.blocks.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "\n[initial.blocks.b{i}]\nrotation = {:e}\nomega = {:e}\nvx = {:e}",
+                if i == 0 { 0.0 } else { b.rotation },
+                b.omega,
+                b.vx
+            );
+        }
+        let _ = writeln!(s, "\n[contact]\nfriction = {:e}", self.friction);
+        for (i, b) in self.blocks.iter().enumerate() {
+            if let Some(mu) = b.friction {
+                let _ = writeln!(s, "\n[contact.interfaces.b{i}]\nfriction = {mu:e}");
+            }
+        }
+        let _ = writeln!(
+            s,
+            "\n[native]\ntheta = {:e}\ndt = {:e}\nformulation = \"{}\"",
+            self.theta,
+            self.dt,
+            if self.dual { "dual" } else { "primal" }
+        );
+        if let RExcitation::Pulse {
+            kind,
+            amplitude,
+            period,
+            start,
+        } = &self.excitation
+        {
+            let _ = writeln!(
+                s,
+                "\n[excitation]\napplied_as = \"{}\"\n\n[excitation.horizontal]\nkind = \"{kind}\"\namplitude = {amplitude:e}\nduration = {period:e}\nstart = {start:e}",
+                if self.moving_ground {
+                    "moving-ground"
+                } else {
+                    "inertial-forces"
+                }
+            );
+        }
+        s
+    }
+}
+
+/// Known engine defects, each measured and reported, to remove when fixed. A violation is
+/// excused only if it matches one of these exactly (engine, check, and below a bound).
+struct KnownDefect {
+    engine: &'static str,
+    check: &'static str,
+    /// Largest measured value excused.
+    below: f64,
+    /// The scenes it applies to.
+    applies: fn(&Scene) -> bool,
+    reason: &'static str,
+}
+
+const KNOWN_DEFECTS: &[KnownDefect] = &[
+    KnownDefect {
+        engine: "native",
+        check: "standing",
+        below: 1e-7,
+        applies: |_| true,
+        reason: "an eccentrically loaded standing block (a 1.5 x 4.9 m block on a 0.1 m post, its \
+             centre of mass 0.01 m from the post's edge) sinks and rotates by 1e-9 to 1e-8 m in \
+             the first step (9.9e-9 m at theta 0.7), then creeps by ~2e-10 m/s: the contact QP \
+             is solved to a relative tolerance (1e-10) and the nearly unloaded corner's gap is \
+             not held at round-off level",
+    },
+    KnownDefect {
+        engine: "native",
+        check: "mirror",
+        below: 1e-4,
+        applies: |_| true,
+        reason: "block-block contacts break corner-corner and face ties by block and face index \
+                 (src/geometry.rs), which mirroring does not preserve; at such a tie, and at \
+                 stick-slip switches of a small block on a tilted stack, round-off differences \
+                 grow before any impact (measured: 1.5e-6 rad in 38 steps for a 7 cm block on a \
+                 stack tilted 0.58 rad; 2.6e-6 for a single 0.23 x 0.066 m block whose pivot \
+                 corner slips, tilted 0.6 rad, theta 0.5, two steps before its first impact)",
+    },
+    KnownDefect {
+        engine: "native",
+        check: "energy",
+        below: 1e-5,
+        applies: |s| s.native.theta == 0.5,
+        reason: "at theta = 0.5 the scheme has no numerical damping and a closing contact \
+                 rebounds with e = (1 - theta)/theta = 1, so a block lifted by associative \
+                 friction (a slab sliding at 0.055 m/s is lifted 0.15 mm) bounces for ever and \
+                 solver-tolerance errors accumulate: energy grows by 2.2e-9 of m g H (dual), \
+                 3.4e-10 (primal); at theta 0.55 and above at most 2.2e-13. With a heavy \
+                 block rocking on a light plank (mass ratio 3700, no friction, dt 5e-3) the \
+                 growth reaches 6.1e-6 (3.6e-7 at dt 1e-3; none at theta 0.7)",
+    },
+    KnownDefect {
+        engine: "housner",
+        check: "energy",
+        below: 1e-6,
+        applies: |_| true,
+        reason: "RK4 truncation, not round-off: the default max_step (1e-4 s) is not scaled with \
+                 the block's frequency parameter p, so small blocks gain energy (9.4e-9 of m g H \
+                 for H = 0.05 m, falling as max_step^5); see validation/stress-known.toml",
+    },
+    KnownDefect {
+        engine: "native",
+        check: "penetration",
+        below: 1e-3,
+        applies: |s| s.blocks.len() > 1,
+        reason: "the step's contact rows are linear in the rotation increment, so a corner of a \
+                 fast-rotating block overshoots the face by O((omega dt)^2 r) before the next \
+                 re-detection: a 1 x 1 m block of 4428 kg/m^3 rotated 0.2 rad on a 0.12 m plank \
+                 on a 0.32 m post sinks the plank 0.55 mm into the post at theta 0.5, dt 5e-3 \
+                 (0.21 mm at theta 0.7; 15 um at dt 1e-3), against a limit of 12 um",
+    },
+];
+
+/// A panic excused only for the native engine's dual formulation, whose Clarabel call panics
+/// (qdldl: "index out of bounds: the len is 0 but the index is 0") on a step with no contact
+/// in reach, e.g. a slab thrown into the air by associative friction; pinned by the ignored
+/// test `native_dual_step_without_contacts_does_not_panic` in tests/native_defects.rs.
+fn excused_panic(engine: &str, scene: &Scene, message: &str) -> bool {
+    engine == "native"
+        && scene.native.formulation == rockbench::native::Formulation::Dual
+        && message.contains("index out of bounds: the len is 0 but the index is 0")
+}
+
+/// Scenes an engine is known to get silently wrong, not run until fixed: the native dual
+/// (force-based) QP with a zero friction coefficient (pinned by the ignored test
+/// `native_dual_frictionless_block_does_not_gain_energy` in tests/native_defects.rs).
+fn known_wrong(engine: &str, scene: &Scene) -> bool {
+    engine == "native"
+        && scene.native.formulation == rockbench::native::Formulation::Dual
+        && (0..scene.blocks.len()).any(|i| scene.friction_below(i) == 0.0)
+}
+
+fn excused(engine: &str, check: &str, value: f64, scene: &Scene) -> Option<&'static str> {
+    KNOWN_DEFECTS
+        .iter()
+        .find(|k| k.engine == engine && k.check == check && value < k.below && (k.applies)(scene))
+        .map(|k| k.reason)
+}
+
+/// `make test` (no PROPTEST_CASES) runs a fixed seed, so CI is reproducible; `make proptest`
+/// draws a new seed each run unless PROPTEST_RNG_SEED is set.
+fn seed() -> proptest::test_runner::RngSeed {
+    use proptest::test_runner::RngSeed;
+    match std::env::var("PROPTEST_RNG_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        Some(s) => RngSeed::Fixed(s),
+        None if std::env::var("PROPTEST_CASES").is_err() => RngSeed::Fixed(20_261_121),
+        None => RngSeed::Random,
+    }
+}
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: cases(),
+        max_shrink_iters: 200,
+        failure_persistence: None,
+        rng_seed: seed(),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn random_scene_gives_valid_trajectory_or_typed_error(r in scene()) {
+        let text = r.toml();
+        let scene = match check_scene_str(&text, false, "random.toml", &[], Path::new(".")) {
+            Ok(s) => s,
+            Err(e) => {
+                // A refused scene: one line naming the file and the field.
+                let line = e.to_string();
+                prop_assert!(!line.contains('\n'), "multi-line error: {line}");
+                prop_assert!(line.starts_with("random.toml: "), "{line}");
+                prop_assert!(!e.field.is_empty() && !e.message.is_empty(), "{line}");
+                return Ok(());
+            }
+        };
+        let tol = Tolerances::default();
+        for name in ENGINE_NAMES {
+            if known_wrong(name, &scene) {
+                continue;
+            }
+            let engine = engine_by_name(name).unwrap();
+            let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true })
+            }));
+            let res = match res {
+                Ok(r) => r,
+                Err(p) => {
+                    let msg = p
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| p.downcast_ref::<String>().cloned())
+                        .unwrap_or_default();
+                    prop_assert!(excused_panic(name, &scene, &msg), "{name} panicked: {msg}\n{text}");
+                    continue;
+                }
+            };
+            match res {
+                Ok((out, report)) => {
+                    prop_assert!(out.trajectory.is_finite(), "{name}: non-finite trajectory\n{text}");
+                    prop_assert!(!out.trajectory.is_empty());
+                    let last = *out.trajectory.t.last().unwrap();
+                    // The native engine takes whole steps: its last sample may pass the
+                    // duration by less than one step.
+                    let slack = 1e-9 * scene.duration.max(1.0);
+                    prop_assert!(
+                        last >= scene.duration - slack && last < scene.duration + scene.native.dt + slack,
+                        "{name}: trajectory ends at {last}, duration {}", scene.duration
+                    );
+                    let v: Vec<String> = report
+                        .violations()
+                        .iter()
+                        .filter(|c| excused(name, c.name, c.value, &scene).is_none())
+                        .map(|c| format!("{}: {}", c.name, c.detail))
+                        .collect();
+                    prop_assert!(v.is_empty(), "{name}: invariants violated: {}\n{text}", v.join("; "));
+                }
+                // Typed errors are acceptable outcomes; their messages are single lines.
+                Err(e @ (EngineError::Unsupported { .. } | EngineError::Failed { .. } | EngineError::Scene(_))) => {
+                    prop_assert!(!e.to_string().contains('\n'), "{name}: {e}");
+                }
+                Err(e) => prop_assert!(false, "{name}: unexpected error kind: {e}\n{text}"),
+            }
+        }
+    }
+}
