@@ -264,7 +264,9 @@ pub fn check_complete(scene: &Scene, tr: &Trajectory) -> Check {
     if !tr.t.windows(2).all(|w| w[1] > w[0]) {
         problems.push("times do not increase".into());
     }
-    if !(last >= scene.duration - slack && last < scene.duration + scene.native.dt + slack) {
+    if !(last >= scene.duration - slack
+        && last < scene.duration + scene.native.dt.max(scene.rapier.dt) + slack)
+    {
         problems.push(format!(
             "ends at {last} s, the duration is {} s",
             scene.duration

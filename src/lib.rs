@@ -35,8 +35,8 @@ pub mod events;
 pub mod excitation;
 pub mod gates;
 pub mod geometry;
-pub mod metrics;
 pub mod invariants;
+pub mod metrics;
 pub mod native;
 #[cfg(feature = "python")]
 pub mod python;

@@ -1,5 +1,6 @@
-//! Native-engine defects found by the random-scene and stress tests, pinned as ignored tests
-//! until the engine is fixed (run with `cargo test --release -- --ignored`).
+//! Native-engine defects found by the random-scene and stress tests, pinned by regression
+//! tests: the dual QP on a step without contacts (now free flight, no QP) and the dual QP
+//! without friction (now with an explicit no-tension row).
 
 use rockbench::engines::engine_by_name;
 use rockbench::scene::check_scene_str;
@@ -10,7 +11,6 @@ use std::path::Path;
 /// QP the first step without any contact in reach panics inside Clarabel's qdldl
 /// ("index out of bounds: the len is 0 but the index is 0"). The primal QP runs it.
 #[test]
-#[ignore = "native defect: the dual QP with no contact rows panics in Clarabel"]
 fn native_dual_step_without_contacts_does_not_panic() {
     let text = r#"
 name = "slab thrown up"
@@ -30,6 +30,7 @@ friction = 1.0408723343171289
 [native]
 theta = 0.5
 dt = 0.005
+solver = "clarabel"
 formulation = "dual"
 "#;
     let scene = check_scene_str(text, false, "slab.toml", &[], Path::new(".")).unwrap();
@@ -74,11 +75,10 @@ dt = 0.005
 /// omega = 13 rad/s, creating 5.6 m g H of energy; the primal QP gives phi = -0.03251 rad,
 /// omega = 0.046 rad/s. A silent wrong answer of the dual formulation when mu = 0.
 #[test]
-#[ignore = "native defect: the dual QP is wrong when the friction coefficient is 0"]
 fn native_dual_frictionless_block_does_not_gain_energy() {
     let run = |formulation: &str| {
         let text = format!(
-            "name = \"z\"\nduration = 0.005\noutput_interval = 0.005\n[[blocks]]\nname = \"b0\"\nwidth = 1.3963544808980008\nheight = 1.1241386622693024\ndensity = 10.0\n[initial]\ntilt = -0.032624395728264845\n[contact]\nfriction = 0.0\n[native]\ntheta = 0.5\ndt = 0.005\nformulation = \"{formulation}\"\n"
+            "name = \"z\"\nduration = 0.005\noutput_interval = 0.005\n[[blocks]]\nname = \"b0\"\nwidth = 1.3963544808980008\nheight = 1.1241386622693024\ndensity = 10.0\n[initial]\ntilt = -0.032624395728264845\n[contact]\nfriction = 0.0\n[native]\ntheta = 0.5\ndt = 0.005\nsolver = \"clarabel\"\nformulation = \"{formulation}\"\n"
         );
         let scene = check_scene_str(&text, false, "z.toml", &[], Path::new(".")).unwrap();
         engine_by_name("native")

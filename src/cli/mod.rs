@@ -6,8 +6,8 @@ mod compare;
 mod gate;
 mod references;
 mod run;
-mod validate;
 mod stress;
+mod validate;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

@@ -93,9 +93,10 @@ impl Engine for NativeEngine {
             exact_impacts: None,
             notes: {
                 let mut notes = vec![format!(
-                    "{} steps, {} split at a located impact; {} solutions polished on their active set; {} steps fell back to Clarabel",
+                    "{} steps, {} split at a located impact, {} position projections after impacts; {} solutions polished on their active set; {} steps fell back to Clarabel",
                     computed,
                     stepper.split_steps,
+                    stepper.projections,
                     stepper.polished_steps,
                     stepper.solver_fallbacks()
                 )];

@@ -12,8 +12,9 @@
 //!   relative velocity, `(n ± mu t)·v >= 0` (a plastic impact, no rebound for any theta);
 //!   since `theta dt v = dq - (1 - theta) dt v0` this only changes the row's offset. The other
 //!   points keep the position-level law, under which, by the same condition, they cannot
-//!   rebound. Penetration is bounded by `(1 - theta) dt |v_n|` at an impact (zero at
-//!   theta = 1).
+//!   rebound. The velocity-level law lets an impact penetrate by up to
+//!   `(1 - theta) dt |v_n|`; positions are then projected back onto the admissible set with
+//!   velocities untouched (see `project_out_penetration`).
 //!
 //! Ground motion is discretised once per step and shared by both routes, so that inertial
 //! forces and a moving ground give the same relative motion to round-off:
@@ -29,6 +30,9 @@ use super::assembly::{Bodies, contact_rows, poses};
 use super::problem::{SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 use super::solver::ClarabelSolver;
+
+/// Penetration beyond which the impact-consistent stepper projects positions back, m.
+pub const PENETRATION_TOLERANCE: f64 = 1e-9;
 
 /// Largest number of Tresca solves per step for non-associative friction.
 pub const COULOMB_ITERATIONS: usize = 50;
@@ -76,6 +80,8 @@ pub struct Stepper {
     pub polished_steps: u64,
     /// Steps split at a located impact instant.
     pub split_steps: u64,
+    /// Position projections after an impact (impact-consistent stepper).
+    pub projections: u64,
 }
 
 /// A step that could not be taken.
@@ -111,6 +117,7 @@ impl Stepper {
             iterations: 0,
             polished_steps: 0,
             split_steps: 0,
+            projections: 0,
         }
     }
 
@@ -358,6 +365,14 @@ impl Stepper {
         s.t += h;
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
+        if self.settings.stepper == StepperKind::Impact {
+            self.project_out_penetration(s)
+                .map_err(|failure| StepError::Solver {
+                    step: s.step + 1,
+                    t: s.t,
+                    failure,
+                })?;
+        }
         if !s.q.iter().chain(&s.v).all(|x| x.is_finite()) {
             return Err(StepError::NonFinite {
                 step: s.step + 1,
@@ -365,6 +380,36 @@ impl Stepper {
             });
         }
         Ok(sol)
+    }
+
+    /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
+    /// impact. When a point penetrates deeper than `PENETRATION_TOLERANCE`, the positions
+    /// are projected back onto the admissible set, velocities untouched (no energy is added):
+    /// `min 1/2 dq' M dq  s.t.  g + (nrow ± mu trow) dq >= 0`, which is the step problem with
+    /// theta = dt = 1, no force and no velocity.
+    fn project_out_penetration(&mut self, s: &mut NativeState) -> Result<(), SolveFailure> {
+        let contacts = self.detect(s);
+        if contacts.iter().all(|c| c.gap >= -PENETRATION_TOLERANCE) {
+            return Ok(());
+        }
+        let ps = poses(&s.q);
+        let pr = StepProblem {
+            theta: 1.0,
+            dt: 1.0,
+            mass: self.bodies.mass.clone(),
+            force: vec![0.0; s.q.len()],
+            v0: vec![0.0; s.q.len()],
+            contacts: contacts
+                .iter()
+                .map(|c| contact_rows(c, &ps, self.bodies.friction(c), (0.0, 0.0)))
+                .collect(),
+        };
+        let sol = self.solver.solve(&pr)?;
+        for (q, d) in s.q.iter_mut().zip(&sol.dq) {
+            *q += d;
+        }
+        self.projections += 1;
+        Ok(())
     }
 
     /// Non-associative friction: Tresca problems with slip bounds `mu N`, N from the previous

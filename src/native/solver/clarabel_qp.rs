@@ -279,20 +279,22 @@ impl ClarabelSolver {
             qd[2 * kk + 1] += c.g_t / pr.dt;
         }
         let mut ae = BTreeMap::new();
-        let mut b = Vec::with_capacity(2 * k);
+        let mut b = Vec::with_capacity(3 * k);
         for (kk, c) in pr.contacts.iter().enumerate() {
-            // T - mu N <= 0 ; -T - mu N <= 0
-            ae.insert((2 * kk, 2 * kk), -c.mu);
-            ae.insert((2 * kk, 2 * kk + 1), 1.0);
-            ae.insert((2 * kk + 1, 2 * kk), -c.mu);
-            ae.insert((2 * kk + 1, 2 * kk + 1), -1.0);
-            b.push(0.0);
-            b.push(0.0);
+            // T - mu N <= 0 ; -T - mu N <= 0 ; -N <= 0 (no tension: implied by the first two
+            // only when mu > 0).
+            let r = 3 * kk;
+            ae.insert((r, 2 * kk), -c.mu);
+            ae.insert((r, 2 * kk + 1), 1.0);
+            ae.insert((r + 1, 2 * kk), -c.mu);
+            ae.insert((r + 1, 2 * kk + 1), -1.0);
+            ae.insert((r + 2, 2 * kk), -1.0);
+            b.extend([0.0, 0.0, 0.0]);
         }
         let p = csc(2 * k, 2 * k, &pe);
-        let a = csc(2 * k, 2 * k, &ae);
+        let a = csc(3 * k, 2 * k, &ae);
         let cones = if k > 0 {
-            vec![NonnegativeConeT(2 * k)]
+            vec![NonnegativeConeT(3 * k)]
         } else {
             vec![]
         };
