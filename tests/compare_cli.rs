@@ -1,6 +1,8 @@
 //! `rockbench compare`: the files it writes, skipped engines, a trajectory file as the
 //! reference, and the HTML report rendered by headless Chromium.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -218,72 +220,6 @@ fn slender_report_renders_in_headless_chromium() {
     let reference: f64 = r[5].parse().unwrap();
     assert!((reference - 0.4674).abs() < 1e-4, "{reference}");
 
-    let Some(chromium) = ["chromium", "chromium-browser"]
-        .into_iter()
-        .find(|c| Command::new(c).arg("--version").output().is_ok())
-    else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "chromium is not installed (make test installs it)"
-        );
-        eprintln!("skipped: chromium not installed (make test installs it)");
-        return;
-    };
-    let png = out.join("shot.png");
-    let profile = out.join("profile");
-    let url = format!("file://{}", out.join("report.html").display());
-    let o = Command::new(chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--hide-scrollbars",
-            &format!("--user-data-dir={}", profile.display()),
-            &format!("--screenshot={}", png.display()),
-            "--window-size=1200,1600",
-            &url,
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        png.is_file(),
-        "no screenshot: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let ch = info.color_type.samples();
-    assert!(ch >= 3, "unexpected colour type {:?}", info.color_type);
-    let px: Vec<&[u8]> = buf[..info.buffer_size()].chunks(ch).collect();
-    let lum: Vec<f64> = px
-        .iter()
-        .map(|p| 0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64)
-        .collect();
-    let mean = lum.iter().sum::<f64>() / lum.len() as f64;
-    let var = lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64;
-    assert!(
-        var > 100.0,
-        "screenshot looks blank (luminance variance {var})"
-    );
-    // The native curve's blue (#1f77b4) is drawn: the plot rendered, not only the text.
-    let blue = px
-        .iter()
-        .filter(|p| {
-            (p[0] as i32 - 0x1f).abs() < 40
-                && (p[1] as i32 - 0x77).abs() < 40
-                && (p[2] as i32 - 0xb4).abs() < 40
-        })
-        .count();
-    assert!(
-        blue > 200,
-        "no plotted curve in the screenshot ({blue} blue pixels)"
-    );
+    common::assert_report_renders(&out);
     let _ = std::fs::remove_dir_all(&out);
 }

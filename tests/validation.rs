@@ -2,6 +2,8 @@
 //! runner's matrix and exit status on a small subset, and its report rendered by headless
 //! Chromium.
 
+mod common;
+
 use rockbench::validation::references::same_file;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -331,7 +333,7 @@ fn validate_subset_matrix_and_report() {
     let html_bad = std::fs::read_to_string(out_bad.join("report.html")).unwrap();
     assert!(html_bad.contains("FAIL (1 gate)"), "no FAIL in the report");
 
-    screenshot(&out);
+    common::assert_report_renders(&out);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -366,76 +368,6 @@ fn a_bad_suite_is_one_clear_line() {
     assert!(!ok);
     assert!(se.contains("bogus"), "{se}");
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-fn screenshot(out: &Path) {
-    let Some(chromium) = ["chromium", "chromium-browser"]
-        .into_iter()
-        .find(|c| Command::new(c).arg("--version").output().is_ok())
-    else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "chromium is not installed (make test installs it)"
-        );
-        eprintln!("skipped: chromium not installed (make test installs it)");
-        return;
-    };
-    let png = out.join("shot.png");
-    let profile = out.join("profile");
-    let url = format!("file://{}", out.join("report.html").display());
-    let o = Command::new(chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--hide-scrollbars",
-            &format!("--user-data-dir={}", profile.display()),
-            &format!("--screenshot={}", png.display()),
-            "--window-size=1200,2400",
-            &url,
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        png.is_file(),
-        "no screenshot: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let ch = info.color_type.samples();
-    assert!(ch >= 3, "unexpected colour type {:?}", info.color_type);
-    let px: Vec<&[u8]> = buf[..info.buffer_size()].chunks(ch).collect();
-    let lum: Vec<f64> = px
-        .iter()
-        .map(|p| 0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64)
-        .collect();
-    let mean = lum.iter().sum::<f64>() / lum.len() as f64;
-    let var = lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / lum.len() as f64;
-    assert!(
-        var > 100.0,
-        "screenshot looks blank (luminance variance {var})"
-    );
-    // The paper section's plot: the first engine's curve in the palette's blue (#1f77b4).
-    let blue = px
-        .iter()
-        .filter(|p| {
-            (p[0] as i32 - 0x1f).abs() < 40
-                && (p[1] as i32 - 0x77).abs() < 40
-                && (p[2] as i32 - 0xb4).abs() < 40
-        })
-        .count();
-    assert!(
-        blue > 200,
-        "no plotted curve in the screenshot ({blue} blue pixels)"
-    );
 }
 
 /// The suite and both gate files load; every gate belongs to a case; every case has its

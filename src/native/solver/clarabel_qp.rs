@@ -55,6 +55,32 @@ impl ClarabelSolver {
         }
     }
 
+    /// Solve `min 1/2 x'Px + q'x  s.t.  Ax <= b` (`rows` inequality rows) and check the status.
+    fn run(
+        &self,
+        p: &CscMatrix<f64>,
+        q: &[f64],
+        a: &CscMatrix<f64>,
+        b: &[f64],
+        rows: usize,
+    ) -> Result<DefaultSolver<f64>, SolveFailure> {
+        let cones = if rows > 0 {
+            vec![NonnegativeConeT(rows)]
+        } else {
+            vec![]
+        };
+        let mut solver =
+            DefaultSolver::new(p, q, a, b, &cones, self.settings.clone()).map_err(|e| {
+                SolveFailure {
+                    solver: "clarabel",
+                    status: format!("setup failed: {e:?}"),
+                }
+            })?;
+        solver.solve();
+        self.check(solver.solution.status)?;
+        Ok(solver)
+    }
+
     fn check(&self, status: SolverStatus) -> Result<(), SolveFailure> {
         match status {
             SolverStatus::Solved => Ok(()),
@@ -141,18 +167,7 @@ impl ClarabelSolver {
         }
         let p = csc(n, n, &pe);
         let a = csc(m, n, &ae);
-        let cones = if m > 0 {
-            vec![NonnegativeConeT(m)]
-        } else {
-            vec![]
-        };
-        let mut solver = DefaultSolver::new(&p, &sc.q, &a, &b, &cones, self.settings.clone())
-            .map_err(|e| SolveFailure {
-                solver: "clarabel",
-                status: format!("setup failed: {e:?}"),
-            })?;
-        solver.solve();
-        self.check(solver.solution.status)?;
+        let solver = self.run(&p, &sc.q, &a, &b, m)?;
         let mut u = solver.solution.x.clone();
         let polished = self.polish(pr, &sc, &mut u, &solver.solution.z);
         let dq: Vec<f64> = u.iter().map(|u| u * pr.dt).collect();
@@ -217,18 +232,7 @@ impl ClarabelSolver {
         }
         let p = csc(n + k, n + k, &pe);
         let a = csc(3 * k, n + k, &ae);
-        let cones = if k > 0 {
-            vec![NonnegativeConeT(3 * k)]
-        } else {
-            vec![]
-        };
-        let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, self.settings.clone())
-            .map_err(|e| SolveFailure {
-                solver: "clarabel",
-                status: format!("setup failed: {e:?}"),
-            })?;
-        solver.solve();
-        self.check(solver.solution.status)?;
+        let solver = self.run(&p, &q, &a, &b, 3 * k)?;
         let z = &solver.solution.z;
         let zscale = sc.s / pr.dt;
         Ok(StepSolution {
@@ -293,18 +297,7 @@ impl ClarabelSolver {
         }
         let p = csc(2 * k, 2 * k, &pe);
         let a = csc(3 * k, 2 * k, &ae);
-        let cones = if k > 0 {
-            vec![NonnegativeConeT(3 * k)]
-        } else {
-            vec![]
-        };
-        let mut solver = DefaultSolver::new(&p, &qd, &a, &b, &cones, self.settings.clone())
-            .map_err(|e| SolveFailure {
-                solver: "clarabel",
-                status: format!("setup failed: {e:?}"),
-            })?;
-        solver.solve();
-        self.check(solver.solution.status)?;
+        let solver = self.run(&p, &qd, &a, &b, 3 * k)?;
         let c = &solver.solution.x;
         let mut u: Vec<f64> = sc.q.iter().map(|q| -q).collect();
         for (r, row) in rows.iter().enumerate() {
