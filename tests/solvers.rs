@@ -2,7 +2,7 @@
 
 use rockbench::engines::{RunOutput, engine_by_name, run_timed};
 use rockbench::native::problem::ContactRows;
-use rockbench::native::solver::{ActiveSetSolver, ClarabelSolver, ContactSolver};
+use rockbench::native::solver::{ActiveSetSolver, ClarabelSolver, ContactSolver, SparseSolver};
 use rockbench::native::{NativeSettings, StepProblem};
 use rockbench::scene::load_scene_with_overrides;
 use rockbench::summary::Summary;
@@ -17,14 +17,21 @@ fn run(scene: &str, solver: &str) -> (RunOutput, Summary) {
 }
 
 #[test]
-fn active_set_matches_clarabel_up_to_the_first_impact_and_in_impact_times() {
-    for scene in [
-        "two-block-free-rocking.toml",
-        "housner-slender.toml",
-        "housner-square.toml",
+fn fast_back_ends_match_clarabel_up_to_the_first_impact_and_in_impact_times() {
+    for (scene, solver) in [
+        ("two-block-free-rocking.toml", "active-set"),
+        ("housner-slender.toml", "active-set"),
+        ("housner-square.toml", "active-set"),
+        ("two-block-free-rocking.toml", "sparse"),
+        ("housner-slender.toml", "sparse"),
+        ("housner-square.toml", "sparse"),
     ] {
         let (a, sa) = run(scene, "clarabel");
-        let (b, sb) = run(scene, "active-set");
+        let (b, sb) = run(scene, solver);
+        assert_eq!(
+            b.settings["solver_backend"], solver,
+            "{scene}: back-end recorded"
+        );
         let first = sa.blocks[0].impacts[0];
         for (ba, bb) in a.trajectory.blocks.iter().zip(&b.trajectory.blocks) {
             let worst = a
@@ -36,7 +43,7 @@ fn active_set_matches_clarabel_up_to_the_first_impact_and_in_impact_times() {
                 .fold(0.0f64, |m, (_, (x, y))| m.max((x - y).abs()));
             assert!(
                 worst < 1e-6,
-                "{scene} {}: rotation difference {worst:e} rad before the first impact",
+                "{scene} {solver} {}: rotation difference {worst:e} rad before the first impact",
                 ba.name
             );
         }
@@ -46,7 +53,7 @@ fn active_set_matches_clarabel_up_to_the_first_impact_and_in_impact_times() {
             for k in 0..n {
                 assert!(
                     (x.impacts[k] - y.impacts[k]).abs() <= 1e-3,
-                    "{scene} {} impact {k}: clarabel {} active-set {}",
+                    "{scene} {} impact {k}: clarabel {} {solver} {}",
                     x.name,
                     x.impacts[k],
                     y.impacts[k]
@@ -79,10 +86,97 @@ fn tiny_problem_with_known_answer() {
         .solve(&pr)
         .unwrap();
     let b = ActiveSetSolver::new().solve(&pr).unwrap();
+    let c = SparseSolver::new().solve(&pr).unwrap();
     for (x, y) in a.dq.iter().zip(&b.dq) {
         assert!((x - y).abs() < 1e-12, "{:?} vs {:?}", a.dq, b.dq);
     }
+    for (x, y) in a.dq.iter().zip(&c.dq) {
+        assert!((x - y).abs() < 1e-12, "{:?} vs {:?}", a.dq, c.dq);
+    }
+    assert!((c.tangential[0] + 0.5 * c.normal[0]).abs() < 1e-9 * c.normal[0]);
     // Sliding on the cone edge: dz = mu dx and T = -mu N.
     assert!((b.dq[1] - 0.5 * b.dq[0]).abs() < 1e-14);
     assert!((b.tangential[0] + 0.5 * b.normal[0]).abs() < 1e-9 * b.normal[0]);
+}
+
+/// A column of `n` blocks 1.0 x 0.2 m, tilted by half its slenderness angle.
+fn column(n: usize, solver: &str, duration: f64) -> rockbench::scene::Scene {
+    let mut s =
+        format!("name = \"column\"\nduration = {duration}\n[native]\nsolver = \"{solver}\"\n");
+    for i in 0..n {
+        s += &format!("[[blocks]]\nname = \"b{i}\"\nwidth = 1.0\nheight = 0.2\n");
+    }
+    s += &format!(
+        "[initial]\ntilt = {}\n",
+        0.5 * (1.0f64 / (0.2 * n as f64)).atan()
+    );
+    rockbench::scene::parse_scene_str(&s, false, "column", &[]).unwrap()
+}
+
+/// A rocking 25-block column (75 DOFs: `auto` gives it to the sparse back-end): sparse and
+/// the dense active-set back-end agree to 1e-6 rad up to the first impact and in its time,
+/// and the sparse back-end needs Clarabel on no step.
+#[test]
+fn sparse_matches_the_dense_back_end_on_a_rocking_column() {
+    let native = engine_by_name("native").unwrap();
+    let (a, sa) = run_timed(native.as_ref(), &column(25, "active-set", 1.0)).unwrap();
+    let (b, sb) = run_timed(native.as_ref(), &column(25, "auto", 1.0)).unwrap();
+    assert!(
+        b.settings["solver_backend"]
+            .as_str()
+            .unwrap()
+            .starts_with("auto"),
+        "{}",
+        b.settings["solver_backend"]
+    );
+    for s in [&sa, &sb] {
+        assert!(
+            s.notes
+                .iter()
+                .any(|n| n.contains(" 0 steps fell back to Clarabel")),
+            "{:?}",
+            s.notes
+        );
+    }
+    let first = sa.blocks[0].impacts[0];
+    assert!(
+        (first - sb.blocks[0].impacts[0]).abs() <= 1e-3,
+        "first impact {first} vs {}",
+        sb.blocks[0].impacts[0]
+    );
+    for (ba, bb) in a.trajectory.blocks.iter().zip(&b.trajectory.blocks) {
+        for ((t, x), y) in a.trajectory.t.iter().zip(&ba.phi).zip(&bb.phi) {
+            if *t <= first {
+                assert!((x - y).abs() < 1e-6, "{} at {t}: {x} vs {y}", ba.name);
+            }
+        }
+    }
+}
+
+/// The running-bond wall at rest: the sparse back-end keeps its factorisation from step to
+/// step (the active rows do not change), and nothing moves.
+#[test]
+fn sparse_reuses_its_factor_on_a_wall_at_rest() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/scenes/running-bond-wall.toml");
+    let scene = load_scene_with_overrides(&p, &["native.solver=\"sparse\"".into()]).unwrap();
+    let (mut stepper, mut state) = rockbench::native::stepper_for(&scene).unwrap();
+    let q0 = state.q.clone();
+    let mut sparse = SparseSolver::new();
+    let steps = 500;
+    for _ in 0..steps {
+        let pr = stepper.next_problem(&state);
+        let sol = sparse.solve(&pr).unwrap();
+        stepper.step(&mut state).unwrap();
+        assert!(sol.dq.iter().all(|x| x.abs() < 1e-9), "the wall moves");
+    }
+    assert!(
+        sparse.factorisations <= 20,
+        "{} factorisations in {steps} steps",
+        sparse.factorisations
+    );
+    let drift = q0
+        .iter()
+        .zip(&state.q)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(drift < 1e-9, "drift {drift:e}");
 }

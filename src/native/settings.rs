@@ -51,6 +51,10 @@ pub enum SolverKind {
     /// step it cannot solve.
     #[serde(rename = "active-set")]
     ActiveSet,
+    /// Sparse augmented-Lagrangian/semismooth-Newton solver with an envelope Cholesky factor
+    /// kept while the active rows do not change (large assemblies), falling back to Clarabel
+    /// on a step it cannot solve.
+    Sparse,
     /// The active-set solver for problems up to 60 DOFs (20 blocks), Clarabel above (the
     /// default: on the two-block case it gives the same impacts as Clarabel, ~35x faster).
     #[default]

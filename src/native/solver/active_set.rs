@@ -18,23 +18,9 @@
 //! A problem it cannot settle within its move limit, or whose working set turns out
 //! inconsistent, is reported as a failure; the `auto` back-end then falls back to Clarabel.
 
+use super::rows::{EdgeRow, edge_rows, step_solution};
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
-
-/// One primal row: `n ± mu t` over at most six DOFs.
-#[derive(Debug, Clone, Copy, Default)]
-struct EdgeRow {
-    idx: [usize; 6],
-    coef: [f64; 6],
-    len: usize,
-    key: u64,
-}
-
-impl EdgeRow {
-    fn dot(&self, u: &[f64]) -> f64 {
-        (0..self.len).map(|j| self.coef[j] * u[self.idx[j]]).sum()
-    }
-}
 
 #[derive(Default)]
 pub struct ActiveSetSolver {
@@ -54,27 +40,6 @@ pub struct ActiveSetSolver {
 impl ActiveSetSolver {
     pub fn new() -> Self {
         Self::default()
-    }
-
-    fn build_rows(&mut self, pr: &StepProblem) {
-        self.rows.clear();
-        self.r.clear();
-        for c in &pr.contacts {
-            for (e, sign) in [(0u64, 1.0), (1u64, -1.0)] {
-                let mut row = EdgeRow {
-                    key: (c.key << 1) | e,
-                    ..Default::default()
-                };
-                for (j, (&(i, vn), &(it, vt))) in c.nrow.iter().zip(&c.trow).enumerate() {
-                    debug_assert_eq!(i, it);
-                    row.idx[j] = i;
-                    row.coef[j] = vn + sign * c.mu * vt;
-                    row.len = j + 1;
-                }
-                self.rows.push(row);
-                self.r.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
-            }
-        }
     }
 
     /// Solve the equality problem on the working set into `self.u` and `self.lambda`
@@ -189,7 +154,7 @@ impl ContactSolver for ActiveSetSolver {
         let sc = pr.scaled();
         self.pinv.clear();
         self.pinv.extend(sc.p.iter().map(|p| 1.0 / p));
-        self.build_rows(pr);
+        edge_rows(pr, &mut self.rows, &mut self.r);
         let nrows = self.rows.len();
         self.work.clear();
         for i in 0..nrows {
@@ -259,23 +224,10 @@ impl ContactSolver for ActiveSetSolver {
         self.previous
             .extend(self.work.iter().map(|&i| self.rows[i].key));
         self.previous.sort_unstable();
-        let k = pr.contacts.len();
-        let mut z = vec![0.0; 2 * k];
-        let zscale = sc.s / pr.dt;
+        let mut z = vec![0.0; self.rows.len()];
         for (a, &i) in self.work.iter().enumerate() {
-            z[i] = self.lambda[a] * zscale;
+            z[i] = self.lambda[a];
         }
-        Ok(StepSolution {
-            dq: self.u.iter().map(|u| u * pr.dt).collect(),
-            normal: (0..k).map(|c| z[2 * c] + z[2 * c + 1]).collect(),
-            tangential: pr
-                .contacts
-                .iter()
-                .enumerate()
-                .map(|(c, ct)| ct.mu * (z[2 * c] - z[2 * c + 1]))
-                .collect(),
-            iterations: moves as u32 + 1,
-            polished: false,
-        })
+        Ok(step_solution(pr, &sc, &self.u, &z, moves as u32 + 1))
     }
 }

@@ -2,10 +2,14 @@
 
 mod active_set;
 mod clarabel_qp;
+pub mod envelope;
 pub mod polish;
+mod rows;
+mod sparse;
 
 pub use active_set::ActiveSetSolver;
 pub use clarabel_qp::ClarabelSolver;
+pub use sparse::SparseSolver;
 
 use super::settings::{NativeSettings, SolverKind};
 
@@ -35,8 +39,16 @@ pub struct WithFallback {
     primary: Box<dyn ContactSolver>,
     backup: ClarabelSolver,
     fallbacks: u64,
-    /// Problems with more DOFs than this go straight to Clarabel.
-    max_dofs: usize,
+}
+
+impl WithFallback {
+    pub fn new(primary: Box<dyn ContactSolver>, s: &NativeSettings) -> Self {
+        WithFallback {
+            primary,
+            backup: ClarabelSolver::new(s),
+            fallbacks: 0,
+        }
+    }
 }
 
 impl ContactSolver for WithFallback {
@@ -44,37 +56,53 @@ impl ContactSolver for WithFallback {
         self.primary.name()
     }
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if problem.n_dof() <= self.max_dofs
-            && let Ok(s) = self.primary.solve(problem)
-        {
+        if let Ok(s) = self.primary.solve(problem) {
             return Ok(s);
         }
         self.fallbacks += 1;
         self.backup.solve(problem)
     }
     fn fallbacks(&self) -> u64 {
-        self.fallbacks
+        self.fallbacks + self.primary.fallbacks()
     }
 }
 
-/// Largest problem (in DOFs, 3 per block) the dense active-set back-end takes under `auto`.
+/// Largest problem (in DOFs, 3 per block) the dense active-set back-end takes under `auto`;
+/// larger ones go to the sparse back-end.
 pub const AUTO_DENSE_MAX_DOFS: usize = 60;
+
+/// `auto`: the dense active-set back-end for small problems, the sparse one for large
+/// assemblies, each with Clarabel behind it.
+pub struct Auto {
+    dense: WithFallback,
+    sparse: WithFallback,
+}
+
+impl ContactSolver for Auto {
+    fn name(&self) -> &'static str {
+        "auto (active-set up to 60 DOFs, sparse above)"
+    }
+    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS {
+            self.dense.solve(problem)
+        } else {
+            self.sparse.solve(problem)
+        }
+    }
+    fn fallbacks(&self) -> u64 {
+        self.dense.fallbacks() + self.sparse.fallbacks()
+    }
+}
 
 /// The back-end a scene's settings ask for.
 pub fn solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
     match s.solver {
         SolverKind::Clarabel => Box::new(ClarabelSolver::new(s)),
-        SolverKind::ActiveSet => Box::new(WithFallback {
-            primary: Box::new(ActiveSetSolver::new()),
-            backup: ClarabelSolver::new(s),
-            fallbacks: 0,
-            max_dofs: usize::MAX,
-        }),
-        SolverKind::Auto => Box::new(WithFallback {
-            primary: Box::new(ActiveSetSolver::new()),
-            backup: ClarabelSolver::new(s),
-            fallbacks: 0,
-            max_dofs: AUTO_DENSE_MAX_DOFS,
+        SolverKind::ActiveSet => Box::new(WithFallback::new(Box::new(ActiveSetSolver::new()), s)),
+        SolverKind::Sparse => Box::new(WithFallback::new(Box::new(SparseSolver::new()), s)),
+        SolverKind::Auto => Box::new(Auto {
+            dense: WithFallback::new(Box::new(ActiveSetSolver::new()), s),
+            sparse: WithFallback::new(Box::new(SparseSolver::new()), s),
         }),
     }
 }

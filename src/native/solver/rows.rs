@@ -1,0 +1,78 @@
+//! The primal rows shared by the active-set back-ends.
+//!
+//! Each contact point gives two rows of the scaled primal problem (see
+//! [`crate::native::problem::Scaled`]), one per edge of the friction cone:
+//! `(nrow ± mu trow) u + (g_n ± mu g_t)/dt >= 0`. Their multipliers `z±` are the forces along
+//! the cone edges: `N = z+ + z-`, `T = mu (z+ - z-)`.
+
+use crate::native::problem::{Scaled, StepProblem, StepSolution};
+
+/// One primal row over at most six DOFs (two blocks).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EdgeRow {
+    pub idx: [usize; 6],
+    pub coef: [f64; 6],
+    pub len: usize,
+    /// `(contact key << 1) | edge`: stable between steps, used for warm starts.
+    pub key: u64,
+}
+
+impl EdgeRow {
+    pub fn dot(&self, u: &[f64]) -> f64 {
+        (0..self.len).map(|j| self.coef[j] * u[self.idx[j]]).sum()
+    }
+    /// `x += a * row'`.
+    pub fn axpy(&self, a: f64, x: &mut [f64]) {
+        for j in 0..self.len {
+            x[self.idx[j]] += a * self.coef[j];
+        }
+    }
+}
+
+/// Fill `rows` and their offsets `r` (row 2k is contact k's `+` edge, 2k + 1 its `-` edge).
+pub fn edge_rows(pr: &StepProblem, rows: &mut Vec<EdgeRow>, r: &mut Vec<f64>) {
+    rows.clear();
+    r.clear();
+    for c in &pr.contacts {
+        for (e, sign) in [(0u64, 1.0), (1u64, -1.0)] {
+            let mut row = EdgeRow {
+                key: (c.key << 1) | e,
+                ..Default::default()
+            };
+            for (j, (&(i, vn), &(it, vt))) in c.nrow.iter().zip(&c.trow).enumerate() {
+                debug_assert_eq!(i, it);
+                row.idx[j] = i;
+                row.coef[j] = vn + sign * c.mu * vt;
+                row.len = j + 1;
+            }
+            rows.push(row);
+            r.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
+        }
+    }
+}
+
+/// The step from the scaled solution `u` and the scaled edge multipliers `lambda` (one per
+/// row, in the order of [`edge_rows`]).
+pub fn step_solution(
+    pr: &StepProblem,
+    sc: &Scaled,
+    u: &[f64],
+    lambda: &[f64],
+    iterations: u32,
+) -> StepSolution {
+    let zscale = sc.s / pr.dt;
+    StepSolution {
+        dq: u.iter().map(|u| u * pr.dt).collect(),
+        normal: (0..pr.contacts.len())
+            .map(|c| (lambda[2 * c] + lambda[2 * c + 1]) * zscale)
+            .collect(),
+        tangential: pr
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(c, ct)| ct.mu * (lambda[2 * c] - lambda[2 * c + 1]) * zscale)
+            .collect(),
+        iterations,
+        polished: false,
+    }
+}
