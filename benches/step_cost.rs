@@ -1,6 +1,9 @@
 //! Per-step cost of the native engine for 1, 2, 10, 50 and 210 blocks, for every contact
 //! solver back-end. Stacks are measured while rocking (a snapshot taken a little after
 //! release, every sample starting from it); the 210-block running-bond wall at rest.
+//! A second group, `wall_at_rest`, is the series for the sparse back-end: running-bond walls
+//! of 21 blocks per course and 2 to 40 courses (42 to 840 blocks), whose cost per step should
+//! grow linearly with the number of courses (and of contacts).
 //!
 //! `cargo bench --bench step_cost` (or `make bench-steps`). The dense active-set back-end is
 //! not run on the 210-block wall (see below).
@@ -30,11 +33,11 @@ fn stack(n: usize) -> Scene {
     parse_scene_str(&s, false, "bench", &[]).unwrap()
 }
 
-/// A running-bond wall of 10 courses of 21 blocks (1.0 x 0.5 m), every other course shifted
-/// by half a block.
-fn wall() -> Scene {
+/// A running-bond wall of `courses` courses of 21 blocks (1.0 x 0.5 m), every other course
+/// shifted by half a block.
+fn wall(courses: usize) -> Scene {
     let mut s = String::from("name = \"wall\"\nduration = 10.0\n");
-    for c in 0..10 {
+    for c in 0..courses {
         for i in 0..21 {
             let x = i as f64 + if c % 2 == 1 { 0.5 } else { 0.0 };
             s += &format!("[[blocks]]\nname = \"c{c}b{i}\"\nwidth = 1.0\nheight = 0.5\nx = {x}\n");
@@ -48,14 +51,14 @@ fn step_cost(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(3))
         .warm_up_time(Duration::from_millis(500))
         .sample_size(20);
-    for solver in ["active-set", "clarabel", "auto"] {
+    for solver in ["active-set", "sparse", "clarabel", "auto"] {
         for n in [1usize, 2, 10, 50, 210] {
             if solver == "active-set" && n == 210 {
                 // The dense working-set factorisation is O(m^3) in the ~1700 rows of the wall
                 // (measured: tens of seconds per step); `auto` hands such problems to Clarabel.
                 continue;
             }
-            let mut scene = if n == 210 { wall() } else { stack(n) };
+            let mut scene = if n == 210 { wall(10) } else { stack(n) };
             scene.native.solver = serde_json::from_value(serde_json::json!(solver)).unwrap();
             let (mut stepper, mut state) = stepper_for(&scene).unwrap();
             // Into the motion: 0.1 s for stacks (rocking), one step for the wall.
@@ -79,5 +82,38 @@ fn step_cost(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, step_cost);
+/// The sparse back-end on walls at rest of growing height.
+fn wall_at_rest(c: &mut Criterion) {
+    let mut g = c.benchmark_group("wall_at_rest");
+    g.measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500))
+        .sample_size(20);
+    for courses in [2usize, 5, 10, 20, 40] {
+        let mut scene = wall(courses);
+        scene.native.solver = serde_json::from_value(serde_json::json!("sparse")).unwrap();
+        let (mut stepper, mut state) = stepper_for(&scene).unwrap();
+        for _ in 0..5 {
+            stepper.step(&mut state).unwrap();
+        }
+        let contacts = stepper.last_contacts.len();
+        let snapshot = state.clone();
+        g.bench_with_input(
+            BenchmarkId::new(format!("sparse/{contacts}-contacts"), 21 * courses),
+            &courses,
+            |b, _| {
+                b.iter_batched(
+                    || snapshot.clone(),
+                    |mut s| {
+                        stepper.step(&mut s).unwrap();
+                        black_box(s)
+                    },
+                    criterion::BatchSize::SmallInput,
+                )
+            },
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, step_cost, wall_at_rest);
 criterion_main!(benches);
