@@ -92,7 +92,8 @@ fn wall_at_rest(c: &mut Criterion) {
         let mut scene = wall(courses);
         scene.native.solver = serde_json::from_value(serde_json::json!("sparse")).unwrap();
         let (mut stepper, mut state) = stepper_for(&scene).unwrap();
-        for _ in 0..5 {
+        // Past the first steps, in which the tallest walls settle by round-off amounts.
+        for _ in 0..100 {
             stepper.step(&mut state).unwrap();
         }
         let contacts = stepper.last_contacts.len();

@@ -79,8 +79,14 @@ fn aabb(r: &Rect, p: &Pose) -> (f64, f64, f64, f64) {
     bb
 }
 
-/// Candidate block pairs whose bounding boxes, enlarged by `margin(i)`, overlap: a sweep over
-/// x after sorting (no all-pairs search).
+/// Candidate block pairs whose bounding boxes, enlarged by `margin(i)`, overlap (closed
+/// intervals on both axes), sorted.
+///
+/// A uniform grid, no all-pairs search: with cells a little larger than the largest box, two
+/// boxes can overlap only if the cells of their lower-left corners are neighbours, so each box
+/// is tested against the boxes of nine cells. For blocks of similar size (walls, columns) the
+/// cost is linear in the number of blocks; a sweep along one axis would test every block of a
+/// column against every other.
 pub fn broad_phase(
     rects: &[Rect],
     poses: &[Pose],
@@ -96,18 +102,59 @@ pub fn broad_phase(
             (b.0 - m, b.1 + m, b.2 - m, b.3 + m)
         })
         .collect();
-    let mut order: Vec<usize> = (0..rects.len()).collect();
-    order.sort_by(|&i, &j| boxes[i].0.total_cmp(&boxes[j].0).then(i.cmp(&j)));
+    let overlap = |a: &(f64, f64, f64, f64), b: &(f64, f64, f64, f64)| {
+        a.0 <= b.1 && b.0 <= a.1 && a.2 <= b.3 && b.2 <= a.3
+    };
     let mut pairs = Vec::new();
-    let mut active: Vec<usize> = Vec::new();
-    for &i in &order {
-        active.retain(|&j| boxes[j].1 >= boxes[i].0);
-        for &j in &active {
-            if boxes[j].2 <= boxes[i].3 && boxes[i].2 <= boxes[j].3 {
-                pairs.push((i.min(j), i.max(j)));
+    let largest = boxes
+        .iter()
+        .map(|b| (b.1 - b.0).max(b.3 - b.2))
+        .fold(0.0f64, f64::max);
+    let x0 = boxes.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
+    let z0 = boxes.iter().map(|b| b.2).fold(f64::INFINITY, f64::min);
+    if !(largest.is_finite() && largest > 0.0 && x0.is_finite() && z0.is_finite()) {
+        // Degenerate boxes: test every pair.
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                if overlap(&boxes[i], &boxes[j]) {
+                    pairs.push((i, j));
+                }
             }
         }
-        active.push(i);
+        return pairs;
+    }
+    // The margin keeps corner cells of overlapping boxes neighbours despite rounding.
+    let cell = largest * (1.0 + 1e-9);
+    let key = |b: &(f64, f64, f64, f64)| {
+        (
+            ((b.0 - x0) / cell).floor() as i64,
+            ((b.2 - z0) / cell).floor() as i64,
+        )
+    };
+    let mut order: Vec<((i64, i64), usize)> =
+        boxes.iter().enumerate().map(|(i, b)| (key(b), i)).collect();
+    order.sort_unstable();
+    let mut test = |i: usize, j: usize| {
+        if overlap(&boxes[i], &boxes[j]) {
+            pairs.push((i.min(j), i.max(j)));
+        }
+    };
+    // Each pair once: the boxes after this one in its own cell and the cell above, then the
+    // three cells of the next column (contiguous in the sorted order).
+    for (a, &((cx, cz), i)) in order.iter().enumerate() {
+        for &(k, j) in &order[a + 1..] {
+            if k.0 != cx || k.1 > cz + 1 {
+                break;
+            }
+            test(i, j);
+        }
+        let from = order.partition_point(|e| e.0 < (cx + 1, cz - 1));
+        for &(k, j) in &order[from..] {
+            if k > (cx + 1, cz + 1) {
+                break;
+            }
+            test(i, j);
+        }
     }
     pairs.sort_unstable();
     pairs
