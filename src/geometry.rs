@@ -79,6 +79,9 @@ fn aabb(r: &Rect, p: &Pose) -> (f64, f64, f64, f64) {
     bb
 }
 
+/// Up to this many blocks the broad phase tests every pair (cheaper than building the grid).
+pub const ALL_PAIRS_UP_TO: usize = 8;
+
 /// Candidate block pairs whose bounding boxes, enlarged by `margin(i)`, overlap (closed
 /// intervals on both axes), sorted.
 ///
@@ -112,8 +115,10 @@ pub fn broad_phase(
         .fold(0.0f64, f64::max);
     let x0 = boxes.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
     let z0 = boxes.iter().map(|b| b.2).fold(f64::INFINITY, f64::min);
-    if !(largest.is_finite() && largest > 0.0 && x0.is_finite() && z0.is_finite()) {
-        // Degenerate boxes: test every pair.
+    if boxes.len() <= ALL_PAIRS_UP_TO
+        || !(largest.is_finite() && largest > 0.0 && x0.is_finite() && z0.is_finite())
+    {
+        // A few blocks (cheaper than the grid), or degenerate boxes: test every pair.
         for i in 0..boxes.len() {
             for j in i + 1..boxes.len() {
                 if overlap(&boxes[i], &boxes[j]) {
