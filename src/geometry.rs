@@ -216,12 +216,14 @@ pub fn block_contacts(
 ) {
     let vi = ri.vertices(pi);
     let vj = rj.vertices(pj);
+    let normals = |v: &[(f64, f64); 4]| [0, 1, 2, 3].map(|k| face_normal(v, k));
+    let (ni, nj) = (normals(&vi), normals(&vj));
     let scale = ri.b + ri.h + rj.b + rj.h;
     // Reference face: the largest separation over the faces of both blocks.
     let mut best: Option<(f64, usize, usize)> = None; // (separation, owner 0|1, face)
-    for (owner, (va, vb)) in [(&vi, &vj), (&vj, &vi)].into_iter().enumerate() {
+    for (owner, (va, na, vb)) in [(&vi, &ni, &vj), (&vj, &nj, &vi)].into_iter().enumerate() {
         for k in 0..4 {
-            let n = face_normal(va, k);
+            let n = na[k];
             let sep = vb
                 .iter()
                 .map(|&v| dot(n, sub(v, va[k])))
@@ -236,16 +238,16 @@ pub fn block_contacts(
         }
     }
     let (_, owner, k) = best.expect("rectangles have faces");
-    let (a, va, b, vb) = if owner == 0 {
-        (i, &vi, j, &vj)
+    let (a, va, b, vb, nb) = if owner == 0 {
+        (i, &vi, j, &vj, &nj)
     } else {
-        (j, &vj, i, &vi)
+        (j, &vj, i, &vi, &ni)
     };
-    let n = face_normal(va, k);
+    let n = if owner == 0 { ni[k] } else { nj[k] };
     let (p0, p1) = (va[k], va[(k + 1) % 4]);
     // Incident face of B: most anti-parallel to n.
     let m = (0..4)
-        .min_by(|&x, &y| dot(face_normal(vb, x), n).total_cmp(&dot(face_normal(vb, y), n)))
+        .min_by(|&x, &y| dot(nb[x], n).total_cmp(&dot(nb[y], n)))
         .unwrap();
     let (q0, q1) = (vb[m], vb[(m + 1) % 4]);
     let tan = sub(p1, p0);

@@ -35,6 +35,8 @@ pub struct ActiveSetSolver {
     perm: Vec<usize>,
     u: Vec<f64>,
     pinv: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
 }
 
 impl ActiveSetSolver {
@@ -108,7 +110,9 @@ impl ActiveSetSolver {
         // Forward and back substitution on the leading `rank` pivots; dependent rows get 0.
         self.lambda.clear();
         self.lambda.resize(m, 0.0);
-        let mut y = vec![0.0; rank];
+        let y = &mut self.y;
+        y.clear();
+        y.resize(rank, 0.0);
         for k in 0..rank {
             let pk = self.perm[k];
             let mut v = self.rhs[pk];
@@ -224,10 +228,11 @@ impl ContactSolver for ActiveSetSolver {
         self.previous
             .extend(self.work.iter().map(|&i| self.rows[i].key));
         self.previous.sort_unstable();
-        let mut z = vec![0.0; self.rows.len()];
+        self.z.clear();
+        self.z.resize(self.rows.len(), 0.0);
         for (a, &i) in self.work.iter().enumerate() {
-            z[i] = self.lambda[a];
+            self.z[i] = self.lambda[a];
         }
-        Ok(step_solution(pr, &sc, &self.u, &z, moves as u32 + 1))
+        Ok(step_solution(pr, &sc, &self.u, &self.z, moves as u32 + 1))
     }
 }
