@@ -42,6 +42,7 @@
 //!   ground velocity `w1 = w0 + dt a_eff`, ground increment `Δd = dt w0 + theta dt^2 a_eff`;
 //! - given as a displacement: `Δd = D(t1) - D(t0)` (exact), `w1 = (Δd/dt - (1-theta) w0)/theta`,
 //!   `a_eff = (w1 - w0)/dt`.
+//!
 //! With midpoint kinematics (impact stepper) both use the first form with `1/2` for theta, so
 //! the ground follows the blocks' update (a displacement-defined motion through its exact
 //! velocity `V = D'`).
@@ -56,6 +57,10 @@ use super::solver::ClarabelSolver;
 
 /// Penetration beyond which the impact-consistent stepper projects positions back, m.
 pub const PENETRATION_TOLERANCE: f64 = 1e-9;
+
+/// Impact-consistent stepper: a point whose gap is at most this is closed (velocity-level
+/// law, part of an impact), m. Round-off-level gaps of persistent contacts stay below it.
+pub const CLOSED_GAP: f64 = PENETRATION_TOLERANCE;
 
 /// Largest number of Tresca solves per step for non-associative friction.
 pub const COULOMB_ITERATIONS: usize = 50;
@@ -95,14 +100,21 @@ fn loaded_keys(pr: &StepProblem, sol: &StepSolution) -> Vec<u64> {
     k
 }
 
-/// Smallest root in (0, h] of `g0 + b tau + c tau^2` with `g0 > 0`.
+/// Smallest root in (0, h] of `g0 + b tau + c tau^2` with `g0 > 0`; without a real root, the
+/// minimum if it lies in (0, h] (only asked for a point that the ordinary step closed).
 fn first_root(g0: f64, b: f64, c: f64, h: f64) -> Option<f64> {
     let roots: Vec<f64> = if c.abs() <= 1e-12 * b.abs().max(1e-300) / h {
         if b < 0.0 { vec![-g0 / b] } else { vec![] }
     } else {
         let disc = b * b - 4.0 * c * g0;
         if disc < 0.0 {
-            vec![]
+            // A graze: the closest approach, where the normal velocity is zero (the two roots
+            // merge there as the graze deepens).
+            if c > 0.0 {
+                vec![-b / (2.0 * c)]
+            } else {
+                vec![]
+            }
         } else {
             // Stable form of the two roots.
             let qq = -0.5 * (b + b.signum() * disc.sqrt());
@@ -330,10 +342,14 @@ impl Stepper {
                         vn -= n.0 * w0.0 + n.1 * w0.1;
                         vt -= n.1 * w0.0 - n.0 * w0.1;
                     }
-                    // Closed or closing within the step: velocity-level law on the end-of-step
-                    // relative velocity, (n ± mu t)·v >= 0, i.e.
-                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - theta) dt (v_n0 ± mu v_t0) >= 0.
-                    if c.gap + (1.0 - th) * dt * vn <= 0.0 {
+                    // Closed (gap within CLOSED_GAP) or closing within the first 1 - w of the
+                    // step: velocity-level law on the end-of-step relative velocity,
+                    // (n ± mu t)·v >= 0, i.e.
+                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0.
+                    // A persistent contact (gap and v_n0 at round-off level) sits on the
+                    // boundary of the second test, and for a sliding one the two laws differ
+                    // (the tangential offset): the gap test keeps it on one side.
+                    if c.gap <= CLOSED_GAP || c.gap + (1.0 - th) * dt * vn <= 0.0 {
                         r.g_n += -c.gap - (1.0 - th) * dt * vn;
                         r.g_t += -(1.0 - th) * dt * vt;
                     }
@@ -408,12 +424,39 @@ impl Stepper {
         dt: f64,
     ) -> Result<StepSolution, StepError> {
         let t_end = s.t + dt;
+        // A point that closed exactly at the end of the previous step (no force there) and is
+        // still closing: its impact is at the start of this step.
+        let closing: Vec<u64> = {
+            let ps = poses(&s.q);
+            contacts
+                .iter()
+                .filter(|c| c.gap <= CLOSED_GAP)
+                .filter_map(|c| {
+                    let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
+                    (self.loaded.binary_search(&r.key).is_err()
+                        && self.normal_speed(c, &r.nrow, &s.v, s.ground_w) < 0.0)
+                        .then_some(r.key)
+                })
+                .collect()
+        };
+        let mut start_iterations = 0;
+        if !closing.is_empty() {
+            start_iterations =
+                self.impact(s, &contacts, &closing)
+                    .map_err(|failure| StepError::Solver {
+                        step: s.step + 1,
+                        t: s.t,
+                        failure,
+                    })?;
+            self.split_steps += 1;
+        }
         let s0 = s.clone();
-        let (sol, pr) = self.sub_step(s, &contacts, dt, true)?;
+        let (mut sol, pr) = self.sub_step(s, &contacts, dt, true)?;
+        sol.iterations += start_iterations;
         let carries = loaded(&sol);
         let fresh: Vec<usize> = (0..contacts.len())
             .filter(|&k| {
-                contacts[k].gap > 0.0
+                contacts[k].gap > CLOSED_GAP
                     && carries[k]
                     && self.loaded.binary_search(&pr.contacts[k].key).is_err()
             })
@@ -429,7 +472,7 @@ impl Stepper {
         *s = s0.clone();
         let free: Vec<ContactPoint> = (0..contacts.len())
             .filter(|k| !fresh.contains(k))
-            .map(|k| contacts[k].clone())
+            .map(|k| contacts[k])
             .collect();
         let (trial, _) = self.sub_step(s, &free, dt, false)?;
         iterations += trial.iterations;
@@ -505,7 +548,7 @@ impl Stepper {
                 r.g_n -= c.gap;
                 (c.gap, r)
             })
-            .filter(|(gap, r)| *gap <= PENETRATION_TOLERANCE || located.contains(&r.key))
+            .filter(|(gap, r)| *gap <= CLOSED_GAP || located.contains(&r.key))
             .map(|(_, r)| r)
             .collect();
         if rows.is_empty() {
