@@ -517,7 +517,12 @@ impl Stepper {
             })?;
         let rest = self.detect(s);
         let (mut last, pr) = self.sub_step(s, &rest, t_end - s.t, true)?;
+        // The located points have just closed: not a new impact in the next step even if the
+        // short rest of this one left them without a force (gap within the fall of `g h^2/2`).
         self.loaded = loaded_keys(&pr, &last);
+        self.loaded.extend(&located);
+        self.loaded.sort_unstable();
+        self.loaded.dedup();
         last.iterations += iterations;
         self.split_steps += 1;
         self.last_contacts = rest;
