@@ -424,35 +424,8 @@ impl Stepper {
         dt: f64,
     ) -> Result<StepSolution, StepError> {
         let t_end = s.t + dt;
-        // A point that closed exactly at the end of the previous step (no force there) and is
-        // still closing: its impact is at the start of this step.
-        let closing: Vec<u64> = {
-            let ps = poses(&s.q);
-            contacts
-                .iter()
-                .filter(|c| c.gap <= CLOSED_GAP)
-                .filter_map(|c| {
-                    let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
-                    (self.loaded.binary_search(&r.key).is_err()
-                        && self.normal_speed(c, &r.nrow, &s.v, s.ground_w) < 0.0)
-                        .then_some(r.key)
-                })
-                .collect()
-        };
-        let mut start_iterations = 0;
-        if !closing.is_empty() {
-            start_iterations =
-                self.impact(s, &contacts, &closing)
-                    .map_err(|failure| StepError::Solver {
-                        step: s.step + 1,
-                        t: s.t,
-                        failure,
-                    })?;
-            self.split_steps += 1;
-        }
         let s0 = s.clone();
-        let (mut sol, pr) = self.sub_step(s, &contacts, dt, true)?;
-        sol.iterations += start_iterations;
+        let (sol, pr) = self.sub_step(s, &contacts, dt, true)?;
         let carries = loaded(&sol);
         let fresh: Vec<usize> = (0..contacts.len())
             .filter(|&k| {
