@@ -10,7 +10,7 @@ pub mod solver;
 pub mod stepper;
 
 pub use problem::{StepProblem, StepSolution};
-pub use settings::{Formulation, FrictionLaw, NativeSettings, SolverKind, StepperKind};
+pub use settings::{Formulation, FrictionLaw, Kinematics, NativeSettings, SolverKind, StepperKind};
 pub use stepper::{NativeState, StepError, Stepper};
 
 use crate::excitation::GroundMotion;

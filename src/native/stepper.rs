@@ -7,14 +7,34 @@
 //! Two contact laws in time (`native.stepper`):
 //! - `position` (the paper's scheme): every contact point gets `g0 + (nrow ± mu trow) dq >= 0`.
 //!   The step that closes a contact returns a rebound `e ~ (1 - theta)/theta`.
-//! - `impact` (impact-consistent, Moreau-Jean style): a point that is closed or closes within
-//!   the step, `g0 + (1 - theta) dt v_n0 <= 0`, gets the velocity-level law on the end-of-step
-//!   relative velocity, `(n ± mu t)·v >= 0` (a plastic impact, no rebound for any theta);
-//!   since `theta dt v = dq - (1 - theta) dt v0` this only changes the row's offset. The other
-//!   points keep the position-level law, under which, by the same condition, they cannot
-//!   rebound. The velocity-level law lets an impact penetrate by up to
-//!   `(1 - theta) dt |v_n|`; positions are then projected back onto the admissible set with
-//!   velocities untouched (see `project_out_penetration`).
+//! - `impact` (impact-consistent, Moreau-Jean style). With `w` the kinematic weight,
+//!   `dq = dt ((1 - w) v0 + w v)` (`native.kinematics`: `midpoint`, the default, `w = 1/2`;
+//!   `theta`, `w = theta`), a point that is closed or closes within the first `1 - w` of the
+//!   step, `g0 + (1 - w) dt v_n0 <= 0`, gets the velocity-level law on the end-of-step
+//!   relative velocity, `(n ± mu t)·v >= 0` (a plastic impact, no rebound); since
+//!   `w dt v = dq - (1 - w) dt v0` this only changes the row's offset. The other points keep
+//!   the position-level law; a point closing later than `(1 - w) dt` ends the step with
+//!   `v_n = (1 - w - s) |v_n0| / w <= 0` (s the closing fraction of the step): no rebound.
+//!   The velocity-level law lets an impact penetrate by up to `(1 - w) dt |v_n|`; positions
+//!   are then projected back onto the admissible set with velocities untouched (see
+//!   `project_out_penetration`).
+//!
+//!   Kinematics: `M (v - v0) = dt f + H'c` in both. With a constant acceleration `a` within a
+//!   step (free flight, and very nearly a block rocking on a corner through a small angle) the
+//!   midpoint update is exact, `dq = dt v0 + dt^2 a/2`, whereas the theta update adds
+//!   `(theta - 1/2) dt^2 a` per step: after a rise of duration `t_p` to a peak it has lost
+//!   `(theta - 1/2) dt a t_p` of height, a relative amplitude error `2 (theta - 1/2) dt / t_p`
+//!   (7.4 % at theta 1, dt 1e-3 for the square block's second excursion, t_p = 13.5 ms).
+//!   The free forces here (gravity, the exact mean ground acceleration of the step) are constant
+//!   over a step, so with midpoint kinematics theta no longer enters the impact stepper's
+//!   motion (only the position-level stepper and the theta kinematics use it).
+//!
+//!   Impact location (`native.locate_impacts`, default on): an impact applied at the end of
+//!   the step rather than at its instant `t*` makes the post-impact velocity wrong by about
+//!   `(1 + r) a (t1 - t*)` (r the velocity ratio of the impact), a first-order error that
+//!   depends on where in the step the impact falls, hence not monotone in dt. See
+//!   `step_locating`: the instant is the root of the quadratic gap of the discrete free motion,
+//!   exact in free flight, and the impact is a velocity jump there.
 //!
 //! Ground motion is discretised once per step and shared by both routes, so that inertial
 //! forces and a moving ground give the same relative motion to round-off:
@@ -23,16 +43,24 @@
 //! - given as a displacement: `Δd = D(t1) - D(t0)` (exact), `w1 = (Δd/dt - (1-theta) w0)/theta`,
 //!   `a_eff = (w1 - w0)/dt`.
 //!
+//! With midpoint kinematics (impact stepper) both use the first form with `1/2` for theta, so
+//! the ground follows the blocks' update (a displacement-defined motion through its exact
+//! velocity `V = D'`).
+//!
 //! Inertial route: coordinates relative to the ground, forces `-m a_eff`. Moving-ground route:
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
 use super::assembly::{Bodies, contact_rows, poses};
 use super::problem::{SparseRow, StepProblem, StepSolution};
-use super::settings::{FrictionLaw, NativeSettings, StepperKind};
+use super::settings::{FrictionLaw, Kinematics, NativeSettings, StepperKind};
 use super::solver::ClarabelSolver;
 
 /// Penetration beyond which the impact-consistent stepper projects positions back, m.
 pub const PENETRATION_TOLERANCE: f64 = 1e-9;
+
+/// Impact-consistent stepper: a point whose gap is at most this is closed (velocity-level
+/// law, part of an impact), m. Round-off-level gaps of persistent contacts stay below it.
+pub const CLOSED_GAP: f64 = PENETRATION_TOLERANCE;
 
 /// Largest number of Tresca solves per step for non-associative friction.
 pub const COULOMB_ITERATIONS: usize = 50;
@@ -43,6 +71,64 @@ use crate::scene::AppliedAs;
 
 fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
     row.iter().map(|&(i, c)| c * x[i]).sum()
+}
+
+/// Normal forces below this fraction of a solution's largest count as zero when deciding
+/// which points carry a force (an interior-point solution leaves ~1e-10 relative on open
+/// points).
+pub const LOADED_FRACTION: f64 = 1e-6;
+
+/// Whether each point carries a normal force in a solution (see `LOADED_FRACTION`).
+fn loaded(sol: &StepSolution) -> Vec<bool> {
+    let max = sol.normal.iter().fold(0.0f64, |m, n| m.max(*n));
+    sol.normal
+        .iter()
+        .map(|&n| n > 0.0 && n > LOADED_FRACTION * max)
+        .collect()
+}
+
+/// Sorted keys of the points that carry a normal force in a solution.
+fn loaded_keys(pr: &StepProblem, sol: &StepSolution) -> Vec<u64> {
+    let mut k: Vec<u64> = pr
+        .contacts
+        .iter()
+        .zip(loaded(sol))
+        .filter(|(_, l)| *l)
+        .map(|(c, _)| c.key)
+        .collect();
+    k.sort_unstable();
+    k
+}
+
+/// Smallest root in (0, h] of `g0 + b tau + c tau^2` with `g0 > 0`; without a real root, the
+/// minimum if it lies in (0, h] (only asked for a point that the ordinary step closed).
+fn first_root(g0: f64, b: f64, c: f64, h: f64) -> Option<f64> {
+    let roots: Vec<f64> = if c.abs() <= 1e-12 * b.abs().max(1e-300) / h {
+        if b < 0.0 { vec![-g0 / b] } else { vec![] }
+    } else {
+        let disc = b * b - 4.0 * c * g0;
+        if disc < 0.0 {
+            // A graze: the closest approach, where the normal velocity is zero (the two roots
+            // merge there as the graze deepens).
+            if c > 0.0 {
+                vec![-b / (2.0 * c)]
+            } else {
+                vec![]
+            }
+        } else {
+            // Stable form of the two roots.
+            let qq = -0.5 * (b + b.signum() * disc.sqrt());
+            let mut r = vec![qq / c];
+            if qq != 0.0 {
+                r.push(g0 / qq);
+            }
+            r
+        }
+    };
+    roots
+        .into_iter()
+        .filter(|&t| t > 0.0 && t <= h)
+        .min_by(|a, b| a.total_cmp(b))
 }
 
 /// State of the native engine between steps.
@@ -82,6 +168,9 @@ pub struct Stepper {
     pub split_steps: u64,
     /// Position projections after an impact (impact-consistent stepper).
     pub projections: u64,
+    /// Sorted keys of the points that carried a normal force at the end of the last step
+    /// (impact location: a point that did is not a new impact).
+    loaded: Vec<u64>,
 }
 
 /// A step that could not be taken.
@@ -118,6 +207,7 @@ impl Stepper {
             polished_steps: 0,
             split_steps: 0,
             projections: 0,
+            loaded: Vec::new(),
         }
     }
 
@@ -130,13 +220,25 @@ impl Stepper {
         self.solver.fallbacks()
     }
 
+    /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
+    /// theta, or 1/2 with midpoint kinematics.
+    fn kinematic_weight(&self) -> f64 {
+        match (self.settings.stepper, self.settings.kinematics) {
+            (StepperKind::Impact, Kinematics::Midpoint) => 0.5,
+            _ => self.settings.theta,
+        }
+    }
+
     fn ground_step(&self, s: &NativeState, dt: f64) -> GroundStep {
-        let th = self.settings.theta;
+        let th = self.kinematic_weight();
+        // Midpoint kinematics: the ground follows the same update as the blocks,
+        // from its exact mean acceleration, for both definitions.
+        let from_velocity = th == 0.5 && self.settings.kinematics == Kinematics::Midpoint;
         let (t0, t1) = (s.t, s.t + dt);
         let comp = |c: Option<&crate::excitation::Component>, w0: f64| -> (f64, f64, f64) {
             match c {
                 None => (0.0, w0, 0.0),
-                Some(c) if c.defined_by() == DefinedBy::Acceleration => {
+                Some(c) if from_velocity || c.defined_by() == DefinedBy::Acceleration => {
                     let a = (c.vel(t1) - c.vel(t0)) / dt;
                     (dt * w0 + th * dt * dt * a, w0 + dt * a, a)
                 }
@@ -223,7 +325,7 @@ impl Stepper {
             AppliedAs::MovingGround => g.dd,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
-        let th = self.settings.theta;
+        let th = self.kinematic_weight();
         let w0 = match self.applied_as {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
@@ -240,10 +342,14 @@ impl Stepper {
                         vn -= n.0 * w0.0 + n.1 * w0.1;
                         vt -= n.1 * w0.0 - n.0 * w0.1;
                     }
-                    // Closed or closing within the step: velocity-level law on the end-of-step
-                    // relative velocity, (n ± mu t)·v >= 0, i.e.
-                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - theta) dt (v_n0 ± mu v_t0) >= 0.
-                    if c.gap + (1.0 - th) * dt * vn <= 0.0 {
+                    // Closed (gap within CLOSED_GAP) or closing within the first 1 - w of the
+                    // step: velocity-level law on the end-of-step relative velocity,
+                    // (n ± mu t)·v >= 0, i.e.
+                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0.
+                    // A persistent contact (gap and v_n0 at round-off level) sits on the
+                    // boundary of the second test, and for a sliding one the two laws differ
+                    // (the tangential offset): the gap test keeps it on one side.
+                    if c.gap <= CLOSED_GAP || c.gap + (1.0 - th) * dt * vn <= 0.0 {
                         r.g_n += -c.gap - (1.0 - th) * dt * vn;
                         r.g_t += -(1.0 - th) * dt * vt;
                     }
@@ -253,7 +359,7 @@ impl Stepper {
             .collect();
         (
             StepProblem {
-                theta: self.settings.theta,
+                theta: th,
                 dt,
                 mass: self.bodies.mass.clone(),
                 force,
@@ -270,79 +376,185 @@ impl Stepper {
         self.problem(s, &c, self.settings.dt).0
     }
 
-    /// Normal relative velocity of a contact point at the start of a step (< 0: closing).
-    fn normal_speed(&self, c: &ContactPoint, s: &NativeState) -> f64 {
-        let ps = poses(&s.q);
-        let vel = |i: usize| {
-            let (rx, rz) = (c.point.0 - ps[i].x, c.point.1 - ps[i].z);
-            let om = s.v[3 * i + 2];
-            (s.v[3 * i] - om * rz, s.v[3 * i + 1] + om * rx)
-        };
-        let vb = vel(c.b);
-        let va = match (c.a, self.applied_as) {
-            (Some(a), _) => vel(a),
-            (None, AppliedAs::MovingGround) => s.ground_w,
-            (None, AppliedAs::InertialForces) => (0.0, 0.0),
-        };
-        c.normal.0 * (vb.0 - va.0) + c.normal.1 * (vb.1 - va.1)
-    }
-
-    /// Earliest instant within the next step at which an open point closes, from its gap and
-    /// closing speed (impact location for the impact-consistent stepper).
-    fn impact_instant(&self, contacts: &[ContactPoint], s: &NativeState) -> Option<f64> {
-        let dt = self.settings.dt;
-        contacts
-            .iter()
-            .filter(|c| c.gap > 0.0)
-            .filter_map(|c| {
-                let vn = self.normal_speed(c, s);
-                (vn < 0.0).then(|| c.gap / -vn)
-            })
-            .filter(|&tau| tau > 1e-3 * dt && tau < (1.0 - 1e-3) * dt)
-            .min_by(|a, b| a.total_cmp(b))
+    /// Normal relative velocity of a point for block velocities `v` and ground velocity `w`
+    /// (the ground's counts only when the ground moves), from the point's rows.
+    fn normal_speed(&self, c: &ContactPoint, nrow: &SparseRow, v: &[f64], w: (f64, f64)) -> f64 {
+        let mut vn = row_dot(nrow, v);
+        if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
+            vn -= c.normal.0 * w.0 + c.normal.1 * w.1;
+        }
+        vn
     }
 
     /// Advance one step. With the impact-consistent stepper and `locate_impacts`, a step in
-    /// which an open point closes is split at the predicted impact instant, so the plastic
-    /// impact is applied at that instant rather than at the end of the step.
+    /// which a point closes that carried no force in the previous step is redone in three
+    /// parts: a sub-step to the closing instant, a plastic impact there, and the rest of the
+    /// step (see `step_locating`).
     pub fn step(&mut self, s: &mut NativeState) -> Result<StepSolution, StepError> {
         let dt = self.settings.dt;
         let contacts = self.detect(s);
-        let split = match self.settings.stepper {
-            StepperKind::Impact if self.settings.locate_impacts => {
-                self.impact_instant(&contacts, s)
-            }
-            _ => None,
-        };
         let t_end = s.t + dt;
-        let sol = match split {
-            Some(tau) => {
-                let first = self.sub_step(s, &contacts, tau)?;
-                let rest = self.detect(s);
-                let mut sol = self.sub_step(s, &rest, t_end - s.t)?;
-                sol.iterations += first.iterations;
-                self.split_steps += 1;
-                self.last_contacts = rest;
-                sol
-            }
-            None => {
-                let sol = self.sub_step(s, &contacts, dt)?;
-                self.last_contacts = contacts;
-                sol
-            }
+        let sol = if self.settings.stepper == StepperKind::Impact && self.settings.locate_impacts {
+            self.step_locating(s, contacts, dt)?
+        } else {
+            let (sol, _) = self.sub_step(s, &contacts, dt, true)?;
+            self.last_contacts = contacts;
+            sol
         };
         s.t = t_end;
         s.step += 1;
         Ok(sol)
     }
 
-    /// Advance by `h` from the given contacts.
+    /// One step with the impact instant located.
+    ///
+    /// The ordinary step is taken first. If a point that was open at the start and carried no
+    /// force in the previous step carries one now (a new impact), the step is retried without
+    /// those points (a free trial), which gives each one's normal relative velocity at both ends,
+    /// `vn0`, `vn1`, hence its normal acceleration `an = (vn1 - vn0)/dt`. Within one step the
+    /// discrete motion is `dq(tau) = tau v0 + w tau^2 a` (w the kinematic weight: theta, or 1/2
+    /// with midpoint kinematics), so its gap is `g(tau) = g0 + vn0 tau + w an tau^2`: the
+    /// impact instant is the smallest root in (0, dt]. From the start of the step: a sub-step
+    /// to that instant (without the impacting points), a plastic impact on every closed point
+    /// (`impact`), and the rest of the step. Only one impact is located per step.
+    fn step_locating(
+        &mut self,
+        s: &mut NativeState,
+        contacts: Vec<ContactPoint>,
+        dt: f64,
+    ) -> Result<StepSolution, StepError> {
+        let t_end = s.t + dt;
+        let s0 = s.clone();
+        let (sol, pr) = self.sub_step(s, &contacts, dt, true)?;
+        let carries = loaded(&sol);
+        let fresh: Vec<usize> = (0..contacts.len())
+            .filter(|&k| {
+                contacts[k].gap > CLOSED_GAP
+                    && carries[k]
+                    && self.loaded.binary_search(&pr.contacts[k].key).is_err()
+            })
+            .collect();
+        if fresh.is_empty() {
+            self.loaded = loaded_keys(&pr, &sol);
+            self.last_contacts = contacts;
+            return Ok(sol);
+        }
+        let after_ordinary = s.clone();
+        let mut iterations = sol.iterations;
+        // Free trial.
+        *s = s0.clone();
+        let free: Vec<ContactPoint> = (0..contacts.len())
+            .filter(|k| !fresh.contains(k))
+            .map(|k| contacts[k])
+            .collect();
+        let (trial, _) = self.sub_step(s, &free, dt, false)?;
+        iterations += trial.iterations;
+        let w = self.kinematic_weight();
+        let ps = poses(&s0.q);
+        let mut tau: Option<f64> = None;
+        for &k in &fresh {
+            let c = &contacts[k];
+            let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
+            let vn0 = self.normal_speed(c, &r.nrow, &s0.v, s0.ground_w);
+            let vn1 = self.normal_speed(c, &r.nrow, &s.v, s.ground_w);
+            if let Some(t) = first_root(c.gap, vn0, w * (vn1 - vn0) / dt, dt) {
+                tau = Some(tau.map_or(t, |x: f64| x.min(t)));
+            }
+        }
+        let Some(tau) = tau else {
+            // The free motion does not close the point within the step: keep the ordinary step.
+            *s = after_ordinary;
+            self.loaded = loaded_keys(&pr, &sol);
+            self.last_contacts = contacts;
+            return Ok(sol);
+        };
+        *s = s0;
+        let located: Vec<u64> = {
+            let ps = poses(&s.q);
+            fresh
+                .iter()
+                .map(|&k| contact_rows(&contacts[k], &ps, 0.0, (0.0, 0.0)).key)
+                .collect()
+        };
+        if tau > 1e-9 * dt {
+            let (first, _) = self.sub_step(s, &free, tau, true)?;
+            iterations += first.iterations;
+        }
+        let at = self.detect(s);
+        iterations += self
+            .impact(s, &at, &located)
+            .map_err(|failure| StepError::Solver {
+                step: s.step + 1,
+                t: s.t,
+                failure,
+            })?;
+        let rest = self.detect(s);
+        let (mut last, pr) = self.sub_step(s, &rest, t_end - s.t, true)?;
+        // The located points have just closed: not a new impact in the next step even if the
+        // short rest of this one left them without a force (gap within the fall of `g h^2/2`).
+        self.loaded = loaded_keys(&pr, &last);
+        self.loaded.extend(&located);
+        self.loaded.sort_unstable();
+        self.loaded.dedup();
+        last.iterations += iterations;
+        self.split_steps += 1;
+        self.last_contacts = rest;
+        Ok(last)
+    }
+
+    /// A plastic impact at the current instant: the velocities jump to the closest ones (in
+    /// the kinetic-energy norm) that satisfy the velocity-level law `(n ± mu t)·v >= 0` on
+    /// every closed point (gap below `PENETRATION_TOLERANCE`) and on the located points:
+    /// `min 1/2 (v - v-)' M (v - v-)` s.t. those rows, which is the step problem with
+    /// theta = dt = 1, no force, `v0 = v-` and the ground's velocity in place of its increment.
+    /// Positions do not change. Returns the solver iterations.
+    fn impact(
+        &mut self,
+        s: &mut NativeState,
+        contacts: &[ContactPoint],
+        located: &[u64],
+    ) -> Result<u32, SolveFailure> {
+        let ps = poses(&s.q);
+        let w = match self.applied_as {
+            AppliedAs::MovingGround => s.ground_w,
+            AppliedAs::InertialForces => (0.0, 0.0),
+        };
+        let rows: Vec<_> = contacts
+            .iter()
+            .map(|c| {
+                let mut r = contact_rows(c, &ps, self.bodies.friction(c), w);
+                r.g_n -= c.gap;
+                (c.gap, r)
+            })
+            .filter(|(gap, r)| *gap <= CLOSED_GAP || located.contains(&r.key))
+            .map(|(_, r)| r)
+            .collect();
+        if rows.is_empty() {
+            return Ok(0);
+        }
+        let pr = StepProblem {
+            theta: 1.0,
+            dt: 1.0,
+            mass: self.bodies.mass.clone(),
+            force: vec![0.0; s.v.len()],
+            v0: s.v.clone(),
+            contacts: rows,
+        };
+        let sol = self.solver.solve(&pr)?;
+        s.v.copy_from_slice(&sol.dq);
+        self.iterations += sol.iterations as u64;
+        Ok(sol.iterations)
+    }
+
+    /// Advance by `h` from the given contacts; `project`: project out a penetration after the
+    /// step (impact-consistent stepper; off for trial steps).
     fn sub_step(
         &mut self,
         s: &mut NativeState,
         contacts: &[ContactPoint],
         h: f64,
-    ) -> Result<StepSolution, StepError> {
+        project: bool,
+    ) -> Result<(StepSolution, StepProblem), StepError> {
         let (pr, g) = self.problem(s, contacts, h);
         let fail = |failure| StepError::Solver {
             step: s.step + 1,
@@ -353,7 +565,7 @@ impl Stepper {
         if self.settings.friction_law == FrictionLaw::Coulomb && !pr.contacts.is_empty() {
             sol = self.coulomb_fixed_point(&pr, sol).map_err(fail)?;
         }
-        let th = self.settings.theta;
+        let th = self.kinematic_weight();
         for i in 0..s.q.len() {
             let v = (sol.dq[i] / h - (1.0 - th) * s.v[i]) / th;
             s.v[i] = v;
@@ -365,7 +577,7 @@ impl Stepper {
         s.t += h;
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
-        if self.settings.stepper == StepperKind::Impact {
+        if project && self.settings.stepper == StepperKind::Impact {
             self.project_out_penetration(s)
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
@@ -379,7 +591,7 @@ impl Stepper {
                 t: s.t,
             });
         }
-        Ok(sol)
+        Ok((sol, pr))
     }
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
