@@ -23,10 +23,10 @@ pub struct Variant {
     pub set: Vec<String>,
 }
 
-/// The native variants: both back-ends with both steppers.
+/// The native variants: every back-end with both steppers.
 pub fn native_variants() -> Vec<Variant> {
     let mut v = Vec::new();
-    for solver in ["active-set", "clarabel"] {
+    for solver in ["active-set", "sparse", "clarabel"] {
         for stepper in ["impact", "position"] {
             v.push(Variant {
                 name: format!("{solver}/{stepper}"),
