@@ -95,19 +95,32 @@ pub fn broad_phase(
     poses: &[Pose],
     margin: &dyn Fn(usize) -> f64,
 ) -> Vec<(usize, usize)> {
-    let boxes: Vec<_> = rects
-        .iter()
-        .zip(poses)
-        .enumerate()
-        .map(|(i, (r, p))| {
-            let m = margin(i);
-            let b = aabb(r, p);
-            (b.0 - m, b.1 + m, b.2 - m, b.3 + m)
-        })
-        .collect();
-    let overlap = |a: &(f64, f64, f64, f64), b: &(f64, f64, f64, f64)| {
+    let enlarged = |i: usize| {
+        let m = margin(i);
+        let b = aabb(&rects[i], &poses[i]);
+        (b.0 - m, b.1 + m, b.2 - m, b.3 + m)
+    };
+    let overlaps = |a: &(f64, f64, f64, f64), b: &(f64, f64, f64, f64)| {
         a.0 <= b.1 && b.0 <= a.1 && a.2 <= b.3 && b.2 <= a.3
     };
+    if rects.len() <= ALL_PAIRS_UP_TO {
+        // A few blocks: every pair (cheaper than the grid; the boxes stay on the stack).
+        let mut few = [(0.0, 0.0, 0.0, 0.0); ALL_PAIRS_UP_TO];
+        for (i, b) in few.iter_mut().enumerate().take(rects.len()) {
+            *b = enlarged(i);
+        }
+        let mut pairs = Vec::new();
+        for i in 0..rects.len() {
+            for j in i + 1..rects.len() {
+                if overlaps(&few[i], &few[j]) {
+                    pairs.push((i, j));
+                }
+            }
+        }
+        return pairs;
+    }
+    let boxes: Vec<_> = (0..rects.len()).map(enlarged).collect();
+    let overlap = overlaps;
     let mut pairs = Vec::new();
     let largest = boxes
         .iter()
@@ -115,10 +128,8 @@ pub fn broad_phase(
         .fold(0.0f64, f64::max);
     let x0 = boxes.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
     let z0 = boxes.iter().map(|b| b.2).fold(f64::INFINITY, f64::min);
-    if boxes.len() <= ALL_PAIRS_UP_TO
-        || !(largest.is_finite() && largest > 0.0 && x0.is_finite() && z0.is_finite())
-    {
-        // A few blocks (cheaper than the grid), or degenerate boxes: test every pair.
+    if !(largest.is_finite() && largest > 0.0 && x0.is_finite() && z0.is_finite()) {
+        // Degenerate boxes: test every pair.
         for i in 0..boxes.len() {
             for j in i + 1..boxes.len() {
                 if overlap(&boxes[i], &boxes[j]) {

@@ -61,13 +61,22 @@ pub struct Scaled {
 
 impl StepProblem {
     pub fn scaled(&self) -> Scaled {
-        let n = self.n_dof();
-        let s = self.mass.iter().cloned().fold(0.0, f64::max) / self.theta;
-        let p = self.mass.iter().map(|m| m / (self.theta * s)).collect();
-        let q = (0..n)
-            .map(|i| -(self.dt * self.force[i] + self.mass[i] * self.v0[i] / self.theta) / s)
-            .collect();
+        let (mut p, mut q) = (Vec::new(), Vec::new());
+        let s = self.scale_into(&mut p, &mut q);
         Scaled { p, q, s }
+    }
+
+    /// [`StepProblem::scaled`] into the caller's buffers; returns `s`.
+    pub fn scale_into(&self, p: &mut Vec<f64>, q: &mut Vec<f64>) -> f64 {
+        let s = self.mass.iter().cloned().fold(0.0, f64::max) / self.theta;
+        p.clear();
+        p.extend(self.mass.iter().map(|m| m / (self.theta * s)));
+        q.clear();
+        q.extend(
+            (0..self.n_dof())
+                .map(|i| -(self.dt * self.force[i] + self.mass[i] * self.v0[i] / self.theta) / s),
+        );
+        s
     }
 
     pub fn n_dof(&self) -> usize {

@@ -37,6 +37,8 @@ pub struct ActiveSetSolver {
     pinv: Vec<f64>,
     y: Vec<f64>,
     z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
 }
 
 impl ActiveSetSolver {
@@ -155,9 +157,23 @@ impl ContactSolver for ActiveSetSolver {
     }
 
     fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        let sc = pr.scaled();
+        let (mut p, mut q) = (std::mem::take(&mut self.p), std::mem::take(&mut self.q));
+        let scale = pr.scale_into(&mut p, &mut q);
         self.pinv.clear();
-        self.pinv.extend(sc.p.iter().map(|p| 1.0 / p));
+        self.pinv.extend(p.iter().map(|p| 1.0 / p));
+        let result = self.solve_scaled(pr, &q, scale);
+        (self.p, self.q) = (p, q);
+        result
+    }
+}
+
+impl ActiveSetSolver {
+    fn solve_scaled(
+        &mut self,
+        pr: &StepProblem,
+        q: &[f64],
+        scale: f64,
+    ) -> Result<StepSolution, SolveFailure> {
         edge_rows(pr, &mut self.rows, &mut self.r);
         let nrows = self.rows.len();
         self.work.clear();
@@ -174,7 +190,7 @@ impl ContactSolver for ActiveSetSolver {
         let max_moves = 3 * nrows + 10;
         let mut moves = 0;
         loop {
-            if !self.solve_working_set(&sc.q) {
+            if !self.solve_working_set(q) {
                 self.previous.clear();
                 return Err(Self::fail("non-finite working-set solution".into()));
             }
@@ -233,6 +249,6 @@ impl ContactSolver for ActiveSetSolver {
         for (a, &i) in self.work.iter().enumerate() {
             self.z[i] = self.lambda[a];
         }
-        Ok(step_solution(pr, &sc, &self.u, &self.z, moves as u32 + 1))
+        Ok(step_solution(pr, scale, &self.u, &self.z, moves as u32 + 1))
     }
 }

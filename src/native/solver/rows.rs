@@ -5,7 +5,7 @@
 //! `(nrow ± mu trow) u + (g_n ± mu g_t)/dt >= 0`. Their multipliers `z±` are the forces along
 //! the cone edges: `N = z+ + z-`, `T = mu (z+ - z-)`.
 
-use crate::native::problem::{Scaled, StepProblem, StepSolution};
+use crate::native::problem::{StepProblem, StepSolution};
 
 /// One primal row over at most six DOFs (two blocks).
 #[derive(Debug, Clone, Copy, Default)]
@@ -52,15 +52,16 @@ pub fn edge_rows(pr: &StepProblem, rows: &mut Vec<EdgeRow>, r: &mut Vec<f64>) {
 }
 
 /// The step from the scaled solution `u` and the scaled edge multipliers `lambda` (one per
-/// row, in the order of [`edge_rows`]).
+/// row, in the order of [`edge_rows`]); `s` is the objective scale of
+/// [`crate::native::problem::Scaled`].
 pub fn step_solution(
     pr: &StepProblem,
-    sc: &Scaled,
+    s: f64,
     u: &[f64],
     lambda: &[f64],
     iterations: u32,
 ) -> StepSolution {
-    let zscale = sc.s / pr.dt;
+    let zscale = s / pr.dt;
     StepSolution {
         dq: u.iter().map(|u| u * pr.dt).collect(),
         normal: (0..pr.contacts.len())

@@ -298,7 +298,7 @@ impl SparseSolver {
             self.u.extend((0..n).map(|j| -sc.q[j] * self.pinv[j]));
             self.previous_keys.clear();
             self.previous_lambda.clear();
-            return Ok(step_solution(pr, &sc, &self.u, &[], 0));
+            return Ok(step_solution(pr, sc.s, &self.u, &[], 0));
         }
         self.rho.clear();
         self.rho_base.clear();
@@ -395,6 +395,12 @@ impl SparseSolver {
         self.previous_keys.clear();
         self.previous_keys.extend(self.rows.iter().map(|r| r.key));
         self.previous_lambda.clone_from(&self.lambda);
-        Ok(step_solution(pr, &sc, &self.u, &self.lambda, newton as u32))
+        Ok(step_solution(
+            pr,
+            sc.s,
+            &self.u,
+            &self.lambda,
+            newton as u32,
+        ))
     }
 }
