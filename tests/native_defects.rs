@@ -91,3 +91,49 @@ fn native_dual_frictionless_block_does_not_gain_energy() {
     let (pp, dp) = (p.blocks[0].phi[1], d.blocks[0].phi[1]);
     assert!((pp - dp).abs() < 1e-9, "primal phi {pp}, dual phi {dp}");
 }
+
+/// The native trajectory ends exactly at the duration (docs/scene-format.md): 0.4005 s at
+/// dt = 1e-3 is 401 whole steps, and the last sample is interpolated half-way within the last
+/// one. Up to 0.400 s the run is bit for bit the one of 0.401 s; its last sample is the
+/// mid-point of that run's states at 0.400 and 0.401 s.
+#[test]
+fn native_trajectory_ends_at_the_duration() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let load = |duration: &str| {
+        rockbench::scene::load_scene_with_overrides(
+            &root.join("validation/scenes/housner-slender.toml"),
+            &[format!("duration={duration}"), "native.dt=1e-3".into()],
+        )
+        .unwrap()
+    };
+    let native = engine_by_name("native").unwrap();
+    let short = native.run(&load("0.4005")).unwrap();
+    let long = native.run(&load("0.401")).unwrap();
+    let (ts, tl) = (&short.trajectory, &long.trajectory);
+    assert_eq!(*ts.t.last().unwrap(), 0.4005);
+    assert_eq!(*tl.t.last().unwrap(), 0.401);
+    assert_eq!(ts.len(), 402);
+    assert_eq!(ts.t[400], 0.4);
+    assert_eq!(short.steps, 401);
+    let lam = short.settings["last_fraction"].as_f64().unwrap();
+    assert!((lam - 0.5).abs() < 1e-9, "{lam}");
+    assert_eq!(long.settings["last_fraction"].as_f64().unwrap(), 1.0);
+    let (bs, bl) = (&ts.blocks[0], &tl.blocks[0]);
+    for (s, l) in [
+        (&bs.x, &bl.x),
+        (&bs.z, &bl.z),
+        (&bs.phi, &bl.phi),
+        (&bs.vx, &bl.vx),
+        (&bs.vz, &bl.vz),
+        (&bs.omega, &bl.omega),
+    ] {
+        assert_eq!(s[..401], l[..401]);
+        let mid = l[400] + lam * (l[401] - l[400]);
+        assert!(
+            (s[401] - mid).abs() <= 1e-15 * mid.abs().max(1e-3),
+            "{} {mid}",
+            s[401]
+        );
+    }
+    assert!(bs.phi[401] < bl.phi[400] && bs.phi[401] > bl.phi[401]);
+}
