@@ -129,6 +129,18 @@ fn each_check_fails_on_the_fault_it_is_meant_to_catch() {
         }
     }
     assert!(!check_mirror(&s, &good, &m, &tol).violated());
+    // The window ends before the sample that ends the first impact's step: a difference there
+    // is not counted, one on the sample before it is.
+    let phi = &good.blocks[0].phi;
+    let k1 = (1..phi.len())
+        .find(|&k| phi[k] != 0.0 && phi[k].signum() != phi[k - 1].signum())
+        .expect("the block rocks through zero");
+    let mut after = m.clone();
+    after.blocks[0].phi[k1] += 1e-3;
+    assert!(!check_mirror(&s, &good, &after, &tol).violated());
+    let mut before = m.clone();
+    before.blocks[0].phi[k1 - 1] += 1e-3;
+    assert!(check_mirror(&s, &good, &before, &tol).violated());
 
     // A rerun that differs in the last bit.
     let mut t = good.clone();
@@ -237,4 +249,41 @@ fn an_overhanging_block_is_not_standing_and_falls() {
         t.blocks[1].phi.last()
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A small block (H = 0.05 m, H/B = 2.5: p = 16.5 1/s) rocking freely for 4 s, as in the
+/// stress map's `size` factor: with a fixed RK4 step of 1e-4 s (p h = 1.65e-3) the Housner
+/// engine gained 9.4e-9 of m g H between impacts; the step scaled with 1/p
+/// (`housner.max_phase_step`, p h <= 3e-4) keeps the growth at round-off.
+#[test]
+fn housner_step_scales_with_the_frequency_parameter() {
+    let s = scene(
+        "housner-slender.toml",
+        &["blocks[0].width=0.02", "blocks[0].height=0.05"],
+    );
+    let tol = Tolerances::default();
+    let e = engine_by_name("housner").unwrap();
+    let out = e.run(&s).unwrap();
+    let p = out.settings["p"].as_f64().unwrap();
+    assert!((p - 16.530296).abs() < 1e-5, "{p}");
+    assert_eq!(out.settings["step"].as_f64().unwrap(), 3e-4 / p);
+    let c = check_energy(&s, &out.trajectory, &tol);
+    assert!(c.value < 1e-12, "{}", c.detail);
+    // The fixed step of 1e-4 s alone: the growth the scaling removes.
+    let fixed = Scene {
+        housner: rockbench::scene::HousnerSettings {
+            max_phase_step: 1.0,
+            ..s.housner.clone()
+        },
+        ..s.clone()
+    };
+    let out = e.run(&fixed).unwrap();
+    assert_eq!(out.settings["step"].as_f64().unwrap(), 1e-4);
+    let c = check_energy(&fixed, &out.trajectory, &tol);
+    assert!(c.violated() && c.value > 5e-9, "{}", c.detail);
+    // The validation blocks keep the 1e-4 s step (p = 2.34 and 2.88 1/s).
+    for name in ["housner-slender.toml", "housner-square.toml"] {
+        let out = e.run(&scene(name, &[])).unwrap();
+        assert_eq!(out.settings["step"].as_f64().unwrap(), 1e-4, "{name}");
+    }
 }

@@ -292,15 +292,6 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
                  growth reaches 6.1e-6 (3.6e-7 at dt 1e-3; none at theta 0.7)",
     },
     KnownDefect {
-        engine: "housner",
-        check: "energy",
-        below: 1e-6,
-        applies: |_| true,
-        reason: "RK4 truncation, not round-off: the default max_step (1e-4 s) is not scaled with \
-                 the block's frequency parameter p, so small blocks gain energy (9.4e-9 of m g H \
-                 for H = 0.05 m, falling as max_step^5); see validation/stress-known.toml",
-    },
-    KnownDefect {
         engine: "native",
         check: "penetration",
         below: 1e-3,

@@ -11,7 +11,8 @@
 //! At each impact (theta = 0) the angular velocity is multiplied by `1 - 1.5 sin^2 alpha`
 //! (overridable as `housner.restitution`). A block at rest starts rocking when
 //! `|a_x| > (g + a_z) tan alpha`. The equation is integrated with classical RK4 (steps of at
-//! most `housner.max_step`, landing on every output time and excitation breakpoint); impacts
+//! most `min(housner.max_step, housner.max_phase_step / p)`, landing on every output time and
+//! excitation breakpoint); impacts
 //! are located by bisection on the step length to `housner.event_tolerance`. When the
 //! amplitude after an impact would be below 1e-12 rad the block is at rest (this ends the
 //! infinite sequence of ever smaller impacts in finite time). The block overturns when
@@ -253,6 +254,12 @@ pub fn integrate(
     }
 }
 
+/// The RK4 step of a block: `min(max_step, max_phase_step / p)` (RK4's energy error per
+/// half-wave depends on `p h`, so a fixed step in seconds is too coarse for small blocks).
+pub fn housner_step(blk: &HousnerBlock, hs: &crate::scene::HousnerSettings) -> f64 {
+    hs.max_step.min(hs.max_phase_step / blk.p2.sqrt())
+}
+
 impl Engine for HousnerEngine {
     fn name(&self) -> &'static str {
         "housner"
@@ -286,6 +293,7 @@ impl Engine for HousnerEngine {
         }
         let blk = HousnerBlock::new(b.width, b.height, scene.gravity, scene.housner.restitution);
         let hs = &scene.housner;
+        let step = housner_step(&blk, hs);
         let run = integrate(
             &blk,
             &gm,
@@ -293,7 +301,7 @@ impl Engine for HousnerEngine {
             Span {
                 duration: scene.duration,
                 output_interval: scene.output_interval,
-                max_step: hs.max_step,
+                max_step: step,
                 event_tolerance: hs.event_tolerance,
             },
         );
@@ -323,6 +331,8 @@ impl Engine for HousnerEngine {
                 "restitution": r,
                 "restitution_rule": if hs.restitution.is_some() { "given" } else { "1 - 1.5 sin^2 alpha" },
                 "max_step": hs.max_step,
+                "max_phase_step": hs.max_phase_step,
+                "step": step,
                 "event_tolerance": hs.event_tolerance,
                 "integrator": "RK4 with bisection event location",
                 "output_interval": scene.output_interval,
