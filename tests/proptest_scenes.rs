@@ -235,28 +235,6 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
     },
     KnownDefect {
         engine: "native",
-        check: "mirror",
-        below: 1e-1,
-        applies: |s| {
-            s.native.theta < 0.6
-                && (s.contact.friction > 0.0
-                    || s.contact.interfaces.values().any(|i| i.friction > 0.0))
-        },
-        reason: "theta < 0.6: the closing step's rebound e = (1 - theta)/theta is 0.67 to 1, and \
-                 associative friction lifts every slipping corner by mu |du_t| each step, so \
-                 slipping contacts open and re-close step after step (micro-impacts that the \
-                 check's impact detector, a zero crossing of a relative rotation, does not see); \
-                 nearly undamped, this bouncing amplifies the different round-off of the \
-                 mirrored QP exponentially: a 1.8 x 0.25 m slab tilted 0.072 rad under a block \
-                 59 times heavier (mu 1.4, dt 1e-3) differs from its mirror by 4e-17 after one \
-                 step, 2.8e-6 after 45 (x1.5 a step) and 2.8e-3 rad before its first impact at \
-                 theta 0.5, 1.1e-3 at 0.55, but 1.1e-12 at 0.6 and 2.8e-12 at 0.7; halving dt \
-                 does not help at theta 0.5 (8.7e-4, 1.8e-3 at dt 5e-4, 2.5e-4). Once amplified \
-                 the difference is bounded only by the motion itself; the bound is the largest \
-                 measured (1.3e-2 in 30,000 cases) with a margin, not derived",
-    },
-    KnownDefect {
-        engine: "native",
         check: "standing",
         below: 1e-7,
         applies: |_| true,

@@ -14,8 +14,9 @@
 //! most `min(housner.max_step, housner.max_phase_step / p)`, landing on every output time and
 //! excitation breakpoint); impacts
 //! are located by bisection on the step length to `housner.event_tolerance`. When the
-//! amplitude after an impact would be below 1e-12 rad the block is at rest (this ends the
-//! infinite sequence of ever smaller impacts in finite time). The block overturns when
+//! amplitude after an impact would be below 1e-12 rad, or the remaining infinite sequence of
+//! ever smaller impacts (durations 2|omega|/(p^2 sin alpha), ratio r) ends within the current
+//! step, the block is at rest at the end of that step. The block overturns when
 //! |theta| reaches pi/2; it is then held there. Sliding is not modelled.
 
 use super::{Engine, EngineError, RunOutput};
@@ -222,9 +223,20 @@ pub fn integrate(
                     impacts.push((t_imp, wave_max));
                     wave_max = 0.0;
                     let om_after = om_imp * blk.restitution;
-                    let amp = om_after * om_after / (2.0 * blk.p2 * blk.alpha.sin());
+                    let decel = blk.p2 * blk.alpha.sin();
+                    let amp = om_after * om_after / (2.0 * decel);
+                    // Near theta = 0, theta'' ~ -p^2 sin(alpha) on either pivot, so a
+                    // half-wave launched at om lasts 2|om|/(p^2 sin alpha) and the remaining
+                    // impacts (each scaling om by r < 1) all end by the Zeno instant below. When
+                    // that falls within this step the block is at rest at its end: integrating
+                    // half-waves shorter than the step would cross zero again inside it.
+                    let zeno = if blk.restitution < 1.0 {
+                        t_imp + 2.0 * om_after.abs() / (decel * (1.0 - blk.restitution))
+                    } else {
+                        f64::INFINITY
+                    };
                     s = -s;
-                    if amp < 1e-12 || om_after * s <= 0.0 {
+                    if amp < 1e-12 || om_after * s <= 0.0 || zeno <= t1 {
                         phase = Phase::Rest;
                         th = 0.0;
                         om = 0.0;
