@@ -235,17 +235,6 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
     },
     KnownDefect {
         engine: "native",
-        check: "standing",
-        below: 1e-7,
-        applies: |_| true,
-        reason: "an eccentrically loaded standing block (a 1.5 x 4.9 m block on a 0.1 m post, its \
-             centre of mass 0.01 m from the post's edge) sinks and rotates by 1e-9 to 1e-8 m in \
-             the first step (9.9e-9 m at theta 0.7), then creeps by ~2e-10 m/s: the contact QP \
-             is solved to a relative tolerance (1e-10) and the nearly unloaded corner's gap is \
-             not held at round-off level",
-    },
-    KnownDefect {
-        engine: "native",
         check: "mirror",
         below: 1e-4,
         applies: |_| true,
