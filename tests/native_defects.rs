@@ -137,3 +137,52 @@ fn native_trajectory_ends_at_the_duration() {
     }
     assert!(bs.phi[401] < bl.phi[400] && bs.phi[401] > bl.phi[401]);
 }
+
+/// OPEN defect (ignored until fixed; run with `--ignored`): a frictionless stack of three small
+/// blocks (a 10 kg/m^3 slab under two heavy blocks tilted together by 0.45 rad), theta 0.5,
+/// dt 5e-3, gains 1.8e-2 of m g H in 0.12 s, and its top block sinks 2.7e-4 m into the one
+/// below. The pair rotates by 0.058 rad a step; the contact rows are linear in the rotation
+/// increment, so the step leaves a second-order overlap (about d dphi^2 / 2 with d the centroid
+/// distance, 1.1e-4 m; measured 2.7e-4 m, the same every step), which the next step's
+/// position-level law removes within one step: the contact force works through it
+/// (N delta ~ 0.06 J/m a step, the measured growth is 0.078), and at theta 0.5 nothing damps
+/// it. A projection of positions after the step (velocities untouched), as the impact
+/// stepper does, would remove the overlap without that work.
+#[test]
+#[ignore = "open defect: the position-level law's re-detection works against the linearisation overlap"]
+fn native_frictionless_stack_at_theta_half_does_not_gain_energy() {
+    let text = r#"
+name = "frictionless stack"
+duration = 0.12
+output_interval = 5e-3
+[[blocks]]
+name = "b0"
+width = 0.42672246303699607
+height = 0.07073679108586302
+density = 10.0
+[[blocks]]
+name = "b1"
+width = 0.14684317033065053
+height = 0.06188667239645831
+density = 2411.099967337493
+[[blocks]]
+name = "b2"
+width = 0.14363736169437477
+height = 0.0699957893108563
+density = 3667.0460564166506
+[initial]
+tilt = 0.2561707870803173
+[initial.blocks.b1]
+rotation = 0.19485098844192222
+[contact]
+friction = 0.0
+[native]
+theta = 0.5
+dt = 5e-3
+"#;
+    let scene = check_scene_str(text, false, "stack.toml", &[], Path::new(".")).unwrap();
+    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    let tol = rockbench::invariants::Tolerances::default();
+    let c = rockbench::invariants::check_energy(&scene, &out.trajectory, &tol);
+    assert!(!c.violated(), "{}", c.detail);
+}

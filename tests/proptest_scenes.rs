@@ -271,11 +271,14 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
     },
 ];
 
+/// The known defect that excuses a violation, if any. Each use is printed (`excused: ...`,
+/// shown with `-- --nocapture`) so that a run's excused classes can be counted.
 fn excused(engine: &str, check: &str, value: f64, scene: &Scene) -> Option<&'static str> {
-    KNOWN_DEFECTS
-        .iter()
-        .find(|k| k.engine == engine && k.check == check && value < k.below && (k.applies)(scene))
-        .map(|k| k.reason)
+    let k = KNOWN_DEFECTS.iter().position(|k| {
+        k.engine == engine && k.check == check && value < k.below && (k.applies)(scene)
+    })?;
+    eprintln!("excused: known defect {k} ({engine} {check}) value {value:.3e}");
+    Some(KNOWN_DEFECTS[k].reason)
 }
 
 /// `make test` (no PROPTEST_CASES) runs a fixed seed, so CI is reproducible; `make proptest`
