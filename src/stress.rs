@@ -597,7 +597,9 @@ fn run_checked_extra(
     let mut report = InvariantReport::default();
     let mirrored = crate::invariants::mirror_scene(scene);
     report.checks.push(match engine.run(&mirrored) {
-        Ok(m) => crate::invariants::check_mirror(scene, &out.trajectory, &m.trajectory, tol),
+        Ok(m) => {
+            crate::invariants::mirror_check_run(engine, scene, &out.trajectory, &m.trajectory, tol)
+        }
         Err(e) => failed_check("mirror", e),
     });
     report.checks.push(match engine.run(scene) {

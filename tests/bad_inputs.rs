@@ -144,3 +144,24 @@ fn templates_of_the_catalogue_are_valid() {
     assert!(out.status.success(), "{:?}", out);
     std::fs::remove_dir_all(&tmp).ok();
 }
+
+/// `--set` reaches into arrays: `blocks[1].density` changes the second block only, and the
+/// catalogue's two-block template (used by the `set-index-*` cases) is valid without it.
+#[test]
+fn set_indexes_the_blocks_array() {
+    let file = dir().join("set-index-out-of-range.toml");
+    let plain = rockbench::scene::load_scene(&file).unwrap();
+    let set = rockbench::scene::load_scene_with_overrides(
+        &file,
+        &[
+            "blocks[1].density=3000".into(),
+            "blocks[0].width=1.5".into(),
+        ],
+    )
+    .unwrap();
+    assert_eq!(plain.blocks[1].density, 2500.0);
+    assert_eq!(set.blocks[1].density, 3000.0);
+    assert_eq!(set.blocks[0].density, plain.blocks[0].density);
+    assert_eq!(set.blocks[0].width, 1.5);
+    assert_eq!(set.blocks[1].width, plain.blocks[1].width);
+}

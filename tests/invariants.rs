@@ -129,6 +129,18 @@ fn each_check_fails_on_the_fault_it_is_meant_to_catch() {
         }
     }
     assert!(!check_mirror(&s, &good, &m, &tol).violated());
+    // The window ends before the sample that ends the first impact's step: a difference there
+    // is not counted, one on the sample before it is.
+    let phi = &good.blocks[0].phi;
+    let k1 = (1..phi.len())
+        .find(|&k| phi[k] != 0.0 && phi[k].signum() != phi[k - 1].signum())
+        .expect("the block rocks through zero");
+    let mut after = m.clone();
+    after.blocks[0].phi[k1] += 1e-3;
+    assert!(!check_mirror(&s, &good, &after, &tol).violated());
+    let mut before = m.clone();
+    before.blocks[0].phi[k1 - 1] += 1e-3;
+    assert!(check_mirror(&s, &good, &before, &tol).violated());
 
     // A rerun that differs in the last bit.
     let mut t = good.clone();
@@ -237,4 +249,81 @@ fn an_overhanging_block_is_not_standing_and_falls() {
         t.blocks[1].phi.last()
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A small block (H = 0.05 m, H/B = 2.5: p = 16.5 1/s) rocking freely for 4 s, as in the
+/// stress map's `size` factor: with a fixed RK4 step of 1e-4 s (p h = 1.65e-3) the Housner
+/// engine gained 9.4e-9 of m g H between impacts; the step scaled with 1/p
+/// (`housner.max_phase_step`, p h <= 3e-4) keeps the growth at round-off.
+#[test]
+fn housner_step_scales_with_the_frequency_parameter() {
+    let s = scene(
+        "housner-slender.toml",
+        &["blocks[0].width=0.02", "blocks[0].height=0.05"],
+    );
+    let tol = Tolerances::default();
+    let e = engine_by_name("housner").unwrap();
+    let out = e.run(&s).unwrap();
+    let p = out.settings["p"].as_f64().unwrap();
+    assert!((p - 16.530296).abs() < 1e-5, "{p}");
+    assert_eq!(out.settings["step"].as_f64().unwrap(), 3e-4 / p);
+    let c = check_energy(&s, &out.trajectory, &tol);
+    assert!(c.value < 1e-12, "{}", c.detail);
+    // The fixed step of 1e-4 s alone: the growth the scaling removes.
+    let fixed = Scene {
+        housner: rockbench::scene::HousnerSettings {
+            max_phase_step: 1.0,
+            ..s.housner.clone()
+        },
+        ..s.clone()
+    };
+    let out = e.run(&fixed).unwrap();
+    assert_eq!(out.settings["step"].as_f64().unwrap(), 1e-4);
+    let c = check_energy(&fixed, &out.trajectory, &tol);
+    assert!(c.violated() && c.value > 5e-9, "{}", c.detail);
+    // The validation blocks keep the 1e-4 s step (p = 2.34 and 2.88 1/s).
+    for name in ["housner-slender.toml", "housner-square.toml"] {
+        let out = e.run(&scene(name, &[])).unwrap();
+        assert_eq!(out.settings["step"].as_f64().unwrap(), 1e-4, "{name}");
+    }
+}
+
+/// A 1.8 x 0.25 m slab of 108 kg/m^3 tilted 0.072 rad under a block 59 times heavier (mu 1.4,
+/// theta 0.5, dt 1e-3): the slipping corners hover on associative dilation and re-close every
+/// few steps with no numerical damping, which amplifies round-off by about 1.5 a step. The run
+/// and its mirror differ by 2.8e-3 rad before the first impact, and so do runs of the scene
+/// shifted sideways (round-off probes): the mirror check measures that amplification and
+/// passes. On a motion whose probes stay at round-off, a 1e-4 asymmetry is still caught.
+#[test]
+fn mirror_check_measures_the_round_off_amplification_of_chattering_contacts() {
+    let text = "name = \"slab under a heavy block\"\nduration = 0.2287\noutput_interval = 1.0140901470987518e-3\n\n[[blocks]]\nname = \"b0\"\nwidth = 1.799411840318507\nheight = 0.25096456893501534\ndensity = 108.00361661615838\n\n[[blocks]]\nname = \"b1\"\nwidth = 1.11471029902593\nheight = 1.0\ndensity = 2573.504627253181\noffset = 0.3156341976076833\n\n[initial]\ntilt = 0.07193011417367695\n\n[contact]\nfriction = 1.3988828211722588\n\n[native]\ntheta = 0.5\ndt = 1.0140901470987518e-3\n";
+    let s =
+        rockbench::scene::check_scene_str(text, false, "slab.toml", &[], Path::new(".")).unwrap();
+    let tol = Tolerances::default();
+    let e = engine_by_name("native").unwrap();
+    let a = e.run(&s).unwrap().trajectory;
+    let m = e.run(&mirror_scene(&s)).unwrap().trajectory;
+    let plain = check_mirror(&s, &a, &m, &tol);
+    assert!(plain.violated() && plain.value > 1e-4, "{}", plain.detail);
+    let c = mirror_check_run(e.as_ref(), &s, &a, &m, &tol);
+    assert_eq!(c.value, plain.value);
+    assert!(!c.violated(), "{}", c.detail);
+    assert!(c.limit > 1e-5 && c.limit > c.value, "{}", c.detail);
+
+    // The slender block rocking freely: its probes stay at round-off, so a mirrored run off by
+    // 1e-4 rad at one sample before the impact is a violation.
+    let s = scene("housner-slender.toml", &["duration=0.4"]);
+    let a = run("native", &s);
+    let mut m = run("native", &mirror_scene(&s));
+    let plain = check_mirror(&s, &a, &m, &tol);
+    assert!(!plain.violated(), "{}", plain.detail);
+    m.blocks[0].phi[200] -= 1e-4;
+    let len = largest_dimension(&s);
+    let probes: Vec<(f64, Trajectory)> = PROBE_SHIFTS
+        .iter()
+        .map(|f| (f * len, run("native", &shifted_scene(&s, f * len))))
+        .collect();
+    let c = check_mirror_with_probes(&s, &a, &m, &probes, &tol);
+    assert!(c.violated(), "{}", c.detail);
+    assert_eq!(c.limit, tol.mirror_rel, "{}", c.detail);
 }

@@ -91,3 +91,98 @@ fn native_dual_frictionless_block_does_not_gain_energy() {
     let (pp, dp) = (p.blocks[0].phi[1], d.blocks[0].phi[1]);
     assert!((pp - dp).abs() < 1e-9, "primal phi {pp}, dual phi {dp}");
 }
+
+/// The native trajectory ends exactly at the duration (docs/scene-format.md): 0.4005 s at
+/// dt = 1e-3 is 401 whole steps, and the last sample is interpolated half-way within the last
+/// one. Up to 0.400 s the run is bit for bit the one of 0.401 s; its last sample is the
+/// mid-point of that run's states at 0.400 and 0.401 s.
+#[test]
+fn native_trajectory_ends_at_the_duration() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let load = |duration: &str| {
+        rockbench::scene::load_scene_with_overrides(
+            &root.join("validation/scenes/housner-slender.toml"),
+            &[format!("duration={duration}"), "native.dt=1e-3".into()],
+        )
+        .unwrap()
+    };
+    let native = engine_by_name("native").unwrap();
+    let short = native.run(&load("0.4005")).unwrap();
+    let long = native.run(&load("0.401")).unwrap();
+    let (ts, tl) = (&short.trajectory, &long.trajectory);
+    assert_eq!(*ts.t.last().unwrap(), 0.4005);
+    assert_eq!(*tl.t.last().unwrap(), 0.401);
+    assert_eq!(ts.len(), 402);
+    assert_eq!(ts.t[400], 0.4);
+    assert_eq!(short.steps, 401);
+    let lam = short.settings["last_fraction"].as_f64().unwrap();
+    assert!((lam - 0.5).abs() < 1e-9, "{lam}");
+    assert_eq!(long.settings["last_fraction"].as_f64().unwrap(), 1.0);
+    let (bs, bl) = (&ts.blocks[0], &tl.blocks[0]);
+    for (s, l) in [
+        (&bs.x, &bl.x),
+        (&bs.z, &bl.z),
+        (&bs.phi, &bl.phi),
+        (&bs.vx, &bl.vx),
+        (&bs.vz, &bl.vz),
+        (&bs.omega, &bl.omega),
+    ] {
+        assert_eq!(s[..401], l[..401]);
+        let mid = l[400] + lam * (l[401] - l[400]);
+        assert!(
+            (s[401] - mid).abs() <= 1e-15 * mid.abs().max(1e-3),
+            "{} {mid}",
+            s[401]
+        );
+    }
+    assert!(bs.phi[401] < bl.phi[400] && bs.phi[401] > bl.phi[401]);
+}
+
+/// OPEN defect (ignored until fixed; run with `--ignored`): a frictionless stack of three small
+/// blocks (a 10 kg/m^3 slab under two heavy blocks tilted together by 0.45 rad), theta 0.5,
+/// dt 5e-3, gains 1.8e-2 of m g H in 0.12 s, and its top block sinks 2.7e-4 m into the one
+/// below. The pair rotates by 0.058 rad a step; the contact rows are linear in the rotation
+/// increment, so the step leaves a second-order overlap (about d dphi^2 / 2 with d the centroid
+/// distance, 1.1e-4 m; measured 2.7e-4 m, the same every step), which the next step's
+/// position-level law removes within one step: the contact force works through it
+/// (N delta ~ 0.06 J/m a step, the measured growth is 0.078), and at theta 0.5 nothing damps
+/// it. A projection of positions after the step (velocities untouched), as the impact
+/// stepper does, would remove the overlap without that work.
+#[test]
+#[ignore = "open defect: the position-level law's re-detection works against the linearisation overlap"]
+fn native_frictionless_stack_at_theta_half_does_not_gain_energy() {
+    let text = r#"
+name = "frictionless stack"
+duration = 0.12
+output_interval = 5e-3
+[[blocks]]
+name = "b0"
+width = 0.42672246303699607
+height = 0.07073679108586302
+density = 10.0
+[[blocks]]
+name = "b1"
+width = 0.14684317033065053
+height = 0.06188667239645831
+density = 2411.099967337493
+[[blocks]]
+name = "b2"
+width = 0.14363736169437477
+height = 0.0699957893108563
+density = 3667.0460564166506
+[initial]
+tilt = 0.2561707870803173
+[initial.blocks.b1]
+rotation = 0.19485098844192222
+[contact]
+friction = 0.0
+[native]
+theta = 0.5
+dt = 5e-3
+"#;
+    let scene = check_scene_str(text, false, "stack.toml", &[], Path::new(".")).unwrap();
+    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    let tol = rockbench::invariants::Tolerances::default();
+    let c = rockbench::invariants::check_energy(&scene, &out.trajectory, &tol);
+    assert!(!c.violated(), "{}", c.detail);
+}

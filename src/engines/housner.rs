@@ -11,10 +11,12 @@
 //! At each impact (theta = 0) the angular velocity is multiplied by `1 - 1.5 sin^2 alpha`
 //! (overridable as `housner.restitution`). A block at rest starts rocking when
 //! `|a_x| > (g + a_z) tan alpha`. The equation is integrated with classical RK4 (steps of at
-//! most `housner.max_step`, landing on every output time and excitation breakpoint); impacts
+//! most `min(housner.max_step, housner.max_phase_step / p)`, landing on every output time and
+//! excitation breakpoint); impacts
 //! are located by bisection on the step length to `housner.event_tolerance`. When the
-//! amplitude after an impact would be below 1e-12 rad the block is at rest (this ends the
-//! infinite sequence of ever smaller impacts in finite time). The block overturns when
+//! amplitude after an impact would be below 1e-12 rad, or the remaining infinite sequence of
+//! ever smaller impacts (durations 2|omega|/(p^2 sin alpha), ratio r) ends within the current
+//! step, the block is at rest at the end of that step. The block overturns when
 //! |theta| reaches pi/2; it is then held there. Sliding is not modelled.
 
 use super::{Engine, EngineError, RunOutput};
@@ -221,9 +223,20 @@ pub fn integrate(
                     impacts.push((t_imp, wave_max));
                     wave_max = 0.0;
                     let om_after = om_imp * blk.restitution;
-                    let amp = om_after * om_after / (2.0 * blk.p2 * blk.alpha.sin());
+                    let decel = blk.p2 * blk.alpha.sin();
+                    let amp = om_after * om_after / (2.0 * decel);
+                    // Near theta = 0, theta'' ~ -p^2 sin(alpha) on either pivot, so a
+                    // half-wave launched at om lasts 2|om|/(p^2 sin alpha) and the remaining
+                    // impacts (each scaling om by r < 1) all end by the Zeno instant below. When
+                    // that falls within this step the block is at rest at its end: integrating
+                    // half-waves shorter than the step would cross zero again inside it.
+                    let zeno = if blk.restitution < 1.0 {
+                        t_imp + 2.0 * om_after.abs() / (decel * (1.0 - blk.restitution))
+                    } else {
+                        f64::INFINITY
+                    };
                     s = -s;
-                    if amp < 1e-12 || om_after * s <= 0.0 {
+                    if amp < 1e-12 || om_after * s <= 0.0 || zeno <= t1 {
                         phase = Phase::Rest;
                         th = 0.0;
                         om = 0.0;
@@ -251,6 +264,12 @@ pub fn integrate(
         impacts,
         steps,
     }
+}
+
+/// The RK4 step of a block: `min(max_step, max_phase_step / p)` (RK4's energy error per
+/// half-wave depends on `p h`, so a fixed step in seconds is too coarse for small blocks).
+pub fn housner_step(blk: &HousnerBlock, hs: &crate::scene::HousnerSettings) -> f64 {
+    hs.max_step.min(hs.max_phase_step / blk.p2.sqrt())
 }
 
 impl Engine for HousnerEngine {
@@ -286,6 +305,7 @@ impl Engine for HousnerEngine {
         }
         let blk = HousnerBlock::new(b.width, b.height, scene.gravity, scene.housner.restitution);
         let hs = &scene.housner;
+        let step = housner_step(&blk, hs);
         let run = integrate(
             &blk,
             &gm,
@@ -293,7 +313,7 @@ impl Engine for HousnerEngine {
             Span {
                 duration: scene.duration,
                 output_interval: scene.output_interval,
-                max_step: hs.max_step,
+                max_step: step,
                 event_tolerance: hs.event_tolerance,
             },
         );
@@ -323,6 +343,8 @@ impl Engine for HousnerEngine {
                 "restitution": r,
                 "restitution_rule": if hs.restitution.is_some() { "given" } else { "1 - 1.5 sin^2 alpha" },
                 "max_step": hs.max_step,
+                "max_phase_step": hs.max_phase_step,
+                "step": step,
                 "event_tolerance": hs.event_tolerance,
                 "integrator": "RK4 with bisection event location",
                 "output_interval": scene.output_interval,

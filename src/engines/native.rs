@@ -19,7 +19,24 @@ impl Engine for NativeEngine {
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
         let (mut stepper, mut state) = stepper_for(scene)?;
         let dt = scene.native.dt;
-        let n_steps = (scene.duration / dt - 1e-9).ceil() as u64;
+        // Whole steps of `dt`; the last one may pass the duration, and then the sample at the
+        // duration is interpolated linearly within it (`last_fraction` of the step). A
+        // shortened last step would not do: the position-level law closes a gap error delta
+        // within the step, at a speed delta/(theta h), so a short step injects energy.
+        let n_steps = ((scene.duration / dt - 1e-9).ceil() as u64).max(1);
+        let last_fraction = (scene.duration - (n_steps - 1) as f64 * dt) / dt;
+        let last_fraction = if (last_fraction - 1.0).abs() <= 1e-9 {
+            1.0
+        } else {
+            last_fraction
+        };
+        let time_of = |k: u64| {
+            if k == n_steps {
+                scene.duration
+            } else {
+                k as f64 * dt
+            }
+        };
         let every = ((scene.output_interval / dt).round() as u64).max(1);
         let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
         let mut tr = Trajectory::new(&names);
@@ -36,15 +53,26 @@ impl Engine for NativeEngine {
         let mut stopped_at = None;
         let mut computed = n_steps;
         for k in 1..=n_steps {
+            let before =
+                (k == n_steps && last_fraction < 1.0).then(|| stepper.relative_states(&state));
             stepper.step(&mut state).map_err(|e| EngineError::Failed {
                 engine: "native",
                 message: e.to_string(),
             })?;
             // Step k ends at k dt exactly (no accumulated rounding in the sample times).
             state.t = k as f64 * dt;
-            let states = stepper.relative_states(&state);
+            let mut states = stepper.relative_states(&state);
+            if let Some(b) = before {
+                // The sample at the duration, within the last step: a convex combination of
+                // its two ends, so it has no more energy than they have.
+                for (s1, s0) in states.iter_mut().zip(&b) {
+                    for (x1, x0) in s1.iter_mut().zip(s0) {
+                        *x1 = x0 + last_fraction * (*x1 - x0);
+                    }
+                }
+            }
             if k % every == 0 || k == n_steps {
-                tr.push(state.t, &states);
+                tr.push(time_of(k), &states);
             }
             if scene.native.stop_at_rest && state.t > excitation_end {
                 let v = scene.native.rest_velocity;
@@ -62,7 +90,7 @@ impl Engine for NativeEngine {
                         .collect();
                     for j in k + 1..=n_steps {
                         if j % every == 0 || j == n_steps {
-                            tr.push(j as f64 * dt, &at_rest);
+                            tr.push(time_of(j), &at_rest);
                         }
                     }
                     break;
@@ -78,6 +106,7 @@ impl Engine for NativeEngine {
                     .unwrap_or_default(),
             );
             o.insert("output_interval".into(), (every as f64 * dt).into());
+            o.insert("last_fraction".into(), last_fraction.into());
         }
         Ok(RunOutput {
             trajectory: tr,

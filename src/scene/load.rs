@@ -148,8 +148,69 @@ fn clean_serde_message(m: &str) -> String {
     m.to_string()
 }
 
-/// Set `a.b.c=value` in a JSON tree; the value is parsed as a TOML value when it can be,
-/// otherwise taken as a string.
+/// One step of an override path: a table key or an array index.
+#[derive(Debug, Clone, PartialEq)]
+enum Segment {
+    Key(String),
+    Index(usize),
+}
+
+/// Parse `a.b[1].c` into its segments.
+fn parse_key(key: &str) -> Result<Vec<Segment>, String> {
+    let mut segs = Vec::new();
+    for part in key.split('.') {
+        let (name, mut rest) = match part.find('[') {
+            Some(i) => part.split_at(i),
+            None => (part, ""),
+        };
+        if name.is_empty() {
+            return Err(format!("`{key}` has an empty component"));
+        }
+        if name.contains(']') {
+            return Err(format!("`{key}`: `]` without an opening `[`"));
+        }
+        segs.push(Segment::Key(name.to_string()));
+        while !rest.is_empty() {
+            let inner = rest
+                .strip_prefix('[')
+                .ok_or_else(|| format!("`{key}`: unexpected `{rest}` after an index"))?;
+            let close = inner
+                .find(']')
+                .ok_or_else(|| format!("`{key}`: `[` without a closing `]`"))?;
+            let idx = &inner[..close];
+            if idx.is_empty() || !idx.bytes().all(|b| b.is_ascii_digit()) {
+                return Err(format!(
+                    "`{key}`: `[{idx}]` is not an array index (a whole number counted from 0)"
+                ));
+            }
+            let i = idx
+                .parse::<usize>()
+                .map_err(|_| format!("`{key}`: the index {idx} is out of range"))?;
+            segs.push(Segment::Index(i));
+            rest = &inner[close + 1..];
+        }
+    }
+    Ok(segs)
+}
+
+fn show_path(segs: &[Segment]) -> String {
+    let mut s = String::new();
+    for seg in segs {
+        match seg {
+            Segment::Key(k) => {
+                if !s.is_empty() {
+                    s.push('.');
+                }
+                s.push_str(k);
+            }
+            Segment::Index(i) => s.push_str(&format!("[{i}]")),
+        }
+    }
+    s
+}
+
+/// Set `a.b.c=value` (or `a.b[i].c=value`, indexing an array that the scene has) in a JSON
+/// tree; the value is parsed as a TOML value when it can be, otherwise taken as a string.
 pub fn apply_override(root: &mut serde_json::Value, assignment: &str) -> Result<(), String> {
     let (key, raw) = assignment
         .split_once('=')
@@ -158,27 +219,117 @@ pub fn apply_override(root: &mut serde_json::Value, assignment: &str) -> Result<
     if key.is_empty() {
         return Err(format!("`{assignment}` has an empty key"));
     }
+    let segs = parse_key(key)?;
     let parsed: serde_json::Value =
         match toml::from_str::<toml::Table>(&format!("v = {}", raw.trim())) {
             Ok(t) => serde_json::to_value(&t["v"]).map_err(|e| e.to_string())?,
             Err(_) => serde_json::Value::String(raw.trim().to_string()),
         };
     let mut node = root;
-    let parts: Vec<&str> = key.split('.').collect();
-    for (k, part) in parts.iter().enumerate() {
-        if part.is_empty() {
-            return Err(format!("`{key}` has an empty component"));
+    for (k, seg) in segs.iter().enumerate() {
+        let here = show_path(&segs[..k]);
+        let last = k + 1 == segs.len();
+        match seg {
+            Segment::Key(name) => {
+                if node.is_array() {
+                    return Err(format!(
+                        "`{key}`: `{here}` is an array: give an index, e.g. `{here}[0].{name}`"
+                    ));
+                }
+                let obj = node
+                    .as_object_mut()
+                    .ok_or_else(|| format!("`{key}`: `{here}` is not a table"))?;
+                if last {
+                    obj.insert(name.clone(), parsed);
+                    return Ok(());
+                }
+                if matches!(segs[k + 1], Segment::Index(_)) && !obj.contains_key(name) {
+                    return Err(format!(
+                        "`{key}`: the scene has no `{}` to index",
+                        show_path(&segs[..=k])
+                    ));
+                }
+                node = obj
+                    .entry(name.clone())
+                    .or_insert_with(|| serde_json::Value::Object(Default::default()));
+            }
+            Segment::Index(i) => {
+                let arr = node
+                    .as_array_mut()
+                    .ok_or_else(|| format!("`{key}`: `{here}` is not an array"))?;
+                let len = arr.len();
+                if *i >= len {
+                    return Err(format!(
+                        "`{key}`: index {i} is out of range (`{here}` has {len} {}{})",
+                        if len == 1 { "entry" } else { "entries" },
+                        if len > 0 {
+                            format!(", indices 0 to {}", len - 1)
+                        } else {
+                            String::new()
+                        }
+                    ));
+                }
+                if last {
+                    arr[*i] = parsed;
+                    return Ok(());
+                }
+                node = &mut arr[*i];
+            }
         }
-        let obj = node
-            .as_object_mut()
-            .ok_or_else(|| format!("`{key}`: `{}` is not a table", parts[..k].join(".")))?;
-        if k + 1 == parts.len() {
-            obj.insert(part.to_string(), parsed);
-            return Ok(());
-        }
-        node = obj
-            .entry(part.to_string())
-            .or_insert_with(|| serde_json::Value::Object(Default::default()));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn scene() -> serde_json::Value {
+        json!({"duration": 1.0, "blocks": [{"name": "a", "width": 1.0}, {"name": "b", "width": 2.0}]})
+    }
+
+    #[test]
+    fn override_sets_nested_keys_and_array_elements() {
+        let mut v = scene();
+        apply_override(&mut v, "native.dt=5e-4").unwrap();
+        apply_override(&mut v, "blocks[1].width=0.5").unwrap();
+        apply_override(&mut v, "blocks[0].density = 3000").unwrap();
+        assert_eq!(v["native"]["dt"], json!(5e-4));
+        assert_eq!(v["blocks"][1]["width"], json!(0.5));
+        assert_eq!(v["blocks"][0]["width"], json!(1.0));
+        assert_eq!(v["blocks"][0]["density"], json!(3000));
+        apply_override(&mut v, "blocks[0]={name = \"c\", width = 3.0}").unwrap();
+        assert_eq!(v["blocks"][0], json!({"name": "c", "width": 3.0}));
+    }
+
+    #[test]
+    fn bad_indices_are_one_line_errors() {
+        let cases = [
+            (
+                "blocks[2].width=1",
+                "index 2 is out of range (`blocks` has 2 entries, indices 0 to 1)",
+            ),
+            ("blocks[-1].width=1", "`[-1]` is not an array index"),
+            ("blocks[x].width=1", "`[x]` is not an array index"),
+            ("blocks[].width=1", "`[]` is not an array index"),
+            ("blocks[1.width=1", "`[` without a closing `]`"),
+            ("blocks]1[.width=1", "`]` without an opening `[`"),
+            ("blocks[0]x.width=1", "unexpected `x` after an index"),
+            (
+                "blocks.width=1",
+                "`blocks` is an array: give an index, e.g. `blocks[0].width`",
+            ),
+            ("duration[0]=1", "`duration` is not an array"),
+            ("native[0].dt=1", "the scene has no `native` to index"),
+            ("blocks[99999999999999999999999].width=1", "out of range"),
+        ];
+        for (a, want) in cases {
+            let mut v = scene();
+            let e = apply_override(&mut v, a).unwrap_err();
+            assert!(e.contains(want), "{a}: {e}");
+            assert!(!e.contains('\n'), "{a}: {e}");
+            assert_eq!(v, scene(), "{a} changed the scene");
+        }
+    }
 }

@@ -257,6 +257,7 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
     scene.rapier.validate(file)?;
     check_run_length(scene)?;
     positive("housner.max_step", scene.housner.max_step)?;
+    positive("housner.max_phase_step", scene.housner.max_phase_step)?;
     positive("housner.event_tolerance", scene.housner.event_tolerance)?;
     let tol_floor = MIN_EVENT_TOLERANCE_REL * scene.duration.max(1.0);
     if scene.housner.event_tolerance < tol_floor {
