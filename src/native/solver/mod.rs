@@ -68,10 +68,11 @@ impl ContactSolver for WithFallback {
 }
 
 /// Largest problem (in DOFs, 3 per block) the dense active-set back-end takes under `auto`;
-/// larger ones go to the sparse back-end. Measured on rocking columns of 1.0 x 0.5 m blocks
-/// (whole runs, per step): dense 24 / 114 / 247 / 495 us at 5 / 10 / 15 / 20 blocks, sparse
-/// 94 / 216 / 245 / 244 us; they cross at 15 blocks.
-pub const AUTO_DENSE_MAX_DOFS: usize = 45;
+/// larger ones go to the sparse back-end. Measured on whole 1 s runs of rocking columns of
+/// 1.0 x 0.5 m blocks (per step, quiet machine): dense 8 / 30 / 44 / 56-62 / 62-64 / 78 / 149
+/// us at 5 / 10 / 12 / 13 / 14 / 15 / 20 blocks, sparse 28 / 59 / 69-72 / 62-66 / 65-68 / 65
+/// / 71 us; they cross between 14 and 15 blocks.
+pub const AUTO_DENSE_MAX_DOFS: usize = 42;
 
 /// `auto`: the dense active-set back-end for small problems, the sparse one for large
 /// assemblies, each with Clarabel behind it.
@@ -82,7 +83,7 @@ pub struct Auto {
 
 impl ContactSolver for Auto {
     fn name(&self) -> &'static str {
-        "auto (active-set up to 45 DOFs, sparse above)"
+        "auto (active-set up to 42 DOFs, sparse above)"
     }
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
         if problem.n_dof() <= AUTO_DENSE_MAX_DOFS {
