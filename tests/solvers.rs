@@ -251,35 +251,3 @@ fn sparse_solves_the_steps_of_a_sliding_wall_at_least_as_well_as_clarabel() {
         "the pulse must make the wall slide (slip {slip:e} m)"
     );
 }
-
-/// The impact-consistent stepper decides on located impacts from the contact forces, so a
-/// back-end solved only loosely can change its trajectory: on housner-slender at dt 5e-4 the
-/// sparse and dense back-ends give the same rotation history over 3 s to 1e-8 rad.
-#[test]
-fn sparse_and_dense_give_the_same_impact_stepper_history() {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/scenes/housner-slender.toml");
-    let history = |solver: &str| {
-        let s = load_scene_with_overrides(
-            &p,
-            &[
-                format!("native.solver=\"{solver}\""),
-                "native.stepper=\"impact\"".into(),
-                "native.dt=5e-4".into(),
-                "duration=3.0".into(),
-            ],
-        )
-        .unwrap();
-        run_timed(engine_by_name("native").unwrap().as_ref(), &s)
-            .unwrap()
-            .0
-            .trajectory
-    };
-    let (a, b) = (history("active-set"), history("sparse"));
-    assert_eq!(a.t.len(), b.t.len());
-    let worst = a.blocks[0]
-        .phi
-        .iter()
-        .zip(&b.blocks[0].phi)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-    assert!(worst < 1e-8, "rotation histories differ by {worst:e} rad");
-}

@@ -46,18 +46,12 @@ pub const RHO: f64 = 1e4;
 /// quarter of the previous one) every penalty grows tenfold, up to this.
 pub const RHO_MAX: f64 = 1e10;
 /// A row holds when `D_i u + r_i >= -ROW_TOLERANCE (1 + |r_i|)` (as in the dense back-end).
-pub const ROW_TOLERANCE: f64 = 1e-13;
+pub const ROW_TOLERANCE: f64 = 1e-11;
 /// Rows that stop converging at the stiffest penalty are accepted when they hold to this (the
 /// dense back-end's test of an inconsistent working set).
 pub const CONSISTENCY_TOLERANCE: f64 = 1e-9;
-/// Newton's iteration stops when the step is below `NEWTON_TOLERANCE (1 + |u|_inf)`; the
-/// row and Newton tolerances are tight enough that the sparse and dense back-ends give the
-/// same impact-stepper trajectories (housner-slender, dt 5e-4: 1.1e-10 rad apart over 3 s;
-/// 1.7e-4 rad with 1e-12 / 1e-13, where a located impact is decided differently).
-pub const NEWTON_TOLERANCE: f64 = 1e-14;
-/// A Newton iteration that runs out of steps is accepted if its last step was below
-/// `NEWTON_STALL_TOLERANCE (1 + |u|_inf)` (round-off stalls it above the target).
-pub const NEWTON_STALL_TOLERANCE: f64 = 1e-12;
+/// Newton's iteration stops when the step is below `NEWTON_TOLERANCE (1 + |u|_inf)`.
+pub const NEWTON_TOLERANCE: f64 = 1e-12;
 const MAX_NEWTON: usize = 60;
 const MAX_OUTER: usize = 60;
 
@@ -224,7 +218,6 @@ impl SparseSolver {
     /// serves it as well as an exact one.
     fn minimise(&mut self, p: &[f64], q: &[f64]) -> Result<usize, SolveFailure> {
         let mut last_step = f64::INFINITY;
-        let mut last_size = 0.0;
         let mut trusted = true;
         for it in 1..=MAX_NEWTON {
             self.classify();
@@ -259,15 +252,10 @@ impl SparseSolver {
             if step <= NEWTON_TOLERANCE * (1.0 + size) {
                 return Ok(it);
             }
-            last_size = size;
             if !exact && step > 0.1 * last_step {
                 trusted = false;
             }
             last_step = step;
-        }
-        // Stalled at round-off above the target: accepted at the looser level.
-        if last_step <= NEWTON_STALL_TOLERANCE * (1.0 + last_size) {
-            return Ok(MAX_NEWTON);
         }
         self.factored = None;
         Err(Self::fail(format!(
@@ -399,8 +387,7 @@ impl SparseSolver {
             }
             last_change = change;
         }
-        // Out of updates: accepted only at the consistency level, as above.
-        if !converged && !self.kkt_holds(CONSISTENCY_TOLERANCE) {
+        if !converged {
             return Err(Self::fail(format!(
                 "multipliers did not settle in {MAX_OUTER} updates"
             )));
