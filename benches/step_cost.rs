@@ -9,6 +9,7 @@
 //! not run on the 210-block wall (see below).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use rockbench::native::stepper::{NativeState, Stepper};
 use rockbench::native::stepper_for;
 use rockbench::scene::{Scene, parse_scene_str};
 use std::hint::black_box;
@@ -46,6 +47,25 @@ fn wall(courses: usize) -> Scene {
     parse_scene_str(&s, false, "bench", &[]).unwrap()
 }
 
+/// One step from `state`, every sample starting from the same snapshot.
+fn bench_step(
+    g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    id: BenchmarkId,
+    stepper: &mut Stepper,
+    state: &NativeState,
+) {
+    g.bench_function(id, |b| {
+        b.iter_batched(
+            || state.clone(),
+            |mut s| {
+                stepper.step(&mut s).unwrap();
+                black_box(s)
+            },
+            criterion::BatchSize::SmallInput,
+        )
+    });
+}
+
 fn step_cost(c: &mut Criterion) {
     let mut g = c.benchmark_group("native_step");
     g.measurement_time(Duration::from_secs(3))
@@ -66,17 +86,7 @@ fn step_cost(c: &mut Criterion) {
             for _ in 0..warm {
                 stepper.step(&mut state).unwrap();
             }
-            let snapshot = state.clone();
-            g.bench_with_input(BenchmarkId::new(solver, n), &n, |b, _| {
-                b.iter_batched(
-                    || snapshot.clone(),
-                    |mut s| {
-                        stepper.step(&mut s).unwrap();
-                        black_box(s)
-                    },
-                    criterion::BatchSize::SmallInput,
-                )
-            });
+            bench_step(&mut g, BenchmarkId::new(solver, n), &mut stepper, &state);
         }
     }
     g.finish();
@@ -97,21 +107,8 @@ fn wall_at_rest(c: &mut Criterion) {
             stepper.step(&mut state).unwrap();
         }
         let contacts = stepper.last_contacts.len();
-        let snapshot = state.clone();
-        g.bench_with_input(
-            BenchmarkId::new(format!("sparse/{contacts}-contacts"), 21 * courses),
-            &courses,
-            |b, _| {
-                b.iter_batched(
-                    || snapshot.clone(),
-                    |mut s| {
-                        stepper.step(&mut s).unwrap();
-                        black_box(s)
-                    },
-                    criterion::BatchSize::SmallInput,
-                )
-            },
-        );
+        let id = BenchmarkId::new(format!("sparse/{contacts}-contacts"), 21 * courses);
+        bench_step(&mut g, id, &mut stepper, &state);
     }
     g.finish();
 }
