@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium bench bench-steps \
-	stress proptest fuzz fmt clippy clean .venv
+	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge
 
 all: build
 
@@ -33,13 +33,30 @@ test: test-no-default-features test-rust test-python
 test-no-default-features: chromium records
 	$(CARGO) test --release --no-default-features
 
-test-rust: chromium records
+test-rust: chromium records paper-tools
 	$(CARGO) test --release
 	$(MAKE) gates
 	$(BIN) stress --quick --engines native,housner --out out/stress-quick
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
+
+# `--paper` outputs: SVG to vector PDF (librsvg2-bin), and for the test that compiles the tables
+# and renders the figures a real LaTeX with booktabs and poppler's pdftoppm (about 75 s to
+# install on a fresh machine).
+paper-tools:
+	command -v rsvg-convert >/dev/null && command -v pdflatex >/dev/null && command -v pdftoppm >/dev/null && kpsewhich booktabs.sty >/dev/null || (apt-get update && apt-get install -y --no-install-recommends librsvg2-bin poppler-utils texlive-latex-base texlive-latex-recommended)
+
+# What a paper takes unchanged (out/paper/*/paper/): the two-block case compared on every engine,
+# and the observed orders of every engine on the slender block.
+paper: build .venv paper-tools
+	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --reference native --paper --quiet --out out/paper/two-block
+	$(BIN) converge validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet --reference housner --paper --out out/paper/converge-slender
+
+# Observed orders of accuracy of every engine against Housner (out/converge/).
+converge: build .venv
+	$(BIN) converge validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet --reference housner --out out/converge/housner-slender
+	$(BIN) converge validation/scenes/housner-square.toml --engines native,rapier,mujoco,pybullet --reference housner --out out/converge/housner-square
 
 # Headless Chromium (Debian's package) for the report-rendering test.
 chromium:

@@ -86,7 +86,8 @@ pub struct BenchRow {
     pub amplitude_1_rel_error: Option<f64>,
 }
 
-fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
+/// A run for the metrics, from an engine's output and summary.
+pub fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
     Run {
         name: name.to_string(),
         trajectory: out.trajectory.clone(),
@@ -130,17 +131,12 @@ fn errors(scene: &Scene, rows: &[MetricRow], row: &mut BenchRow) {
         bottom("peak_amplitude_1").and_then(|r| Some(r.value? / r.reference? - 1.0));
 }
 
-/// Run the benchmark. `progress` is called with a line per finished cell.
-pub fn bench(
-    scene_path: &Path,
-    opts: &BenchOptions,
-    progress: &dyn Fn(&BenchRow),
-) -> Result<Vec<BenchRow>, String> {
-    let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
-    let reference = match &opts.reference {
+/// The reference run: an engine run on `scene`, or a trajectory file.
+pub fn reference_run(spec: &ReferenceSpec, scene: &Scene) -> Result<Run, String> {
+    Ok(match spec {
         ReferenceSpec::Engine(name) => {
             let e = engine_by_name(name).map_err(|e| format!("--reference: {e}"))?;
-            let (out, s) = run_timed(e.as_ref(), &base)
+            let (out, s) = run_timed(e.as_ref(), scene)
                 .map_err(|e| format!("--reference {name} did not run: {e}"))?;
             run_of(name, &out, &s)
         }
@@ -150,7 +146,17 @@ pub fn bench(
             exact_impacts: None,
             cost: Cost::default(),
         },
-    };
+    })
+}
+
+/// Run the benchmark. `progress` is called with a line per finished cell.
+pub fn bench(
+    scene_path: &Path,
+    opts: &BenchOptions,
+    progress: &dyn Fn(&BenchRow),
+) -> Result<Vec<BenchRow>, String> {
+    let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
+    let reference = reference_run(&opts.reference, &base)?;
     let mut rows = Vec::new();
     for engine in &opts.engines {
         let variants = if engine == "native" {
@@ -307,7 +313,13 @@ pub fn write(dir: &Path, rows: &[BenchRow], command: &str) -> Result<(), String>
         );
     }
     w("work_precision.md", &md)?;
-    // One line per engine/variant through its step sizes: log10 error against log10 time.
+    w("work_precision.svg", &plot(rows).render())?;
+    Ok(())
+}
+
+/// The work-precision figure: one line per engine/variant through its step sizes, log10
+/// error against log10 time.
+pub fn plot(rows: &[BenchRow]) -> Plot {
     let palette = [
         "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
     ];
@@ -347,6 +359,5 @@ pub fn write(dir: &Path, rows: &[BenchRow], command: &str) -> Result<(), String>
             y: pts.iter().map(|p| p.1).collect(),
         });
     }
-    w("work_precision.svg", &plot.render())?;
-    Ok(())
+    plot
 }

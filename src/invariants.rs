@@ -550,16 +550,9 @@ fn first_impact(scene: &Scene, tr: &Trajectory) -> f64 {
     let layout = scene.layout();
     let mut first = f64::INFINITY;
     for i in 0..scene.blocks.len() {
-        let rel: Vec<f64> = match layout.supports[i] {
-            None => tr.blocks[i].phi.clone(),
-            Some(s) => tr.blocks[i]
-                .phi
-                .iter()
-                .zip(&tr.blocks[s].phi)
-                .map(|(a, b)| a - b)
-                .collect(),
-        };
-        if let Some(&t) = crate::events::impacts(&tr.t, &rel, crate::events::NOISE_FLOOR).first() {
+        let (rel, rate) = tr.rotation(i, layout.supports[i]);
+        let h = crate::events::History::new(&tr.t, &rel, &rate);
+        if let Some(&t) = crate::events::impacts(&h, crate::events::NOISE_FLOOR).first() {
             first = first.min(t);
         }
     }

@@ -30,6 +30,7 @@
 pub mod bench;
 pub mod cli;
 pub mod compare;
+pub mod converge;
 pub mod engines;
 pub mod events;
 pub mod excitation;
@@ -38,6 +39,7 @@ pub mod geometry;
 pub mod invariants;
 pub mod metrics;
 pub mod native;
+pub mod paper;
 #[cfg(feature = "python")]
 pub mod python;
 pub mod report;

@@ -1,10 +1,14 @@
 //! `summary.json`: what an engine run produced, with the settings and versions behind it.
 
 use crate::engines::RunOutput;
-use crate::events::{self, Peak};
+use crate::events::{self, History, ImpactSource, Peak};
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+fn samples_source() -> ImpactSource {
+    ImpactSource::Samples
+}
 
 /// Events of one block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -17,6 +21,10 @@ pub struct BlockSummary {
     pub rotation: String,
     /// Impact times, s.
     pub impacts: Vec<f64>,
+    /// Where the impact times come from: `engine` (located by the engine itself) or `samples`
+    /// (extrapolated from the pre-impact side of the output samples, `crate::events`).
+    #[serde(default = "samples_source")]
+    pub impacts_source: ImpactSource,
     pub peaks: Vec<Peak>,
     /// Rest time at the default threshold (1e-4 rad), s; `null` if never at rest.
     pub rest_time: Option<f64>,
@@ -41,6 +49,10 @@ pub struct Summary {
     pub settings: serde_json::Value,
     pub status: String,
     pub duration: f64,
+    /// The scene's output sampling (`[output] interval`), s; events are located from the
+    /// engine's samples at that interval.
+    #[serde(default)]
+    pub output_interval: f64,
     pub wall_time_s: f64,
     pub steps: u64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -53,20 +65,15 @@ pub struct Summary {
     pub command: Option<String>,
 }
 
-/// The rotation on which block i's impacts are measured, and its label.
-pub fn measured_rotation(scene: &Scene, out: &RunOutput, i: usize) -> (Vec<f64>, String) {
-    let supports = scene.layout().supports;
-    let phi = &out.trajectory.blocks[i].phi;
-    match supports[i] {
-        None => (phi.clone(), "absolute".into()),
-        Some(s) => {
-            let base = &out.trajectory.blocks[s].phi;
-            (
-                phi.iter().zip(base).map(|(a, b)| a - b).collect(),
-                format!("relative to {}", scene.blocks[s].name),
-            )
-        }
-    }
+/// The rotation (and its rate) on which block i's impacts are measured, and its label.
+pub fn measured_rotation(scene: &Scene, out: &RunOutput, i: usize) -> (Vec<f64>, Vec<f64>, String) {
+    let support = scene.layout().supports[i];
+    let (phi, omega) = out.trajectory.rotation(i, support);
+    let label = match support {
+        None => "absolute".into(),
+        Some(s) => format!("relative to {}", scene.blocks[s].name),
+    };
+    (phi, omega, label)
 }
 
 impl Summary {
@@ -78,25 +85,33 @@ impl Summary {
             .iter()
             .enumerate()
             .map(|(i, b)| {
-                let (rot, label) = measured_rotation(scene, out, i);
-                let impacts = match &out.exact_impacts {
-                    Some(ex) => ex[i].clone(),
-                    None => events::impacts(t, &rot, events::NOISE_FLOOR),
+                let (rot, rate, label) = measured_rotation(scene, out, i);
+                let measured = History::new(t, &rot, &rate);
+                let (impacts, impacts_source) = match &out.exact_impacts {
+                    Some(ex) => (ex[i].clone(), ImpactSource::Engine),
+                    None => (
+                        events::impacts(&measured, events::NOISE_FLOOR),
+                        ImpactSource::Samples,
+                    ),
                 };
-                let peaks = events::peaks(t, &rot, &impacts);
-                let phi = &out.trajectory.blocks[i].phi;
+                let peaks = events::peaks(&measured, &impacts);
+                let b_tr = &out.trajectory.blocks[i];
+                let phi = &b_tr.phi;
+                let absolute = History::new(t, phi, &b_tr.omega);
                 let rest_times: BTreeMap<String, Option<f64>> = events::REST_THRESHOLDS
                     .iter()
-                    .map(|(k, eps)| (k.to_string(), events::rest_time(t, phi, *eps)))
+                    .map(|(k, eps)| (k.to_string(), events::rest_time(&absolute, *eps)))
                     .collect();
-                let (overturned, overturn_time) = events::overturning(t, phi, b.critical_angle());
+                let (overturned, overturn_time) =
+                    events::overturning(&absolute, b.critical_angle());
                 BlockSummary {
                     name: b.name.clone(),
                     support: layout.supports[i].map(|s| scene.blocks[s].name.clone()),
                     rotation: label,
                     impacts,
+                    impacts_source,
                     peaks,
-                    rest_time: events::rest_time(t, phi, events::DEFAULT_REST),
+                    rest_time: events::rest_time(&absolute, events::DEFAULT_REST),
                     rest_times,
                     overturned,
                     overturn_time,
@@ -113,6 +128,7 @@ impl Summary {
             settings: out.settings.clone(),
             status: "ok".into(),
             duration: scene.duration,
+            output_interval: scene.output_interval,
             wall_time_s,
             steps: out.steps,
             solver_iterations: out.solver_iterations,

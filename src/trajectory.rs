@@ -62,6 +62,20 @@ impl Trajectory {
         self.t.is_empty()
     }
 
+    /// Rotation and rate of block `i`, absolute (`relative_to` `None`) or relative to block
+    /// `relative_to` (what rocks on the interface of a block standing on another).
+    pub fn rotation(&self, i: usize, relative_to: Option<usize>) -> (Vec<f64>, Vec<f64>) {
+        let b = &self.blocks[i];
+        match relative_to {
+            None => (b.phi.clone(), b.omega.clone()),
+            Some(l) => {
+                let base = &self.blocks[l];
+                let diff = |a: &[f64], c: &[f64]| a.iter().zip(c).map(|(x, y)| x - y).collect();
+                (diff(&b.phi, &base.phi), diff(&b.omega, &base.omega))
+            }
+        }
+    }
+
     pub fn block(&self, name: &str) -> Option<&BlockHistory> {
         self.blocks.iter().find(|b| b.name == name)
     }

@@ -25,6 +25,9 @@ pub struct BenchArgs {
     /// Override a scene field for every run (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// Also write DIR/paper/ (LaTeX table, the figure as SVG, PDF and CSV).
+    #[arg(long)]
+    paper: bool,
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
 }
@@ -63,6 +66,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
     .map_err(|e| anyhow!(e))?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     write(&a.out, &rows, &command).map_err(|e| anyhow!(e))?;
+    if a.paper {
+        crate::paper::write_bench(
+            &a.out.join("paper"),
+            &rows,
+            &crate::bench::plot(&rows),
+            &command,
+        )
+        .map_err(|e| anyhow!(e))?;
+        println!("wrote {}/paper/", a.out.display());
+    }
     println!("wrote {}/work_precision.{{csv,md,svg}}", a.out.display());
     Ok(())
 }

@@ -46,6 +46,9 @@ pub struct CompareArgs {
     /// the first run's). Combine with --jobs 1 for comparable timings.
     #[arg(long, default_value_t = 1)]
     timing_runs: usize,
+    /// Also write DIR/paper/ (LaTeX tables, figures as SVG, PDF and CSV).
+    #[arg(long)]
+    paper: bool,
     /// No progress indicator on stderr.
     #[arg(long)]
     quiet: bool,
@@ -81,6 +84,10 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     let c = compare(&scene, &opts)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     write_comparison(&a.out, &c, &command).map_err(anyhow::Error::msg)?;
+    if a.paper {
+        crate::paper::write_compare(&a.out.join("paper"), &c, &command)
+            .map_err(anyhow::Error::msg)?;
+    }
     for p in summary_paragraphs_for(&c) {
         println!("{p}\n");
     }

@@ -3,6 +3,7 @@
 mod bench;
 mod check;
 mod compare;
+mod converge;
 mod gate;
 mod references;
 mod run;
@@ -38,6 +39,9 @@ enum Command {
     /// Work-precision benchmark: every engine at every step size, median wall time against
     /// the error; writes DIR/work_precision.{csv,md,svg}.
     Bench(bench::BenchArgs),
+    /// Observed order of accuracy: every engine at a series of step sizes against a
+    /// reference; writes DIR/converge.{csv,md,json}, orders.csv and log-log SVGs.
+    Converge(converge::ConvergeArgs),
     /// Run the validation suite on every engine with its gates; writes DIR/report.html with
     /// the summary matrix (case x engine).
     Validate(validate::ValidateArgs),
@@ -53,6 +57,7 @@ pub fn main() -> Result<()> {
     match cli.command {
         Command::Run(a) => run::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Converge(a) => converge::run(a),
         Command::Check(a) => check::check(a),
         Command::Compare(a) => compare::compare_cmd(a),
         Command::Gate(a) => gate::gate_cmd(a),

@@ -47,7 +47,7 @@
 
 pub mod grid;
 
-use crate::events::{self, Peak};
+use crate::events::{self, History, Peak};
 use crate::scene::Scene;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
@@ -134,15 +134,12 @@ impl Series {
 
     /// The series' rotation history, rad.
     pub fn rotation(&self, tr: &Trajectory) -> Vec<f64> {
-        let phi = &tr.blocks[self.block].phi;
-        match self.lower {
-            None => phi.clone(),
-            Some(l) => phi
-                .iter()
-                .zip(&tr.blocks[l].phi)
-                .map(|(a, b)| a - b)
-                .collect(),
-        }
+        self.rotation_and_rate(tr).0
+    }
+
+    /// The series' rotation (rad) and its rate (rad/s).
+    pub fn rotation_and_rate(&self, tr: &Trajectory) -> (Vec<f64>, Vec<f64>) {
+        tr.rotation(self.block, self.lower)
     }
 }
 
@@ -211,7 +208,10 @@ pub fn run_events(
                 .expect("every block has a measured series");
             let imp = match &run.exact_impacts {
                 Some(ex) => ex.get(i).cloned().unwrap_or_default(),
-                None => events::impacts(&tr.t, &s.rotation(tr), settings.noise_floor),
+                None => {
+                    let (phi, omega) = s.rotation_and_rate(tr);
+                    events::impacts(&History::new(&tr.t, &phi, &omega), settings.noise_floor)
+                }
             };
             imp.into_iter()
                 .filter(|t| *t >= window.0 && *t <= window.1)
@@ -233,13 +233,13 @@ fn series_events(
     // Samples inside the window.
     let k0 = tr.t.partition_point(|t| *t < window.0);
     let k1 = tr.t.partition_point(|t| *t <= window.1);
-    let t = &tr.t[k0..k1];
-    let rot_all = s.rotation(tr);
-    let phi = &rot_all[k0..k1];
+    let (rot_all, rate_all) = s.rotation_and_rate(tr);
+    let h = History::new(&tr.t, &rot_all, &rate_all).slice(k0..k1);
+    let (t, phi) = (h.t, h.phi);
     let b = &scene.blocks[s.block];
     let alpha = b.critical_angle();
     let (peaks, restitution) = if s.measured {
-        let mut pk = events::peaks(t, phi, impacts);
+        let mut pk = events::peaks(&h, impacts);
         // A last stretch still growing at the end of the history is not a peak.
         if let (Some(last), Some(&t_end)) = (pk.last(), t.last())
             && last.t >= t_end
@@ -262,9 +262,9 @@ fn series_events(
     };
     let rest_times = events::REST_THRESHOLDS
         .iter()
-        .map(|(k, eps)| (k.to_string(), events::rest_time(t, phi, *eps)))
+        .map(|(k, eps)| (k.to_string(), events::rest_time(&h, *eps)))
         .collect();
-    let (overturned, overturn_time) = events::overturning(t, phi, alpha);
+    let (overturned, overturn_time) = events::overturning(&h, alpha);
     SeriesEvents {
         label: s.label.clone(),
         measured: s.measured,

@@ -38,6 +38,37 @@ pub fn check_scene_str(
 }
 
 /// Parse scene text (no validation beyond the format). `file` names the source in messages.
+/// `[output] interval = ...` is the scene's output sampling (`output_interval`, the older
+/// top-level spelling, is still read; both at once is an error).
+fn output_table(value: &mut serde_json::Value) -> Result<(), (String, String)> {
+    let obj = value.as_object_mut().expect("checked to be a table");
+    let Some(out) = obj.remove("output") else {
+        return Ok(());
+    };
+    let serde_json::Value::Object(mut table) = out else {
+        return Err((
+            "output".into(),
+            "must be a table (`[output]` with `interval`)".into(),
+        ));
+    };
+    if let Some(interval) = table.remove("interval") {
+        if obj.contains_key("output_interval") {
+            return Err((
+                "output.interval".into(),
+                "given twice (also as `output_interval`); keep `[output] interval`".into(),
+            ));
+        }
+        obj.insert("output_interval".into(), interval);
+    }
+    if let Some(k) = table.keys().next() {
+        return Err((
+            format!("output.{k}"),
+            "unknown field; `[output]` has `interval` (s)".into(),
+        ));
+    }
+    Ok(())
+}
+
 pub fn parse_scene_str(
     text: &str,
     is_json: bool,
@@ -78,6 +109,7 @@ pub fn parse_scene_str(
     for o in overrides {
         apply_override(&mut value, o).map_err(|m| SceneError::new(file, "--set", m))?;
     }
+    output_table(&mut value).map_err(|(field, m)| SceneError::new(file, field, m))?;
     let mut scene: Scene = serde_path_to_error::deserialize(&value).map_err(|e| {
         let path = e.path().to_string();
         let field = if path == "." {

@@ -136,9 +136,9 @@ fn housner_overturns(c: &PulseCase, amp: f64) -> Result<(bool, Option<f64>), Str
     let scene = scene_from(&text, "bisection")?;
     let out = HousnerEngine.run(&scene).map_err(|e| e.to_string())?;
     let (_, alpha) = housner_p_alpha(PULSE_B, PULSE_H, scene.gravity);
+    let b = &out.trajectory.blocks[0];
     Ok(events::overturning(
-        &out.trajectory.t,
-        &out.trajectory.blocks[0].phi,
+        &events::History::new(&out.trajectory.t, &b.phi, &b.omega),
         alpha,
     ))
 }

@@ -1,0 +1,90 @@
+//! `rockbench converge SCENE --engines ... --dt ... --reference R|self --out DIR`: the observed
+//! order of accuracy of every engine (see `crate::converge`).
+
+use crate::converge::{ConvergeOptions, ConvergeReference, converge, write};
+use anyhow::{Result, anyhow};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct ConvergeArgs {
+    /// Scene file (TOML or JSON).
+    scene: PathBuf,
+    /// Engines, comma-separated (each needs a step size: native, rapier, mujoco, pybullet).
+    #[arg(long, default_value = "native,rapier", value_delimiter = ',')]
+    engines: Vec<String>,
+    /// Step sizes, s, comma-separated.
+    #[arg(long, default_value = "2e-3,1e-3,5e-4,2.5e-4", value_delimiter = ',')]
+    dt: Vec<f64>,
+    /// Reference: an engine name, a trajectory.csv, or `self` (each engine's finest run).
+    #[arg(long, default_value = "housner")]
+    reference: String,
+    /// Override a scene field for every run (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Also write DIR/paper/ (LaTeX tables, figures as SVG, PDF and CSV).
+    #[arg(long)]
+    paper: bool,
+    #[arg(long, default_value = "out/converge")]
+    out: PathBuf,
+}
+
+pub fn run(a: ConvergeArgs) -> Result<()> {
+    if let Some(bad) = a.dt.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
+        return Err(anyhow!("--dt: step sizes must be positive (got {bad})"));
+    }
+    let reference = ConvergeReference::parse(&a.reference);
+    if matches!(reference, ConvergeReference::Finest) && a.dt.len() < 3 {
+        return Err(anyhow!(
+            "--dt: a `self` reference needs at least three step sizes (the finest is the reference)"
+        ));
+    }
+    if a.dt.len() < 2 {
+        return Err(anyhow!("--dt: an order needs at least two step sizes"));
+    }
+    let opts = ConvergeOptions {
+        engines: a.engines,
+        dts: a.dt,
+        reference,
+        overrides: a.set,
+    };
+    let c = converge(&a.scene, &opts, &|r| {
+        eprintln!(
+            "{} dt={}: {}{}",
+            r.engine,
+            if r.dt.is_finite() {
+                format!("{:e}", r.dt)
+            } else {
+                "-".into()
+            },
+            r.status,
+            r.wall_time_s
+                .map(|w| format!(" {w:.4} s"))
+                .or(r.reason.as_ref().map(|x| format!(" ({x})")))
+                .unwrap_or_default()
+        )
+    })
+    .map_err(|e| anyhow!(e))?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    write(&a.out, &c, &command).map_err(|e| anyhow!(e))?;
+    for o in c
+        .orders
+        .iter()
+        .filter(|o| o.quantity == "impact_time_1" || o.quantity == "rotation_rms_error_to_impact_1")
+    {
+        println!(
+            "{:<10} {:<16} {:<32} order {}",
+            o.engine,
+            o.series,
+            o.quantity,
+            o.order.map(|v| format!("{v:.2}")).unwrap_or("n/a".into())
+        );
+    }
+    if a.paper {
+        crate::paper::write_converge(&a.out.join("paper"), &c, &command).map_err(|e| anyhow!(e))?;
+    }
+    println!(
+        "wrote {}/converge.{{csv,md,json}}, orders.csv, converge-*.svg",
+        a.out.display()
+    );
+    Ok(())
+}
