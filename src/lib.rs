@@ -30,6 +30,7 @@
 pub mod bench;
 pub mod cli;
 pub mod compare;
+pub mod contract;
 pub mod engines;
 pub mod events;
 pub mod excitation;

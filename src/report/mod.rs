@@ -4,6 +4,7 @@
 
 pub mod provenance;
 pub mod svg;
+pub mod verdict;
 
 use crate::compare::{Comparison, Status};
 use crate::events::REST_THRESHOLDS;
@@ -50,7 +51,7 @@ fn inline_html(s: &str) -> String {
     out
 }
 
-fn md_cell(s: &str) -> String {
+pub(crate) fn md_cell(s: &str) -> String {
     s.replace('|', "\\|").replace('\n', " ")
 }
 
