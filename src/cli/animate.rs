@@ -1,8 +1,8 @@
 //! `rockbench animate RUN_DIR... --out FILE.html [--video FILE.mp4|gif]`: the motion of runs
 //! made with `rockbench run`, overlaid (the first run, or `--reference`, solid).
 
-use crate::report::animate::{Animation, REFERENCE_COLOR, Track, page};
 use crate::report::PALETTE;
+use crate::report::animate::{Animation, REFERENCE_COLOR, Track, page};
 use crate::scene::{Scene, load_scene};
 use crate::summary::Summary;
 use crate::trajectory::Trajectory;
@@ -31,8 +31,12 @@ pub struct AnimateArgs {
 
 fn read_run(dir: &Path) -> Result<(Summary, Trajectory)> {
     let sp = dir.join("summary.json");
-    let text = std::fs::read_to_string(&sp)
-        .map_err(|e| anyhow::anyhow!("{}: cannot read ({e}); is it a `rockbench run` output directory?", sp.display()))?;
+    let text = std::fs::read_to_string(&sp).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: cannot read ({e}); is it a `rockbench run` output directory?",
+            sp.display()
+        )
+    })?;
     let summary: Summary = serde_json::from_str(&text)
         .map_err(|e| anyhow::anyhow!("{}: not a rockbench summary: {e}", sp.display()))?;
     let tp = dir.join("trajectory.csv");
@@ -89,7 +93,8 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
             color: if k == ref_index {
                 REFERENCE_COLOR.into()
             } else {
-                PALETTE[tracks.len() % PALETTE.len()].to_string()
+                PALETTE[tracks.iter().filter(|t: &&Track| !t.reference).count() % PALETTE.len()]
+                    .to_string()
             },
             reference: k == ref_index,
             trajectory: tr.clone(),
@@ -112,8 +117,11 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         std::fs::create_dir_all(parent)
             .map_err(|e| anyhow::anyhow!("{}: {e}", parent.display()))?;
     }
-    std::fs::write(&a.out, page(&format!("rockbench: {}", scene.name), &intro, &anim))
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.out.display()))?;
+    std::fs::write(
+        &a.out,
+        page(&format!("rockbench: {}", scene.name), &intro, &anim),
+    )
+    .map_err(|e| anyhow::anyhow!("{}: {e}", a.out.display()))?;
     println!("wrote {}", a.out.display());
     if let Some(v) = &a.video {
         anim.write_video(v).map_err(anyhow::Error::msg)?;

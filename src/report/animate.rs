@@ -209,10 +209,7 @@ impl Animation {
                             continue;
                         }
                         rel = (rel.0.min(vx), rel.1.max(vx));
-                        abs = (
-                            abs.0.min(vx + ground[k].0),
-                            abs.1.max(vx + ground[k].0),
-                        );
+                        abs = (abs.0.min(vx + ground[k].0), abs.1.max(vx + ground[k].0));
                         top = top.max(vz + ground[k].1);
                     }
                 }
@@ -327,7 +324,9 @@ impl Animation {
                     .map(|(a, b)| format!("{a:.1},{b:.1}"))
                     .collect();
                 let style = if tr.reference {
-                    format!("fill=\"{REFERENCE_COLOR}\" stroke=\"{REFERENCE_COLOR}\" stroke-width=\"0.5\"")
+                    format!(
+                        "fill=\"{REFERENCE_COLOR}\" stroke=\"{REFERENCE_COLOR}\" stroke-width=\"0.5\""
+                    )
                 } else {
                     format!(
                         "fill=\"none\" stroke=\"{}\" stroke-width=\"2\" stroke-linejoin=\"round\"",
@@ -583,19 +582,39 @@ impl Animation {
         };
         let vfps = self.fps.min(if ext == "gif" { 20.0 } else { 25.0 });
         let scale = 640.0 / WIDTH;
-        let (w, h) = (640usize, ((self.view.height * scale / 2.0).ceil() as usize * 2).max(2));
+        let (w, h) = (
+            640usize,
+            ((self.view.height * scale / 2.0).ceil() as usize * 2).max(2),
+        );
         let duration = self.times.last().copied().unwrap_or(0.0);
         let nframes = (duration * vfps).floor() as usize + 1;
         let mut child = std::process::Command::new("ffmpeg")
-            .args(["-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"])
-            .args(["-s", &format!("{w}x{h}"), "-r", &format!("{vfps}"), "-i", "-"])
+            .args([
+                "-y",
+                "-loglevel",
+                "error",
+                "-f",
+                "rawvideo",
+                "-pix_fmt",
+                "rgb24",
+            ])
+            .args([
+                "-s",
+                &format!("{w}x{h}"),
+                "-r",
+                &format!("{vfps}"),
+                "-i",
+                "-",
+            ])
             .args(&codec)
             .arg(path)
             .stdin(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()
             .map_err(|e| {
-                format!("--video: cannot start ffmpeg ({e}); `make ffmpeg` installs Debian's package")
+                format!(
+                    "--video: cannot start ffmpeg ({e}); `make ffmpeg` installs Debian's package"
+                )
             })?;
         let mut stdin = child.stdin.take().expect("piped stdin");
         let mut buf = vec![0u8; w * h * 3];
@@ -655,7 +674,12 @@ impl Animation {
                 buf,
                 w,
                 h,
-                &[(px, gy), (px + 1.2, gy), (px - 4.0, gy + 6.0), (px - 5.2, gy + 6.0)],
+                &[
+                    (px, gy),
+                    (px + 1.2, gy),
+                    (px - 4.0, gy + 6.0),
+                    (px - 5.2, gy + 6.0),
+                ],
                 [0x8a, 0x7a, 0x5a],
             );
         }
@@ -708,10 +732,30 @@ fn fill_quad(buf: &mut [u8], w: usize, h: usize, q: &[(f64, f64); 4], rgb: [u8; 
     if q.iter().any(|p| !(p.0.is_finite() && p.1.is_finite())) {
         return;
     }
-    let xmin = q.iter().map(|p| p.0).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-    let xmax = q.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max).ceil().min(w as f64) as usize;
-    let ymin = q.iter().map(|p| p.1).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-    let ymax = q.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max).ceil().min(h as f64) as usize;
+    let xmin = q
+        .iter()
+        .map(|p| p.0)
+        .fold(f64::INFINITY, f64::min)
+        .floor()
+        .max(0.0) as usize;
+    let xmax = q
+        .iter()
+        .map(|p| p.0)
+        .fold(f64::NEG_INFINITY, f64::max)
+        .ceil()
+        .min(w as f64) as usize;
+    let ymin = q
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min)
+        .floor()
+        .max(0.0) as usize;
+    let ymax = q
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::NEG_INFINITY, f64::max)
+        .ceil()
+        .min(h as f64) as usize;
     let area: f64 = (0..4)
         .map(|e| q[e].0 * q[(e + 1) % 4].1 - q[(e + 1) % 4].0 * q[e].1)
         .sum();

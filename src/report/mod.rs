@@ -467,7 +467,11 @@ fn verdict_rows(
                 format!(
                     "RMS {:.3} % {} 1 % of max |φ| ({b})",
                     100.0 * v,
-                    if v <= WORDING_NORMALISED_RMS { "≤" } else { ">" }
+                    if v <= WORDING_NORMALISED_RMS {
+                        "≤"
+                    } else {
+                        ">"
+                    }
                 ),
             ),
             None => VCell::new(Verdict::Info, "not compared", ""),
@@ -509,13 +513,19 @@ fn verdict_rows(
             VCell::new(
                 Verdict::Agree,
                 "agrees",
-                format!("all {total:.0} matched, |Δt| ≤ {:.2} ms (tol {tol})", 1e3 * dmax),
+                format!(
+                    "all {total:.0} matched, |Δt| ≤ {:.2} ms (tol {tol})",
+                    1e3 * dmax
+                ),
             )
         } else {
             VCell::new(
                 Verdict::Differs,
                 "differs",
-                format!("all {total:.0} matched, |Δt| up to {:.2} ms > {tol}", 1e3 * dmax),
+                format!(
+                    "all {total:.0} matched, |Δt| up to {:.2} ms > {tol}",
+                    1e3 * dmax
+                ),
             )
         });
         // Peaks.
