@@ -1216,6 +1216,8 @@ mod fault_tests {
 
     #[derive(Clone, Copy)]
     enum Fault {
+        /// Every block sinks into the ground by this much (m) for the whole run.
+        Sink(f64),
         Panic,
         Hang,
         NaN,
@@ -1232,6 +1234,11 @@ mod fault_tests {
         fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
             let mut out = engine_by_name("housner").unwrap().run(scene)?;
             match self.0 {
+                Fault::Sink(d) => {
+                    for b in &mut out.trajectory.blocks {
+                        b.z.iter_mut().for_each(|z| *z -= d);
+                    }
+                }
                 Fault::Panic => panic!("worker crashed"),
                 Fault::Hang => loop {
                     std::thread::sleep(Duration::from_millis(50));
@@ -1265,18 +1272,52 @@ mod fault_tests {
     }
 
     fn run(fault: Fault) -> CellResult {
+        run_as("faulty", fault, &Judge::default())
+    }
+
+    /// The faulty engine judged by the contract of `engine`.
+    fn run_as(engine: &str, fault: Fault, judge: &Judge) -> CellResult {
         let cell = grid(true)
             .into_iter()
             .find(|c| c.factor == "theta")
             .unwrap();
         run_cell_with(
-            "faulty",
+            engine,
             Arc::new(move |_: &str| Ok(Box::new(Faulty(fault)) as Box<dyn Engine>)),
             &cell,
             &Tolerances::default(),
             Duration::from_millis(1500),
-            &Judge::default(),
+            judge,
         )
+    }
+
+    /// A block 1 mm into the ground is beyond round-off (1e-4 of its 1 m width) but within a
+    /// soft contact's contract (3e-2): measured, not failed, for rapier; broken for the native
+    /// engine's round-off contract; broken for rapier at 10 cm, or once its contract is
+    /// tightened.
+    #[test]
+    fn each_engine_is_held_to_its_own_contract_and_a_broken_one_fails() {
+        let r = run_as("rapier", Fault::Sink(1e-3), &Judge::default());
+        assert_eq!(r.unexplained(), 0, "{:?}", r.issues);
+        let beyond: Vec<&str> = r.beyond_strict().iter().map(|j| j.check.as_str()).collect();
+        assert_eq!(beyond, ["penetration"]);
+        let r = run_as("native", Fault::Sink(1e-3), &Judge::default());
+        assert_eq!(r.unexplained(), 1);
+        assert_eq!(r.issues[0].check, "penetration");
+        assert!(
+            r.issues[0].detail.contains("contract of `native`"),
+            "{}",
+            r.issues[0].detail
+        );
+        let r = run_as("rapier", Fault::Sink(0.1), &Judge::default());
+        assert_eq!(r.unexplained(), 1, "{:?}", r.issues);
+        let tight = Judge {
+            contracts: Contracts::with_changes(&["rapier.penetration=1e-4".into()]).unwrap(),
+            known: KnownList::default(),
+        };
+        let r = run_as("rapier", Fault::Sink(1e-3), &tight);
+        assert_eq!(r.unexplained(), 1);
+        assert!(totals(&[r]).violations == 1);
     }
 
     #[test]

@@ -1400,11 +1400,16 @@ mod tests {
         let c = comparison();
         let prov = Provenance::collect("rockbench compare s.toml");
         let (html, md, plots) = render(&c, &prov);
-        // One inline SVG per plot file, each referenced from the Markdown.
-        assert_eq!(html.matches("<svg").count(), plots.len());
-        assert_eq!(plots.len(), 2);
+        // One inline SVG per plot file (the key-frame strip among them), each referenced
+        // from the Markdown, and the animation's player.
+        assert_eq!(html.matches("<svg").count(), plots.len() + 1);
+        assert_eq!(plots.len(), 3);
         for (name, svg) in &plots {
             assert!(md.contains(&format!("(plots/{name})")));
+            if name == "keyframes.svg" {
+                assert_eq!(svg.matches("t = ").count(), 6);
+                continue;
+            }
             assert!(svg.contains("lossy"), "{name}");
             if name.starts_with("rotation-") {
                 assert!(svg.contains("housner (reference)"), "{name}");
@@ -1420,6 +1425,26 @@ mod tests {
             - html.matches("<head").count()
             - html.matches("<html").count();
         assert_eq!(md_heads.len(), html_heads);
+        // The verdict first, in both: the lossy engine agrees before the first impact, and
+        // its peaks and rest times differ (restitution 0.6 against 0.79).
+        let row = md
+            .lines()
+            .find(|l| l.starts_with("| lossy |"))
+            .unwrap_or_else(|| panic!("{md}"));
+        let cells: Vec<&str> = row.split(" | ").collect();
+        assert!(cells[1].starts_with("✅ agrees: RMS 0.000 %"), "{row}");
+        assert!(cells[3].starts_with("❌ differs: peak"), "{row}");
+        assert!(cells[4].starts_with("❌ differs"), "{row}");
+        assert!(
+            cells[5].starts_with("✅ agrees: neither overturns"),
+            "{row}"
+        );
+        assert!(md.find("| lossy |").unwrap() < md.find("## Summary").unwrap());
+        let v = html.find("<table class=\"verdict\"").unwrap();
+        assert_eq!(v, html.find("<table").unwrap());
+        assert!(html[v..].contains("<td class=\"v v-differs\"><b>differs</b>"));
+        // The per-engine paragraph is in the table, not repeated in the prose.
+        assert!(!md.contains("`lossy` against `housner`"));
         // Restitution column: Housner's r for the reference, 0.6 for the lossy engine.
         assert!(md.contains("| 1 | 0.08560 | 0.7931 |"), "{md}");
         assert!(md.contains("| 0.6000 |"));
