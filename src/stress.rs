@@ -813,7 +813,7 @@ fn colour(r: &CellResult) -> (&'static str, &'static str) {
 fn contract_rows(
     results: &[&CellResult],
     contract: &crate::contract::Contract,
-) -> Vec<(Vec<String>, Vec<crate::report::verdict::VCell>)> {
+) -> crate::report::verdict::Rows {
     use crate::report::verdict::{VCell, Verdict};
     let mut rows = Vec::new();
     for name in CHECK_NAMES {

@@ -505,9 +505,9 @@ impl Animation {
              <output id=\"anim-time\">t = 0.000 s</output></div><div id=\"anim-readout\"></div>",
             self.frames() - 1
         );
-        let _ = write!(
+        let _ = writeln!(
             s,
-            "<script type=\"application/json\" id=\"anim-data\">{}</script><script>{}</script></div>\n",
+            "<script type=\"application/json\" id=\"anim-data\">{}</script><script>{}</script></div>",
             self.data_json(),
             SCRIPT
         );

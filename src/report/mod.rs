@@ -430,7 +430,7 @@ fn verdict_rows(
     c: &Comparison,
     rows: &Rows,
     series: &[Series],
-) -> Vec<(Vec<String>, Vec<verdict::VCell>)> {
+) -> verdict::Rows {
     use verdict::{VCell, Verdict};
     let engines = compared(c);
     let measured: Vec<&Series> = series.iter().filter(|s| s.measured).collect();

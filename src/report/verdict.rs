@@ -89,6 +89,9 @@ table.verdict th{background:#f2f2f2}td.v small{color:#333}td.v-agree{background:
 td.v-differs{background:#f6c5c5}td.v-known{background:#f9e3a3}td.v-info{background:#e8eaee}\
 .vlegend span{display:inline-block;padding:1px 8px;margin-right:6px;border:1px solid #bbb;font-size:0.85em}";
 
+/// Rows of a verdict table: the row's header cells, then its verdict cells.
+pub type Rows = Vec<(Vec<String>, Vec<VCell>)>;
+
 /// A legend line for the verdict colours, with the words used on this page.
 pub fn legend_html(words: &[(Verdict, &str)]) -> String {
     let mut s = String::from("<p class=\"vlegend\">");

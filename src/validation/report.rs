@@ -179,7 +179,7 @@ pub fn matrix(results: &[CaseResult], engines: &[String]) -> (Vec<String>, Vec<V
 pub fn matrix_verdict(
     results: &[CaseResult],
     engines: &[String],
-) -> (Vec<String>, Vec<(Vec<String>, Vec<VCell>)>) {
+) -> (Vec<String>, crate::report::verdict::Rows) {
     let mut head = vec!["case".to_string()];
     head.extend(engines.iter().cloned());
     let rows = results
