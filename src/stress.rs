@@ -24,9 +24,11 @@
 //!
 //! A cell's status: `finished`, `failed` (engine error, panic or timeout, with the reason),
 //! `unsupported` (the engine refuses the scene by design, e.g. Housner on a stack) or
-//! `skipped` (the engine is not built into this binary). Violated invariants and failed runs
-//! are matched against a list of known, explained cases (`validation/stress-known.toml`); the
-//! command fails when any is unexplained.
+//! `skipped` (the engine is not built into this binary). Every finished cell's invariants are
+//! measured against the strict (round-off) tolerances and judged against the engine's own
+//! [contract](crate::contract); broken promises and failed runs are matched against a list of
+//! known, explained cases (`validation/stress-known.toml`), and the command fails when any is
+//! unexplained. Invariants beyond round-off but within the contract are reported, not failed.
 
 use crate::contract::Contracts;
 use crate::engines::{Engine, EngineError, engine_by_name};

@@ -1,6 +1,8 @@
 //! The verification report of a comparison: one self-contained HTML file (inline SVG plots,
-//! no scripts, no network) and its Markdown twin (`report.md`, with the same plots as files
-//! under `plots/`). Both are built from the same calls, so they say the same things.
+//! one small inline script for the animation, no network) and its Markdown twin (`report.md`,
+//! with the same plots as files under `plots/`). Both are built from the same calls, so they
+//! say the same things. The report opens with the verdict table ([`verdict`]), then the motion
+//! ([`animate`]), then a short summary and the tables and plots behind the verdict.
 
 pub mod animate;
 pub mod provenance;
