@@ -428,11 +428,7 @@ pub fn summary_paragraphs(c: &Comparison, own: &[MetricRow]) -> Vec<String> {
 /// The verdict table: one row per compared engine, one cell per quantity (history before the
 /// first impact, impact instants, peaks, rest times, overturning, cost), each with the number
 /// that decided it and the tolerance.
-fn verdict_rows(
-    c: &Comparison,
-    rows: &Rows,
-    series: &[Series],
-) -> verdict::Rows {
+fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows {
     use verdict::{VCell, Verdict};
     let engines = compared(c);
     let measured: Vec<&Series> = series.iter().filter(|s| s.measured).collect();
