@@ -35,7 +35,7 @@ test-no-default-features: chromium ffmpeg records
 	$(CARGO) test --release --no-default-features
 
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
-# about 7 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
+# 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
 test-rust: chromium ffmpeg records
 	$(CARGO) test --release
 	$(MAKE) gates
