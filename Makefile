@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium bench bench-steps \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps \
 	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge
 
 all: build
@@ -21,22 +21,25 @@ build:
 	$(CARGO) build --release
 
 # The main job: the paper's two-block case on every engine, compared with the native engine;
-# writes out/demo/report.html (and report.md, metrics.csv, each engine's trajectory).
-demo: build .venv
-	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --reference native --out out/demo
+# writes out/demo/report.html (the verdict first, then the motion animated; also report.md,
+# metrics.csv, each engine's trajectory) and out/demo/animation.mp4.
+demo: build .venv ffmpeg
+	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --reference native --video --out out/demo
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
 test: test-no-default-features test-rust test-python
 
 # The validation tests load the earthquake case, whose record `make records` downloads.
-test-no-default-features: chromium records
+test-no-default-features: chromium ffmpeg records
 	$(CARGO) test --release --no-default-features
 
-test-rust: chromium records paper-tools
+# The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
+# 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
+test-rust: chromium ffmpeg records paper-tools
 	$(CARGO) test --release
 	$(MAKE) gates
-	$(BIN) stress --quick --engines native,housner --out out/stress-quick
+	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
@@ -58,9 +61,13 @@ converge: build .venv
 	$(BIN) converge validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet --reference housner --out out/converge/housner-slender
 	$(BIN) converge validation/scenes/housner-square.toml --engines native,rapier,mujoco,pybullet --reference housner --out out/converge/housner-square
 
-# Headless Chromium (Debian's package) for the report-rendering test.
+# Headless Chromium (Debian's package) for the report-rendering and animation tests.
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
+
+# ffmpeg (Debian's package) for `--video` and the animation test (ffprobe).
+ffmpeg:
+	command -v ffmpeg >/dev/null || (apt-get update && apt-get install -y ffmpeg)
 
 # Accuracy gates (validation/gates.toml: native, housner and rapier on every case, MuJoCo and
 # PyBullet on a few key ones); runs are cached in .cache/rockbench/.
@@ -114,10 +121,9 @@ $(VENV)/.native.stamp: $(VENV)/.requirements.stamp $(RUST_SOURCES) pyproject.tom
 	cd $(CURDIR) && VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin develop --release --quiet
 	touch $@
 
-# The full stability map (every engine built in; about 15-30 min on 2 cores). `make test` runs
-# the quick grid on the engines whose invariants hold at round-off (native, housner); rapier,
-# MuJoCo and PyBullet have soft contacts (they settle, sink and drift by design), which the
-# full map records per engine.
+# The full stability map (every engine built in; about 15-30 min on 2 cores), each engine
+# judged against its own contract (src/contract.rs): round-off for native and housner, the
+# measured soft-contact limits for rapier, MuJoCo and PyBullet. Writes out/stress/index.html.
 stress: build
 	$(BIN) stress --out out/stress
 

@@ -30,6 +30,7 @@
 pub mod bench;
 pub mod cli;
 pub mod compare;
+pub mod contract;
 pub mod converge;
 pub mod engines;
 pub mod events;

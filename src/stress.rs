@@ -24,10 +24,13 @@
 //!
 //! A cell's status: `finished`, `failed` (engine error, panic or timeout, with the reason),
 //! `unsupported` (the engine refuses the scene by design, e.g. Housner on a stack) or
-//! `skipped` (the engine is not built into this binary). Violated invariants and failed runs
-//! are matched against a list of known, explained cases (`validation/stress-known.toml`); the
-//! command fails when any is unexplained.
+//! `skipped` (the engine is not built into this binary). Every finished cell's invariants are
+//! measured against the strict (round-off) tolerances and judged against the engine's own
+//! [contract](crate::contract); broken promises and failed runs are matched against a list of
+//! known, explained cases (`validation/stress-known.toml`), and the command fails when any is
+//! unexplained. Invariants beyond round-off but within the contract are reported, not failed.
 
+use crate::contract::Contracts;
 use crate::engines::{Engine, EngineError, engine_by_name};
 use crate::invariants::{CHECK_NAMES, InvariantReport, Tolerances};
 use crate::scene::{Scene, check_scene_str};
@@ -409,9 +412,26 @@ pub struct CellResult {
     pub reason: String,
     pub wall_s: f64,
     pub steps: u64,
+    /// The invariants measured against the strict (round-off) tolerances.
     pub invariants: InvariantReport,
-    /// Violated checks (and `run` for a failed run) with the known explanation, if any.
+    /// Each measured invariant judged against the engine's own contract.
+    pub judged: Vec<Judged>,
+    /// Broken promises of the engine's contract (and `run` for a failed run) with the known
+    /// explanation, if any.
     pub issues: Vec<Issue>,
+}
+
+/// One invariant of one cell, judged against the engine's contract.
+#[derive(Debug, Clone, Serialize)]
+pub struct Judged {
+    pub check: String,
+    pub value: f64,
+    /// The contract's limit for this scene, in the check's unit.
+    pub limit: f64,
+    pub holds: bool,
+    /// The strict (round-off) limit and whether the value is within it.
+    pub strict_limit: f64,
+    pub within_strict: bool,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -422,6 +442,14 @@ pub struct Issue {
 }
 
 impl CellResult {
+    /// Checks beyond the strict tolerance but within the engine's contract.
+    pub fn beyond_strict(&self) -> Vec<&Judged> {
+        self.judged
+            .iter()
+            .filter(|j| j.holds && !j.within_strict)
+            .collect()
+    }
+
     pub fn unexplained(&self) -> usize {
         self.issues
             .iter()
@@ -470,6 +498,13 @@ impl KnownList {
     }
 }
 
+/// How cells are judged: each engine's contract, and the known, explained exceptions.
+#[derive(Debug, Clone, Default)]
+pub struct Judge {
+    pub contracts: Contracts,
+    pub known: KnownList,
+}
+
 /// Run one engine on one cell, in a worker thread: a panic is a failed run with its message,
 /// and a run that exceeds `timeout` is abandoned as failed.
 pub fn run_cell(
@@ -477,9 +512,9 @@ pub fn run_cell(
     cell: &Cell,
     tol: &Tolerances,
     timeout: Duration,
-    known: &KnownList,
+    judge: &Judge,
 ) -> CellResult {
-    run_cell_with(engine, Arc::new(engine_by_name), cell, tol, timeout, known)
+    run_cell_with(engine, Arc::new(engine_by_name), cell, tol, timeout, judge)
 }
 
 /// Makes the engine of a cell (in the worker thread).
@@ -492,7 +527,7 @@ pub fn run_cell_with(
     cell: &Cell,
     tol: &Tolerances,
     timeout: Duration,
-    known: &KnownList,
+    judge: &Judge,
 ) -> CellResult {
     let mut r = CellResult {
         engine: engine.to_string(),
@@ -504,6 +539,7 @@ pub fn run_cell_with(
         wall_s: 0.0,
         steps: 0,
         invariants: InvariantReport::default(),
+        judged: Vec::new(),
         issues: Vec::new(),
     };
     let scene = match &cell.scene {
@@ -511,7 +547,7 @@ pub fn run_cell_with(
         Err(e) => {
             r.status = Status::Failed;
             r.reason = format!("the generated scene is invalid: {e}");
-            return finish(r, known);
+            return finish(r, judge, None);
         }
     };
     if let Err(e) = make(engine) {
@@ -549,7 +585,7 @@ pub fn run_cell_with(
     if let Err(e) = spawned {
         r.status = Status::Failed;
         r.reason = format!("cannot start a worker thread: {e}");
-        return finish(r, known);
+        return finish(r, judge, None);
     }
     match rx.recv_timeout(timeout) {
         Ok(Ok(Ok((steps, wall, report)))) => {
@@ -584,7 +620,7 @@ pub fn run_cell_with(
             );
         }
     }
-    finish(r, known)
+    finish(r, judge, cell.scene.as_ref().ok())
 }
 
 /// The mirror and rerun checks of an already finished run.
@@ -620,9 +656,11 @@ fn failed_check(name: &'static str, e: EngineError) -> crate::invariants::Check 
     }
 }
 
-fn finish(mut r: CellResult, known: &KnownList) -> CellResult {
-    let explain = |check: &str| known.explain(&r.engine, &r.factor, &r.label, check);
+fn finish(mut r: CellResult, judge: &Judge, scene: Option<&Scene>) -> CellResult {
+    let explain = |check: &str| judge.known.explain(&r.engine, &r.factor, &r.label, check);
+    let contract = judge.contracts.of(&r.engine);
     let mut issues = Vec::new();
+    let mut judged = Vec::new();
     if r.status == Status::Failed {
         issues.push(Issue {
             check: "run".into(),
@@ -630,14 +668,34 @@ fn finish(mut r: CellResult, known: &KnownList) -> CellResult {
             explanation: explain("run"),
         });
     }
-    for c in r.invariants.violations() {
-        issues.push(Issue {
+    for c in r.invariants.checks.iter().filter(|c| c.applies) {
+        let (limit, holds) = match scene {
+            Some(s) => contract.judge(s, c),
+            None => (c.limit, c.passed),
+        };
+        if !holds {
+            issues.push(Issue {
+                check: c.name.to_string(),
+                detail: format!(
+                    "{} (contract of `{}`: at most {})",
+                    c.detail,
+                    r.engine,
+                    crate::report::num(limit)
+                ),
+                explanation: explain(c.name),
+            });
+        }
+        judged.push(Judged {
             check: c.name.to_string(),
-            detail: c.detail.clone(),
-            explanation: explain(c.name),
+            value: c.value,
+            limit,
+            holds,
+            strict_limit: c.limit,
+            within_strict: c.passed,
         });
     }
     r.issues = issues;
+    r.judged = judged;
     r
 }
 
@@ -649,7 +707,10 @@ pub struct Totals {
     pub failed: usize,
     pub unsupported: usize,
     pub skipped: usize,
+    /// Broken promises of the engine's contract.
     pub violations: usize,
+    /// Invariants beyond the strict (round-off) tolerances, within the contract.
+    pub beyond_strict: usize,
     pub unexplained: usize,
     pub wall_s: f64,
 }
@@ -664,14 +725,15 @@ pub fn totals(results: &[CellResult]) -> Totals {
             Status::Unsupported => t.unsupported += 1,
             Status::Skipped => t.skipped += 1,
         }
-        t.violations += r.invariants.violations().len();
+        t.violations += r.issues.iter().filter(|i| i.check != "run").count();
+        t.beyond_strict += r.beyond_strict().len();
         t.unexplained += r.unexplained();
         t.wall_s += r.wall_s;
     }
     t
 }
 
-const CSV_HEADER: &str = "engine,factor,value,status,wall_s,steps,finite,complete,penetration_m,penetration_limit_m,energy_growth_rel,standing_drift_m,mirror_diff,rerun_bit_diffs,violations,unexplained,reason";
+const CSV_HEADER: &str = "engine,factor,value,status,wall_s,steps,finite,complete,penetration_m,penetration_limit_m,energy_growth_rel,standing_drift_m,mirror_diff,rerun_bit_diffs,contract_broken,beyond_round_off,unexplained,reason";
 
 fn csv_escape(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -696,7 +758,7 @@ pub fn csv(results: &[CellResult]) -> String {
         let viol: Vec<String> = r.issues.iter().map(|i| i.check.clone()).collect();
         let _ = writeln!(
             s,
-            "{},{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.engine,
             r.factor,
             r.label,
@@ -715,6 +777,11 @@ pub fn csv(results: &[CellResult]) -> String {
             check_value(r, "mirror"),
             check_value(r, "rerun"),
             viol.join(" "),
+            r.beyond_strict()
+                .iter()
+                .map(|j| j.check.as_str())
+                .collect::<Vec<_>>()
+                .join(" "),
             r.unexplained(),
             csv_escape(&r.reason)
         );
@@ -730,19 +797,163 @@ fn html_escape(s: &str) -> String {
 }
 
 fn colour(r: &CellResult) -> (&'static str, &'static str) {
+    use crate::report::verdict::Verdict;
     match r.status {
         Status::Skipped => ("#d0d0d0", "skipped"),
-        Status::Unsupported => ("#e4e4e4", "unsupported"),
-        _ if r.unexplained() > 0 => ("#e0524c", "failed or violated, unexplained"),
-        Status::Failed => ("#f0a35e", "failed, explained"),
-        Status::Finished if !r.issues.is_empty() => ("#f4d35e", "violation, explained"),
-        Status::Finished => ("#6cbf6c", "finished, invariants hold"),
+        Status::Unsupported => ("#e8eaee", "unsupported"),
+        _ if r.unexplained() > 0 => (Verdict::Differs.fill(), "contract broken or run failed"),
+        Status::Failed => (Verdict::Known.fill(), "failed, known"),
+        Status::Finished if !r.issues.is_empty() => {
+            (Verdict::Known.fill(), "contract broken, known")
+        }
+        Status::Finished => (Verdict::Agree.fill(), "contract holds"),
     }
+}
+
+/// The contract's verdict over a set of cells: per invariant, the promise, the worst
+/// measurement, holds / broken, and how many cells were beyond round-off.
+fn contract_rows(
+    results: &[&CellResult],
+    contract: &crate::contract::Contract,
+) -> crate::report::verdict::Rows {
+    use crate::report::verdict::{VCell, Verdict};
+    let mut rows = Vec::new();
+    for name in CHECK_NAMES {
+        let promise = contract.promise(name);
+        let js: Vec<(&CellResult, &Judged)> = results
+            .iter()
+            .flat_map(|r| {
+                r.judged
+                    .iter()
+                    .filter(|j| j.check == name)
+                    .map(move |j| (*r, j))
+            })
+            .collect();
+        let worst = js.iter().max_by(|a, b| {
+            (a.1.value / a.1.limit.max(f64::MIN_POSITIVE))
+                .total_cmp(&(b.1.value / b.1.limit.max(f64::MIN_POSITIVE)))
+        });
+        let broken: Vec<&(&CellResult, &Judged)> = js.iter().filter(|(_, j)| !j.holds).collect();
+        let unexplained = broken
+            .iter()
+            .filter(|(r, _)| {
+                r.issues
+                    .iter()
+                    .any(|i| i.check == name && i.explanation.is_none())
+            })
+            .count();
+        let beyond = js.iter().filter(|(_, j)| !j.within_strict).count();
+        let verdict = if js.is_empty() {
+            VCell::new(Verdict::Info, "not measured", "")
+        } else if unexplained > 0 {
+            VCell::new(
+                Verdict::Differs,
+                "broken",
+                format!("{} of {} cells beyond the contract", broken.len(), js.len()),
+            )
+        } else if !broken.is_empty() {
+            VCell::new(
+                Verdict::Known,
+                "holds except known cases",
+                format!(
+                    "{} known cells (validation/stress-known.toml)",
+                    broken.len()
+                ),
+            )
+        } else {
+            VCell::new(Verdict::Agree, "holds", format!("{} cells", js.len()))
+        };
+        let worst_cell = match worst {
+            Some((r, j)) => VCell::new(
+                if j.holds {
+                    Verdict::Info
+                } else {
+                    verdict.verdict
+                },
+                &format!("{:.3e}", j.value),
+                format!("{}={}, limit there {:.3e}", r.factor, r.label, j.limit),
+            ),
+            None => VCell::new(Verdict::Info, "-", ""),
+        };
+        let strict = VCell::new(
+            if beyond == 0 {
+                Verdict::Agree
+            } else {
+                Verdict::Info
+            },
+            &format!("{beyond} of {} cells beyond", js.len()),
+            "measured, not judged",
+        );
+        rows.push((
+            vec![
+                name.to_string(),
+                promise.map(|p| p.describe()).unwrap_or_default(),
+                promise.map(|p| p.measured.clone()).unwrap_or_default(),
+            ],
+            vec![verdict, worst_cell, strict],
+        ));
+    }
+    rows
+}
+
+const CONTRACT_HEAD: [&str; 6] = [
+    "invariant",
+    "promised limit",
+    "measurement behind it",
+    "verdict",
+    "worst cell (measured)",
+    "round-off (strict) invariant",
+];
+
+/// `index.html`: every engine's contract verdict, one table per engine.
+pub fn index_html(all: &[CellResult], contracts: &[crate::contract::Contract]) -> String {
+    use crate::report::verdict;
+    let mut body = String::new();
+    for c in contracts {
+        let rs: Vec<&CellResult> = all.iter().filter(|r| r.engine == c.engine).collect();
+        let t = totals(&rs.iter().map(|r| (*r).clone()).collect::<Vec<_>>());
+        let _ = writeln!(
+            body,
+            "<h2><a href=\"{0}.html\">{0}</a>: {1}</h2>\n<p>{2} cells: {3} finished, {4} failed, {5} unsupported, {6} skipped; {7} broken promises, {8} unexplained issues; {9} measurements beyond round-off within the contract.</p>",
+            html_escape(&c.engine),
+            html_escape(&c.kind),
+            t.cells,
+            t.finished,
+            t.failed,
+            t.unsupported,
+            t.skipped,
+            t.violations,
+            t.unexplained,
+            t.beyond_strict
+        );
+        body.push_str(&verdict::table_html(
+            &format!("contract-{}", c.engine),
+            &CONTRACT_HEAD.map(String::from),
+            &contract_rows(&rs, c),
+        ));
+    }
+    format!(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: contracts</title>\n<style>body{{font-family:sans-serif;margin:1.5em;max-width:1200px}}{}</style></head><body>\n<h1>Stability map: every engine against its own contract</h1>\n{}{}</body></html>\n",
+        verdict::CSS,
+        verdict::legend_html(&[
+            (verdict::Verdict::Agree, "holds"),
+            (verdict::Verdict::Known, "broken in known, explained cases"),
+            (verdict::Verdict::Differs, "broken"),
+            (verdict::Verdict::Info, "measurement"),
+        ]),
+        body
+    )
 }
 
 /// A self-contained HTML page with an inline SVG map (one row per factor, one cell per
 /// value) and the table of every cell.
-pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> String {
+pub fn html(
+    engine: &str,
+    results: &[CellResult],
+    contract: &crate::contract::Contract,
+    meta: &serde_json::Value,
+) -> String {
+    use crate::report::verdict;
     let mut factors: Vec<&str> = Vec::new();
     for r in results {
         if !factors.contains(&r.factor.as_str()) {
@@ -786,7 +997,13 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
                         tip,
                         "\n{}: {} ({})",
                         c.name,
-                        if c.passed { "ok" } else { "VIOLATED" },
+                        if r.judged.iter().any(|j| j.check == c.name && !j.holds) {
+                            "BROKEN (contract)"
+                        } else if c.passed {
+                            "ok"
+                        } else {
+                            "beyond round-off, within the contract"
+                        },
                         c.detail
                     );
                 }
@@ -823,7 +1040,17 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
             .iter()
             .map(|n| match r.invariants.get(n) {
                 Some(c) if !c.applies => "n/a".to_string(),
-                Some(c) => format!("{}{:.2e}", if c.passed { "" } else { "✗ " }, c.value),
+                Some(c) => {
+                    let broken = r.judged.iter().any(|j| j.check == c.name && !j.holds);
+                    let mark = if broken {
+                        "✗ "
+                    } else if !c.passed {
+                        "~ "
+                    } else {
+                        ""
+                    };
+                    format!("{mark}{:.2e}", c.value)
+                }
                 None => "".to_string(),
             })
             .collect();
@@ -851,19 +1078,31 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
             html_escape(&format!("{} {}", r.reason, issues.join("; ")))
         );
     }
-    let legend: String = [
-        ("#6cbf6c", "finished, invariants hold"),
-        ("#f4d35e", "violation, explained"),
-        ("#f0a35e", "failed, explained"),
-        ("#e0524c", "failed or violated, unexplained"),
-        ("#e4e4e4", "unsupported by the engine"),
-        ("#d0d0d0", "engine not built"),
-    ]
-    .iter()
-    .map(|(c, w)| format!("<span style=\"display:inline-block;background:{c};padding:2px 8px;margin:2px 6px 2px 0;border:1px solid #555\">{w}</span>"))
-    .collect();
+    let legend = verdict::legend_html(&[
+        (verdict::Verdict::Agree, "finished, the contract holds"),
+        (
+            verdict::Verdict::Known,
+            "broken or failed, known and explained",
+        ),
+        (
+            verdict::Verdict::Differs,
+            "contract broken or run failed, unexplained",
+        ),
+        (
+            verdict::Verdict::Info,
+            "unsupported by the engine / not built",
+        ),
+    ]);
+    let refs: Vec<&CellResult> = results.iter().collect();
+    let contract_table = verdict::table_html(
+        "contract",
+        &CONTRACT_HEAD.map(String::from),
+        &contract_rows(&refs, contract),
+    );
     format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations, {} unexplained issues. One factor at a time around the base case: {}. Hover a cell for its details.</p>\n<ul>{}</ul>\n<p>{legend}</p>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>complete</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / issues</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>rockbench stress: {engine}</title>\n<style>body{{font-family:sans-serif;margin:1.5em}}table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #999;padding:2px 6px}}pre{{font-size:11px}}{}</style></head><body>\n<h1>Stability map: {engine}</h1>\n<h2>Verdict: the contract of {engine} ({})</h2>\n{legend}{contract_table}<p>{} cells: {} finished, {} failed, {} unsupported, {} skipped; {} broken promises of the contract, {} unexplained issues; {} measurements beyond round-off within the contract. One factor at a time around the base case: {}. Hover a cell for its details.</p>\n<ul>{}</ul>\n{svg}\n<h2>Cells</h2>\n<table><tr><th>factor</th><th>value</th><th>status</th><th>wall s</th><th>steps</th><th>finite</th><th>complete</th><th>penetration m</th><th>energy growth</th><th>standing drift m</th><th>mirror diff</th><th>rerun diffs</th><th>reason / broken promises</th></tr>\n{rows}</table>\n<h2>Settings and versions</h2>\n<pre>{}</pre>\n</body></html>\n",
+        verdict::CSS,
+        html_escape(&contract.kind),
         t.cells,
         t.finished,
         t.failed,
@@ -871,6 +1110,7 @@ pub fn html(engine: &str, results: &[CellResult], meta: &serde_json::Value) -> S
         t.skipped,
         t.violations,
         t.unexplained,
+        t.beyond_strict,
         html_escape(BASE_CASE),
         FACTORS
             .iter()
@@ -962,7 +1202,7 @@ mod tests {
             cell,
             &Tolerances::default(),
             Duration::from_secs(5),
-            &KnownList::default(),
+            &Judge::default(),
         );
         assert_eq!(r.status, Status::Skipped);
         assert_eq!(r.unexplained(), 0);
@@ -978,6 +1218,8 @@ mod fault_tests {
 
     #[derive(Clone, Copy)]
     enum Fault {
+        /// Every block sinks into the ground by this much (m) for the whole run.
+        Sink(f64),
         Panic,
         Hang,
         NaN,
@@ -994,6 +1236,11 @@ mod fault_tests {
         fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
             let mut out = engine_by_name("housner").unwrap().run(scene)?;
             match self.0 {
+                Fault::Sink(d) => {
+                    for b in &mut out.trajectory.blocks {
+                        b.z.iter_mut().for_each(|z| *z -= d);
+                    }
+                }
                 Fault::Panic => panic!("worker crashed"),
                 Fault::Hang => loop {
                     std::thread::sleep(Duration::from_millis(50));
@@ -1027,18 +1274,52 @@ mod fault_tests {
     }
 
     fn run(fault: Fault) -> CellResult {
+        run_as("faulty", fault, &Judge::default())
+    }
+
+    /// The faulty engine judged by the contract of `engine`.
+    fn run_as(engine: &str, fault: Fault, judge: &Judge) -> CellResult {
         let cell = grid(true)
             .into_iter()
             .find(|c| c.factor == "theta")
             .unwrap();
         run_cell_with(
-            "faulty",
+            engine,
             Arc::new(move |_: &str| Ok(Box::new(Faulty(fault)) as Box<dyn Engine>)),
             &cell,
             &Tolerances::default(),
             Duration::from_millis(1500),
-            &KnownList::default(),
+            judge,
         )
+    }
+
+    /// A block 1 mm into the ground is beyond round-off (1e-4 of its 1 m width) but within a
+    /// soft contact's contract (3e-2): measured, not failed, for rapier; broken for the native
+    /// engine's round-off contract; broken for rapier at 10 cm, or once its contract is
+    /// tightened.
+    #[test]
+    fn each_engine_is_held_to_its_own_contract_and_a_broken_one_fails() {
+        let r = run_as("rapier", Fault::Sink(1e-3), &Judge::default());
+        assert_eq!(r.unexplained(), 0, "{:?}", r.issues);
+        let beyond: Vec<&str> = r.beyond_strict().iter().map(|j| j.check.as_str()).collect();
+        assert_eq!(beyond, ["penetration"]);
+        let r = run_as("native", Fault::Sink(1e-3), &Judge::default());
+        assert_eq!(r.unexplained(), 1);
+        assert_eq!(r.issues[0].check, "penetration");
+        assert!(
+            r.issues[0].detail.contains("contract of `native`"),
+            "{}",
+            r.issues[0].detail
+        );
+        let r = run_as("rapier", Fault::Sink(0.1), &Judge::default());
+        assert_eq!(r.unexplained(), 1, "{:?}", r.issues);
+        let tight = Judge {
+            contracts: Contracts::with_changes(&["rapier.penetration=1e-4".into()]).unwrap(),
+            known: KnownList::default(),
+        };
+        let r = run_as("rapier", Fault::Sink(1e-3), &tight);
+        assert_eq!(r.unexplained(), 1);
+        assert!(totals(&[r]).violations == 1);
     }
 
     #[test]

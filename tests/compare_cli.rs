@@ -110,7 +110,10 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
         assert!(text.contains("Provenance"));
         assert!(text.contains("rotation φ (rad)") || text.contains("rest"));
     }
-    assert!(html.contains("<svg") && !html.contains("<script") && !html.contains("src=\"http"));
+    // Self-contained: the animation's inline script and its JSON data, nothing fetched.
+    assert!(html.contains("<svg") && !html.contains("src=\"http"));
+    assert_eq!(html.matches("<script").count(), 2);
+    assert!(!html.contains("<script src"));
     // Provenance: versions, machine, the exact command.
     for text in [&md, &html] {
         assert!(text.contains(concat!("rockbench ", env!("CARGO_PKG_VERSION"))));

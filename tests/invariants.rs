@@ -327,3 +327,64 @@ fn mirror_check_measures_the_round_off_amplification_of_chattering_contacts() {
     assert!(c.violated(), "{}", c.detail);
     assert_eq!(c.limit, tol.mirror_rel, "{}", c.detail);
 }
+
+/// `rockbench stress` exits 0 when every engine keeps its contract, and 1 (one line) when a
+/// contract is broken: rapier's settling column is within its soft-contact contract, not
+/// within round-off.
+#[test]
+fn stress_exits_on_a_broken_contract_only() {
+    let out = std::env::temp_dir().join(format!("rb-stress-contract-{}", std::process::id()));
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_rockbench"))
+            .args([
+                "stress",
+                "--quick",
+                "--engines",
+                "native,rapier",
+                "--factors",
+                "blocks",
+            ])
+            .args(["--out", out.to_str().unwrap()])
+            .args(extra)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    };
+    let o = run(&[]);
+    let so = String::from_utf8_lossy(&o.stdout);
+    if !so.contains("rapier   blocks") {
+        eprintln!("skipped: rapier not built");
+        return;
+    }
+    assert!(
+        o.status.success(),
+        "{so}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        so.contains("standing") && so.contains("beyond round-off"),
+        "{so}"
+    );
+    assert!(
+        so.contains("rapier: soft contact"),
+        "the closing note lists the contracts: {so}"
+    );
+    let index = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(index.contains("id=\"contract-rapier\""));
+    let o = run(&["--contract", "rapier.standing=1e-9"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("broken contract"), "{err}");
+    let csv = std::fs::read_to_string(out.join("rapier.csv")).unwrap();
+    assert!(
+        csv.lines().skip(1).any(|l| l.contains(",standing,")),
+        "{csv}"
+    );
+    let o = run(&["--contract", "rapier.nope=1"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--contract rapier.nope=1"), "{err}");
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -332,6 +332,12 @@ fn validate_subset_matrix_and_report() {
     assert!(se.contains("1 of 5 gates not as expected"), "{se}");
     let html_bad = std::fs::read_to_string(out_bad.join("report.html")).unwrap();
     assert!(html_bad.contains("FAIL (1 gate)"), "no FAIL in the report");
+    // In the verdict style shared with the comparison report and the stress map.
+    assert!(
+        html_bad.contains("<td class=\"v v-differs\"><b>FAIL (1 gate)</b>"),
+        "the FAIL cell is not a red verdict cell"
+    );
+    assert!(html.contains("<table class=\"verdict\" id=\"matrix\">"));
 
     common::assert_report_renders(&out);
     let _ = std::fs::remove_dir_all(&dir);

@@ -52,6 +52,10 @@ pub struct CompareArgs {
     /// No progress indicator on stderr.
     #[arg(long)]
     quiet: bool,
+    /// Also write the animation as a video, DIR/animation.mp4 (or .gif with `--video gif`),
+    /// through ffmpeg.
+    #[arg(long, num_args = 0..=1, default_missing_value = "mp4", value_name = "mp4|gif")]
+    video: Option<String>,
 }
 
 pub fn compare_cmd(a: CompareArgs) -> Result<()> {
@@ -63,6 +67,12 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     }
     if a.up_to_impacts.contains(&0) {
         bail!("--up-to-impacts: impacts are counted from 1");
+    }
+    if let Some(v) = &a.video
+        && v != "mp4"
+        && v != "gif"
+    {
+        bail!("--video: mp4 or gif (got `{v}`)");
     }
     let scene = load_scene_with_overrides(&a.scene, &a.set)?;
     let mut opts = CompareOptions::new(a.engines.clone(), ReferenceSpec::parse(&a.reference));
@@ -87,6 +97,14 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     if a.paper {
         crate::paper::write_compare(&a.out.join("paper"), &c, &command)
             .map_err(anyhow::Error::msg)?;
+    }
+    if let Some(v) = &a.video {
+        let path = a.out.join(format!("animation.{v}"));
+        let tracks = crate::report::animation_tracks(&c);
+        crate::report::animate::Animation::new(&c.scene, &tracks)
+            .write_video(&path)
+            .map_err(anyhow::Error::msg)?;
+        println!("wrote {}", path.display());
     }
     for p in summary_paragraphs_for(&c) {
         println!("{p}\n");

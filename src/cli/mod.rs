@@ -1,5 +1,6 @@
 //! The `rockbench` command line: one file per subcommand.
 
+mod animate;
 mod bench;
 mod check;
 mod compare;
@@ -47,8 +48,11 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// Regenerate the generated validation scenes and reference-data/ (or check them).
     References(references::ReferencesArgs),
-    /// Stability map: every engine over a grid of scenes, with the invariants of each run.
+    /// Stability map: every engine over a grid of scenes, each judged against its contract.
     Stress(stress::StressArgs),
+    /// Animate runs made with `rockbench run` (RUN_DIR/trajectory.csv, summary.json and the
+    /// scene): one self-contained HTML page, optionally a video.
+    Animate(animate::AnimateArgs),
 }
 
 /// Parse the command line and run it.
@@ -64,5 +68,6 @@ pub fn main() -> Result<()> {
         Command::Validate(a) => validate::validate_cmd(a),
         Command::References(a) => references::references_cmd(a),
         Command::Stress(a) => stress::stress(a),
+        Command::Animate(a) => animate::animate(a),
     }
 }

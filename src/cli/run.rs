@@ -27,6 +27,13 @@ pub fn run(a: RunArgs) -> Result<()> {
     summary.command = Some(std::env::args().collect::<Vec<_>>().join(" "));
     write_outputs(&a.out, &output, &summary)
         .with_context(|| format!("writing {}", a.out.display()))?;
+    // The scene as run (overrides applied), for `rockbench animate`.
+    let sp = a.out.join("scene.json");
+    std::fs::write(
+        &sp,
+        serde_json::to_string_pretty(&s.to_json()).unwrap_or_default() + "\n",
+    )
+    .with_context(|| format!("writing {}", sp.display()))?;
     print_summary(&summary);
     println!("wrote {}", a.out.display());
     Ok(())

@@ -1,8 +1,9 @@
 //! `rockbench stress [--quick] [--engines ...] --out DIR`: the stability map.
 
+use crate::contract::Contracts;
 use crate::engines::ENGINE_NAMES;
 use crate::invariants::Tolerances;
-use crate::stress::{CellResult, KnownList, csv, grid, html, run_cell, totals};
+use crate::stress::{CellResult, Judge, KnownList, csv, grid, html, index_html, run_cell, totals};
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -28,6 +29,10 @@ pub struct StressArgs {
     /// Only the cells of these factors (comma-separated; default all).
     #[arg(long, value_delimiter = ',')]
     factors: Vec<String>,
+    /// Change one promise of an engine's contract, ENGINE.CHECK=LIMIT (repeatable), e.g.
+    /// `--contract rapier.standing=1e-9` to hold rapier to round-off.
+    #[arg(long = "contract", value_name = "ENGINE.CHECK=LIMIT")]
+    contract: Vec<String>,
 }
 
 pub fn stress(a: StressArgs) -> Result<()> {
@@ -47,6 +52,8 @@ pub fn stress(a: StressArgs) -> Result<()> {
     } else {
         KnownList::default()
     };
+    let contracts = Contracts::with_changes(&a.contract).map_err(anyhow::Error::msg)?;
+    let judge = Judge { contracts, known };
     let tol = Tolerances::default();
     let cells: Vec<_> = grid(a.quick)
         .into_iter()
@@ -66,6 +73,7 @@ pub fn stress(a: StressArgs) -> Result<()> {
         "timeout_s": a.timeout,
         "known": a.known.display().to_string(),
         "engines": engines,
+        "contracts": engines.iter().map(|e| judge.contracts.of(e)).collect::<Vec<_>>(),
     });
     let mut all: Vec<CellResult> = Vec::new();
     let mut unexplained = 0;
@@ -77,7 +85,7 @@ pub fn stress(a: StressArgs) -> Result<()> {
                 cell,
                 &tol,
                 Duration::from_secs_f64(a.timeout),
-                &known,
+                &judge,
             );
             if r.status != crate::stress::Status::Skipped {
                 let issues: Vec<String> = r
@@ -85,15 +93,21 @@ pub fn stress(a: StressArgs) -> Result<()> {
                     .iter()
                     .map(|i| {
                         format!(
-                            "{}{}",
+                            "{} BROKEN{}",
                             i.check,
                             if i.explanation.is_some() {
                                 " (known)"
                             } else {
-                                " UNEXPLAINED"
+                                ", unexplained"
                             }
                         )
                     })
+                    .chain(r.beyond_strict().iter().map(|j| {
+                        format!(
+                            "{} {:.2e} (beyond round-off {:.0e}, within contract {:.2e})",
+                            j.check, j.value, j.strict_limit, j.limit
+                        )
+                    }))
                     .collect();
                 println!(
                     "{engine:<8} {:<14} {:<8} {:<11} {:>8.3} s  {}",
@@ -115,13 +129,14 @@ pub fn stress(a: StressArgs) -> Result<()> {
         }
         let t = totals(&results);
         println!(
-            "{engine}: {} cells, {} finished, {} failed, {} unsupported, {} skipped; {} invariant violations; {} unexplained issues; {:.1} s in runs",
+            "{engine}: {} cells, {} finished, {} failed, {} unsupported, {} skipped; {} broken promises of its contract, {} measurements beyond round-off within it; {} unexplained issues; {:.1} s in runs",
             t.cells,
             t.finished,
             t.failed,
             t.unsupported,
             t.skipped,
             t.violations,
+            t.beyond_strict,
             t.unexplained,
             t.wall_s
         );
@@ -134,7 +149,10 @@ pub fn stress(a: StressArgs) -> Result<()> {
         let mut m = meta.clone();
         m["engine"] = engine.clone().into();
         m["totals"] = serde_json::to_value(&t)?;
-        w(format!("{engine}.html"), html(engine, &results, &m))?;
+        w(
+            format!("{engine}.html"),
+            html(engine, &results, &judge.contracts.of(engine), &m),
+        )?;
         all.extend(results);
     }
     std::fs::write(a.out.join("stress.csv"), csv(&all))?;
@@ -155,10 +173,25 @@ pub fn stress(a: StressArgs) -> Result<()> {
         a.out.join("stress.json"),
         serde_json::to_string_pretty(&m)? + "\n",
     )?;
+    let contracts: Vec<_> = engines.iter().map(|e| judge.contracts.of(e)).collect();
+    std::fs::write(a.out.join("index.html"), index_html(&all, &contracts))?;
+    println!(
+        "Each engine is judged against its own contract (the strict invariants are measured beside it):"
+    );
+    for c in &contracts {
+        println!("  {}", c.line());
+        for p in c
+            .promises
+            .iter()
+            .filter(|p| !matches!(p.check, "finite" | "complete"))
+        {
+            println!("      {}: {}", p.check, p.measured);
+        }
+    }
     println!("wrote {}", a.out.display());
     if unexplained > 0 {
         bail!(
-            "{unexplained} unexplained invariant violations or failed runs (see {}/stress.csv)",
+            "{unexplained} broken contract promises or failed runs, unexplained (see {}/stress.csv)",
             a.out.display()
         );
     }

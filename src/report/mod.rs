@@ -1,9 +1,13 @@
 //! The verification report of a comparison: one self-contained HTML file (inline SVG plots,
-//! no scripts, no network) and its Markdown twin (`report.md`, with the same plots as files
-//! under `plots/`). Both are built from the same calls, so they say the same things.
+//! one small inline script for the animation, no network) and its Markdown twin (`report.md`,
+//! with the same plots as files under `plots/`). Both are built from the same calls, so they
+//! say the same things. The report opens with the verdict table ([`verdict`]), then the motion
+//! ([`animate`]), then a short summary and the tables and plots behind the verdict.
 
+pub mod animate;
 pub mod provenance;
 pub mod svg;
+pub mod verdict;
 
 use crate::compare::{Comparison, Status};
 use crate::events::REST_THRESHOLDS;
@@ -19,10 +23,17 @@ pub(crate) const PALETTE: [&str; 7] = [
     "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf",
 ];
 
-/// Thresholds used only for the wording of the summary paragraph.
+/// Tolerances of the verdict table (and the wording of the summary): a history agrees when
+/// its RMS error before the first impact is at most 1 % of the reference's largest rotation,
+/// impact instants when every impact is matched within 5 ms, rest times within 10 %.
 pub const WORDING_NORMALISED_RMS: f64 = 0.01;
 pub const WORDING_IMPACT_TIME_S: f64 = 5e-3;
 pub const WORDING_REST_RELATIVE: f64 = 0.10;
+/// Peaks agree when the first three peak amplitudes after impacts (or the one before the
+/// first impact, if there is none) are within 5 % of the reference's.
+pub const VERDICT_PEAK_RELATIVE: f64 = 0.05;
+/// How many peaks after impacts the verdict compares.
+pub const VERDICT_PEAKS: usize = 3;
 
 /// HTML and Markdown written side by side (also used by the validation suite's report).
 pub(crate) struct Doc {
@@ -50,7 +61,7 @@ fn inline_html(s: &str) -> String {
     out
 }
 
-fn md_cell(s: &str) -> String {
+pub(crate) fn md_cell(s: &str) -> String {
     s.replace('|', "\\|").replace('\n', " ")
 }
 
@@ -111,6 +122,11 @@ impl Doc {
             );
         }
         self.md.push('\n');
+    }
+    /// The same content written differently in each twin.
+    pub(crate) fn raw(&mut self, html: &str, md: &str) {
+        self.html.push_str(html);
+        self.md.push_str(md);
     }
     pub(crate) fn pre(&mut self, text: &str) {
         let _ = writeln!(self.html, "<pre>{}</pre>", esc(text));
@@ -409,6 +425,252 @@ pub fn summary_paragraphs(c: &Comparison, own: &[MetricRow]) -> Vec<String> {
     out
 }
 
+/// The verdict table: one row per compared engine, one cell per quantity (history before the
+/// first impact, impact instants, peaks, rest times, overturning, cost), each with the number
+/// that decided it and the tolerance.
+fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows {
+    use verdict::{VCell, Verdict};
+    let engines = compared(c);
+    let measured: Vec<&Series> = series.iter().filter(|s| s.measured).collect();
+    let ref_wall = c
+        .reference_run
+        .as_ref()
+        .and_then(|r| r.cost.wall_time_s)
+        .filter(|_| !c.reference_is_file);
+    let mut out = Vec::new();
+    for e in &engines {
+        let mut cells = Vec::new();
+        // History before the first impact.
+        let worst = measured
+            .iter()
+            .filter_map(|s| {
+                let b = s.label.as_str();
+                rows.v(e, b, "rotation_rms_error_normalised_to_impact_1")
+                    .or_else(|| rows.v(e, b, "rotation_rms_error_normalised"))
+                    .map(|v| (v, b))
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        cells.push(match worst {
+            Some((v, b)) => VCell::new(
+                if v <= WORDING_NORMALISED_RMS {
+                    Verdict::Agree
+                } else {
+                    Verdict::Differs
+                },
+                if v <= WORDING_NORMALISED_RMS {
+                    "agrees"
+                } else {
+                    "differs"
+                },
+                format!(
+                    "RMS {:.3} % {} 1 % of max |φ| ({b})",
+                    100.0 * v,
+                    if v <= WORDING_NORMALISED_RMS {
+                        "≤"
+                    } else {
+                        ">"
+                    }
+                ),
+            ),
+            None => VCell::new(Verdict::Info, "not compared", ""),
+        });
+        // Impact instants.
+        let mut counts_differ = Vec::new();
+        let mut dmax = 0.0f64;
+        let mut total = 0.0;
+        for s in &measured {
+            let b = s.label.as_str();
+            let ni = rows.v(e, b, "impact_count").unwrap_or(0.0);
+            let nr = rows
+                .map
+                .get(&(e.as_str(), b, "impact_count"))
+                .and_then(|r| r.reference)
+                .unwrap_or(0.0);
+            total += nr;
+            if ni != nr {
+                counts_differ.push(format!("{ni:.0} vs {nr:.0} ({b})"));
+            }
+            dmax = dmax.max(rows.v(e, b, "impact_time_max_abs_diff").unwrap_or(0.0));
+        }
+        let tol = format!("{:.0} ms", 1e3 * WORDING_IMPACT_TIME_S);
+        cells.push(if measured.is_empty() {
+            VCell::new(Verdict::Info, "not compared", "")
+        } else if !counts_differ.is_empty() {
+            VCell::new(
+                Verdict::Differs,
+                "differs",
+                format!(
+                    "impacts {}; matched ones within {:.2} ms",
+                    counts_differ.join(", "),
+                    1e3 * dmax
+                ),
+            )
+        } else if total == 0.0 {
+            VCell::new(Verdict::Agree, "agrees", "no impact in either")
+        } else if dmax <= WORDING_IMPACT_TIME_S {
+            VCell::new(
+                Verdict::Agree,
+                "agrees",
+                format!(
+                    "all {total:.0} matched, |Δt| ≤ {:.2} ms (tol {tol})",
+                    1e3 * dmax
+                ),
+            )
+        } else {
+            VCell::new(
+                Verdict::Differs,
+                "differs",
+                format!(
+                    "all {total:.0} matched, |Δt| up to {:.2} ms > {tol}",
+                    1e3 * dmax
+                ),
+            )
+        });
+        // Peaks.
+        let mut worst: Option<(f64, String)> = None;
+        for s in &measured {
+            let b = s.label.as_str();
+            let n = rows.count(None, b, "peak_amplitude_").min(VERDICT_PEAKS);
+            let ks: Vec<usize> = if n == 0 { vec![0] } else { (1..=n).collect() };
+            for k in ks {
+                let m = format!("peak_amplitude_{k}");
+                let Some(y) = rows.r(b, &m) else { continue };
+                let d = match rows.v(e, b, &m) {
+                    Some(x) if y.abs() > 0.0 => (x - y).abs() / y.abs(),
+                    _ => f64::INFINITY,
+                };
+                if worst.as_ref().is_none_or(|w| d > w.0) {
+                    worst = Some((d, format!("peak {k} of {b}")));
+                }
+            }
+        }
+        let tol = format!("{:.0} %", 100.0 * VERDICT_PEAK_RELATIVE);
+        cells.push(match worst {
+            None => VCell::new(Verdict::Info, "not compared", "no peak in the reference"),
+            Some((d, w)) if d.is_infinite() => {
+                VCell::new(Verdict::Differs, "differs", format!("{w}: missing"))
+            }
+            Some((d, w)) if d <= VERDICT_PEAK_RELATIVE => VCell::new(
+                Verdict::Agree,
+                "agrees",
+                format!("within {:.2} % ≤ {tol} (worst: {w})", 100.0 * d),
+            ),
+            Some((d, w)) => VCell::new(
+                Verdict::Differs,
+                "differs",
+                format!("{w} off by {:.1} % > {tol}", 100.0 * d),
+            ),
+        });
+        // Rest times.
+        let mut worst: Option<(f64, String)> = None;
+        let mut missing = Vec::new();
+        for s in series {
+            let b = s.label.as_str();
+            for (key, _) in REST_THRESHOLDS {
+                let m = format!("rest_time_{key}");
+                match (rows.v(e, b, &m), rows.r(b, &m)) {
+                    (Some(x), Some(y)) => {
+                        let d = (x - y).abs() / y.abs().max(1e-9);
+                        if worst.as_ref().is_none_or(|w| d > w.0) {
+                            worst = Some((d, format!("{b} at {key} rad: {x:.3} vs {y:.3} s")));
+                        }
+                    }
+                    (None, None) => {}
+                    (x, _) => missing.push(format!(
+                        "{b} at {key} rad: {}",
+                        if x.is_some() {
+                            "at rest, the reference not"
+                        } else {
+                            "not at rest, the reference is"
+                        }
+                    )),
+                }
+            }
+        }
+        let tol = format!("{:.0} %", 100.0 * WORDING_REST_RELATIVE);
+        cells.push(if let Some(m) = missing.first() {
+            VCell::new(Verdict::Differs, "differs", m.clone())
+        } else {
+            match worst {
+                None => VCell::new(Verdict::Agree, "agrees", "neither comes to rest"),
+                Some((d, w)) if d <= WORDING_REST_RELATIVE => VCell::new(
+                    Verdict::Agree,
+                    "agrees",
+                    format!("within {:.1} % ≤ {tol} (worst: {w})", 100.0 * d),
+                ),
+                Some((d, w)) => VCell::new(
+                    Verdict::Differs,
+                    "differs",
+                    format!("{:.1} % > {tol}: {w}", 100.0 * d),
+                ),
+            }
+        });
+        // Overturning.
+        let disagree: Vec<&str> = series
+            .iter()
+            .filter(|s| rows.v(e, &s.label, "overturning_agrees") == Some(0.0))
+            .map(|s| s.label.as_str())
+            .collect();
+        let over: Vec<String> = series
+            .iter()
+            .filter(|s| rows.r(&s.label, "overturned") == Some(1.0))
+            .map(|s| {
+                format!(
+                    "{} at {} s vs {} s",
+                    s.label,
+                    secs(rows.v(e, &s.label, "overturn_time")),
+                    secs(rows.r(&s.label, "overturn_time"))
+                )
+            })
+            .collect();
+        cells.push(if !disagree.is_empty() {
+            VCell::new(
+                Verdict::Differs,
+                "differs",
+                format!("whether {} overturns", disagree.join(", ")),
+            )
+        } else if over.is_empty() {
+            VCell::new(Verdict::Agree, "agrees", "neither overturns")
+        } else {
+            VCell::new(
+                Verdict::Agree,
+                "agrees",
+                format!("both overturn: {}", over.join("; ")),
+            )
+        });
+        // Cost.
+        let run = c.runs.iter().find(|r| &r.engine == e);
+        let s = run.and_then(|r| r.summary.as_ref());
+        cells.push(match s {
+            Some(s) => VCell::new(
+                Verdict::Info,
+                &format!("{:.3} s", s.wall_time_s),
+                format!(
+                    "{} steps{}",
+                    s.steps,
+                    ref_wall
+                        .filter(|w| *w > 0.0)
+                        .map(|w| format!(", {:.2} × the reference's wall time", s.wall_time_s / w))
+                        .unwrap_or_default()
+                ),
+            ),
+            None => VCell::new(Verdict::Info, "-", ""),
+        });
+        out.push((vec![e.clone()], cells));
+    }
+    out
+}
+
+const VERDICT_HEAD: [&str; 7] = [
+    "engine",
+    "history before the 1st impact",
+    "impact instants",
+    "peaks",
+    "rest times",
+    "overturning",
+    "cost (wall time)",
+];
+
 fn series_title(s: &Series) -> String {
     if s.is_interface() {
         format!(
@@ -418,6 +680,37 @@ fn series_title(s: &Series) -> String {
     } else {
         format!("Block `{}`: absolute rotation", s.label)
     }
+}
+
+/// The animation's tracks: every engine that ran, the reference solid.
+pub fn animation_tracks(c: &Comparison) -> Vec<animate::Track> {
+    let engines = compared(c);
+    let mut tracks: Vec<animate::Track> = engines
+        .iter()
+        .enumerate()
+        .filter_map(|(k, e)| {
+            let run = c.runs.iter().find(|r| &r.engine == e)?;
+            let out = run.output.as_ref()?;
+            Some(animate::Track {
+                name: e.clone(),
+                color: PALETTE[k % PALETTE.len()].to_string(),
+                reference: false,
+                trajectory: out.trajectory.clone(),
+            })
+        })
+        .collect();
+    if let Some(r) = &c.reference_run {
+        tracks.insert(
+            0,
+            animate::Track {
+                name: c.reference.clone(),
+                color: animate::REFERENCE_COLOR.into(),
+                reference: true,
+                trajectory: r.trajectory.clone(),
+            },
+        );
+    }
+    tracks
 }
 
 /// Build the report and write `report.html`, `report.md` and `plots/*.svg` into `dir`.
@@ -462,14 +755,66 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
 
     d.h(1, &format!("Cross-validation report: `{}`", c.scene.name));
     d.p(&format!(
-        "Rigid-block rocking, compared engine by engine with the reference `{}`. Rotations are \
-         in radians, counter-clockwise positive; times in seconds; energies in joules per metre \
-         of depth (2D model). Generated {} by rockbench {}.",
-        c.reference, prov.date, prov.rockbench_version
+        "Each engine against the reference `{}` ({} block{}, {} s{}): green agrees, red \
+         differs, with the number that decided it and the tolerance.",
+        c.reference,
+        c.scene.blocks.len(),
+        if c.scene.blocks.len() == 1 { "" } else { "s" },
+        c.scene.duration,
+        if c.scene.has_excitation() {
+            ", ground excitation"
+        } else {
+            ", free rocking"
+        },
     ));
+    let vrows = verdict_rows(c, &rows, &series);
+    let vhead: Vec<String> = VERDICT_HEAD.map(String::from).to_vec();
+    if vrows.is_empty() {
+        d.p("No engine other than the reference ran, so there is no verdict.");
+    } else {
+        d.raw(
+            &verdict::table_html("verdict", &vhead, &vrows),
+            &verdict::table_md(&vhead, &vrows),
+        );
+    }
+
+    // The motion.
+    let tracks = animation_tracks(c);
+    if !tracks.is_empty() {
+        let anim = animate::Animation::new(&c.scene, &tracks);
+        d.h(2, "The motion");
+        d.p(&format!(
+            "Every engine's blocks drawn to scale from its trajectory, overlaid: the reference \
+             solid, the others outlined in their colours{}. {} frames per second; the strip \
+             below shows six instants.",
+            if anim.moving_ground {
+                "; the ground moves as the excitation moves it"
+            } else {
+                ""
+            },
+            anim.fps
+        ));
+        let strip = anim.strip_svg();
+        d.raw(
+            &format!(
+                "{}<figure class=\"strip\">{}</figure>\n",
+                anim.player_html(),
+                strip
+            ),
+            "![Key frames of the motion (the animation is in report.html)](plots/keyframes.svg)\n\n",
+        );
+        d.plots.push(("keyframes.svg".into(), strip));
+    }
+
     d.h(2, "Summary");
-    for p in summary_paragraphs(c, &own) {
-        d.p(&p);
+    let paragraphs = summary_paragraphs(c, &own);
+    let n_engines = compared(c).len();
+    for (k, p) in paragraphs.iter().enumerate() {
+        // The per-engine paragraphs are the verdict table's rows, in words: left out here.
+        if k >= 2 && k < 2 + n_engines {
+            continue;
+        }
+        d.p(p);
     }
     for n in &c.notes {
         d.p(&format!("Note: {n}"));
@@ -984,8 +1329,10 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
 
     let html = format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
-         <title>rockbench report: {}</title><style>{CSS}</style></head><body>\n{}</body></html>\n",
+         <title>rockbench report: {}</title><style>{CSS}{}{}</style></head><body>\n{}</body></html>\n",
         esc(&c.scene.name),
+        verdict::CSS,
+        animate::CSS,
         d.html
     );
     (html, d.md, d.plots)
@@ -1051,11 +1398,16 @@ mod tests {
         let c = comparison();
         let prov = Provenance::collect("rockbench compare s.toml");
         let (html, md, plots) = render(&c, &prov);
-        // One inline SVG per plot file, each referenced from the Markdown.
-        assert_eq!(html.matches("<svg").count(), plots.len());
-        assert_eq!(plots.len(), 2);
+        // One inline SVG per plot file (the key-frame strip among them), each referenced
+        // from the Markdown, and the animation's player.
+        assert_eq!(html.matches("<svg").count(), plots.len() + 1);
+        assert_eq!(plots.len(), 3);
         for (name, svg) in &plots {
             assert!(md.contains(&format!("(plots/{name})")));
+            if name == "keyframes.svg" {
+                assert_eq!(svg.matches("t = ").count(), 6);
+                continue;
+            }
             assert!(svg.contains("lossy"), "{name}");
             if name.starts_with("rotation-") {
                 assert!(svg.contains("housner (reference)"), "{name}");
@@ -1071,6 +1423,26 @@ mod tests {
             - html.matches("<head").count()
             - html.matches("<html").count();
         assert_eq!(md_heads.len(), html_heads);
+        // The verdict first, in both: the lossy engine agrees before the first impact, and
+        // its peaks and rest times differ (restitution 0.6 against 0.79).
+        let row = md
+            .lines()
+            .find(|l| l.starts_with("| lossy |"))
+            .unwrap_or_else(|| panic!("{md}"));
+        let cells: Vec<&str> = row.split(" | ").collect();
+        assert!(cells[1].starts_with("✅ agrees: RMS 0.000 %"), "{row}");
+        assert!(cells[3].starts_with("❌ differs: peak"), "{row}");
+        assert!(cells[4].starts_with("❌ differs"), "{row}");
+        assert!(
+            cells[5].starts_with("✅ agrees: neither overturns"),
+            "{row}"
+        );
+        assert!(md.find("| lossy |").unwrap() < md.find("## Summary").unwrap());
+        let v = html.find("<table class=\"verdict\"").unwrap();
+        assert_eq!(v, html.find("<table").unwrap());
+        assert!(html[v..].contains("<td class=\"v v-differs\"><b>differs</b>"));
+        // The per-engine paragraph is in the table, not repeated in the prose.
+        assert!(!md.contains("`lossy` against `housner`"));
         // Restitution column: Housner's r for the reference, 0.6 for the lossy engine.
         assert!(md.contains("| 1 | 0.08560 | 0.7931 |"), "{md}");
         assert!(md.contains("| 0.6000 |"));

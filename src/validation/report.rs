@@ -9,6 +9,7 @@ use crate::gates::{Expect, Outcome};
 use crate::metrics::{MetricSettings, Run, run_events};
 use crate::report::provenance::Provenance;
 use crate::report::svg::{Curve, Plot, decimate};
+use crate::report::verdict::{VCell, Verdict};
 use crate::report::{CSS, Doc, PALETTE, num};
 use crate::trajectory::Trajectory;
 use std::path::Path;
@@ -168,6 +169,41 @@ pub fn matrix(results: &[CaseResult], engines: &[String]) -> (Vec<String>, Vec<V
             let mut row = vec![r.case.name.clone()];
             row.extend(engines.iter().map(|e| cell_text(&r.cell(e))));
             row
+        })
+        .collect();
+    (head, rows)
+}
+
+/// The summary matrix in the verdict style shared with the comparison report and the stress
+/// map: each cell coloured, its word (pass / FAIL / ...) and the worst gate.
+pub fn matrix_verdict(
+    results: &[CaseResult],
+    engines: &[String],
+) -> (Vec<String>, crate::report::verdict::Rows) {
+    let mut head = vec!["case".to_string()];
+    head.extend(engines.iter().cloned());
+    let rows = results
+        .iter()
+        .map(|r| {
+            let cells = engines
+                .iter()
+                .map(|e| {
+                    let c = r.cell(e);
+                    let text = cell_text(&c);
+                    let (word, detail) = match text.split_once("; worst: ") {
+                        Some((w, d)) => (w.to_string(), format!("worst: {d}")),
+                        None => (text.clone(), String::new()),
+                    };
+                    let v = match c {
+                        Cell::Pass { known, .. } if known > 0 => Verdict::Known,
+                        Cell::Pass { .. } => Verdict::Agree,
+                        Cell::Fail { .. } => Verdict::Differs,
+                        _ => Verdict::Info,
+                    };
+                    VCell::new(v, &word, detail)
+                })
+                .collect();
+            (vec![r.case.name.clone()], cells)
         })
         .collect();
     (head, rows)
@@ -502,8 +538,16 @@ pub fn render(
          reference (the case's reference engine); worst: the gate whose checked error is \
          largest relative to its tolerance.",
     );
-    let (head, rows) = matrix(results, engines);
-    d.table(&head, &rows);
+    let (head, rows) = matrix_verdict(results, engines);
+    d.raw(
+        &(crate::report::verdict::legend_html(&[
+            (Verdict::Agree, "pass"),
+            (Verdict::Known, "pass with known failures"),
+            (Verdict::Differs, "FAIL"),
+            (Verdict::Info, "skipped / reference / no gate"),
+        ]) + &crate::report::verdict::table_html("matrix", &head, &rows)),
+        &crate::report::verdict::table_md(&head, &rows),
+    );
     let total: usize = results.iter().map(|r| r.gates.len()).sum();
     let bad: usize = results
         .iter()
@@ -527,7 +571,8 @@ pub fn render(
     }
     let html = format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
-         <title>rockbench validation report</title><style>{CSS}</style></head><body>\n{}</body></html>\n",
+         <title>rockbench validation report</title><style>{CSS}{}</style></head><body>\n{}</body></html>\n",
+        crate::report::verdict::CSS,
         d.html
     );
     (html, d.md, d.plots)
