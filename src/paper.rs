@@ -370,6 +370,38 @@ pub fn write_bench(
 /// engine's settings, and the rotation history of every measured series.
 pub fn write_compare(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
     let mut p = PaperDir::new(dir);
+    add_compare(&mut p, c, "");
+    p.finish(command, &regenerate(command))
+}
+
+/// `paper/` of a validation run: the summary matrix (case x engine), and the tables and
+/// figures of the paper's own case (`paper = true` in the suite), prefixed with its name.
+pub fn write_validation(
+    dir: &Path,
+    head: &[String],
+    rows: &[Vec<String>],
+    paper_case: Option<(&str, &Comparison)>,
+    command: &str,
+) -> Result<(), String> {
+    let mut p = PaperDir::new(dir);
+    let header: Vec<String> = head.iter().map(|h| latex_escape(h)).collect();
+    let body: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| r.iter().map(|c| latex_escape(c)).collect())
+        .collect();
+    p.table(
+        "validation-matrix",
+        booktabs(&format!("l{}", "l".repeat(head.len().saturating_sub(1))), &header, &body),
+        "the validation summary matrix: each case on each engine (pass / FAIL / skipped, worst gate)",
+    );
+    if let Some((name, c)) = paper_case {
+        add_compare(&mut p, c, &format!("{name}-"));
+    }
+    p.finish(command, &regenerate(command))
+}
+
+/// The tables and figures of one comparison, file names prefixed with `prefix`.
+fn add_compare(p: &mut PaperDir, c: &Comparison, prefix: &str) {
     let engines: Vec<&str> = c.ok_runs().map(|r| r.engine.as_str()).collect();
     let measured: Vec<_> = series_of(&c.scene)
         .into_iter()
@@ -401,7 +433,7 @@ pub fn write_compare(dir: &Path, c: &Comparison, command: &str) -> Result<(), St
         }
     }
     p.table(
-        "impact-times",
+        &format!("{prefix}impact-times"),
         booktabs(&format!("lr{}", "r".repeat(engines.len())), &header, &rows),
         "impact instants (s) of every measured series, engines side by side (first 10)",
     );
@@ -425,7 +457,7 @@ pub fn write_compare(dir: &Path, c: &Comparison, command: &str) -> Result<(), St
         }
     }
     p.table(
-        "rest-times",
+        &format!("{prefix}rest-times"),
         booktabs(&format!("lr{}", "r".repeat(engines.len())), &header, &rows),
         "rest times (s): the earliest time after which |phi| stays below the threshold",
     );
@@ -450,7 +482,7 @@ pub fn write_compare(dir: &Path, c: &Comparison, command: &str) -> Result<(), St
         }
     }
     p.table(
-        "settings",
+        &format!("{prefix}settings"),
         booktabs(
             "lll",
             &["Engine".into(), "Setting".into(), "Value".into()],
@@ -481,7 +513,7 @@ pub fn write_compare(dir: &Path, c: &Comparison, command: &str) -> Result<(), St
                 y,
             });
         }
-        let name = format!("rotation-{}", s.label.replace('/', "-"));
+        let name = format!("{prefix}rotation-{}", s.label.replace('/', "-"));
         p.figure(
             &name,
             &plot,

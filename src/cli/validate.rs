@@ -31,6 +31,10 @@ pub struct ValidateArgs {
     /// Output directory.
     #[arg(long, default_value = "out/validation")]
     out: PathBuf,
+    /// Also write DIR/paper/ (the matrix and the paper case's tables and figures as LaTeX,
+    /// SVG, PDF and CSV).
+    #[arg(long)]
+    paper: bool,
     /// Run cache directory (also $ROCKBENCH_CACHE_DIR).
     #[arg(long, env = "ROCKBENCH_CACHE_DIR", default_value = ".cache/rockbench")]
     cache_dir: PathBuf,
@@ -118,6 +122,15 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
     let p = a.out.join("junit.xml");
     std::fs::write(&p, junit_xml(&gate_results, &a.gates.display().to_string()))
         .map_err(|e| io(&p, e))?;
+    if a.paper {
+        let (head, rows) = crate::validation::report::matrix(&results, &a.engines);
+        let paper_case = results.iter().find(|r| r.case.paper).and_then(|r| {
+            let c = r.runs.iter().find_map(|run| run.comparison.as_ref().ok())?;
+            Some((r.case.name.as_str(), c))
+        });
+        crate::paper::write_validation(&a.out.join("paper"), &head, &rows, paper_case, &command)
+            .map_err(anyhow::Error::msg)?;
+    }
     print!("{}", matrix_text(&results, &a.engines));
     for g in gate_results.iter().filter(|g| g.outcome.is_bad()) {
         println!("{}: {}: {}", g.outcome.word(), g.gate.name, g.message);
