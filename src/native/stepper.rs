@@ -177,8 +177,9 @@ pub struct Stepper {
     /// Non-associative friction: slip offsets `s_k` of the last solution, sorted by contact key
     /// (the warm start of the next problem).
     slide: Vec<(u64, f64)>,
-    /// Non-associative friction: back-end solves in all.
+    /// Non-associative friction: back-end solves in all, and problems solved.
     pub coulomb_iterations: u64,
+    pub coulomb_problems: u64,
 }
 
 /// A step that could not be taken.
@@ -218,6 +219,7 @@ impl Stepper {
             loaded: Vec::new(),
             slide: Vec::new(),
             coulomb_iterations: 0,
+            coulomb_problems: 0,
         }
     }
 
@@ -654,6 +656,7 @@ impl Stepper {
         if pr.contacts.is_empty() {
             return self.solver.solve(pr);
         }
+        self.coulomb_problems += 1;
         let mut shifted = pr.clone();
         let mut s: Vec<f64> = pr
             .contacts
@@ -675,7 +678,10 @@ impl Stepper {
             let mut change = 0.0f64;
             let mut size = 0.0f64;
             for (c, sk) in pr.contacts.iter().zip(s.iter_mut()) {
+                // Slips at round-off level count as none: a shift of the gaps by ~1e-17 m
+                // makes the force-free rows of a wall at rest flip in the dense back-end.
                 let new = c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs();
+                let new = if new <= COULOMB_TOLERANCE { 0.0 } else { new };
                 change = change.max((new - *sk).abs());
                 size = size.max(new);
                 *sk = new;
