@@ -67,6 +67,8 @@ pub const COULOMB_ITERATIONS: usize = 100;
 /// this (m, relative to `COULOMB_SCALE` for large slips).
 pub const COULOMB_TOLERANCE: f64 = 1e-13;
 pub const COULOMB_SCALE: f64 = 1e-4;
+/// Plain fixed-point iterations before secant steps may be taken (see `solve_coulomb`).
+pub const COULOMB_PLAIN: usize = 3;
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
 use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
@@ -669,7 +671,11 @@ impl Stepper {
             .collect();
         let mut iterations = 0;
         let mut last_change = f64::INFINITY;
-        for _ in 0..COULOMB_ITERATIONS {
+        // The map's value at the current offsets, and the previous input and value (for the
+        // secant step below).
+        let mut g = vec![0.0; s.len()];
+        let mut previous: Option<(Vec<f64>, Vec<f64>)> = None;
+        for k in 0..COULOMB_ITERATIONS {
             for (r, (c, sk)) in shifted.contacts.iter_mut().zip(pr.contacts.iter().zip(&s)) {
                 r.g_n = c.g_n + sk;
             }
@@ -677,14 +683,14 @@ impl Stepper {
             iterations += sol.iterations;
             let mut change = 0.0f64;
             let mut size = 0.0f64;
-            for (c, sk) in pr.contacts.iter().zip(s.iter_mut()) {
+            for ((c, sk), gk) in pr.contacts.iter().zip(&s).zip(g.iter_mut()) {
                 // Slips at round-off level count as none: a shift of the gaps by ~1e-17 m
                 // makes the force-free rows of a wall at rest flip in the dense back-end.
                 let new = c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs();
                 let new = if new <= COULOMB_TOLERANCE { 0.0 } else { new };
-                change = change.max((new - *sk).abs());
+                change = change.max((new - sk).abs());
                 size = size.max(new);
-                *sk = new;
+                *gk = new;
             }
             self.coulomb_iterations += 1;
             if change <= COULOMB_TOLERANCE * (1.0 + size / COULOMB_SCALE) {
@@ -695,6 +701,28 @@ impl Stepper {
                 sol.iterations = iterations;
                 return Ok(sol);
             }
+            // Next offsets: the plain iterate `g`, or, when it converges slowly or cycles
+            // (change not below a tenth of the previous one, after the first few), a secant
+            // (Anderson, depth one) step from the last two iterates, kept non-negative.
+            let mut next = g.clone();
+            if let Some((xp, gp)) = &previous
+                && k >= COULOMB_PLAIN
+                && change > 0.1 * last_change
+            {
+                let (mut num, mut den) = (0.0, 0.0);
+                for i in 0..s.len() {
+                    let dr = (g[i] - s[i]) - (gp[i] - xp[i]);
+                    num += (g[i] - s[i]) * dr;
+                    den += dr * dr;
+                }
+                let gamma = num / den;
+                if gamma.is_finite() {
+                    for i in 0..s.len() {
+                        next[i] = (g[i] - gamma * (g[i] - gp[i])).max(0.0);
+                    }
+                }
+            }
+            previous = Some((std::mem::replace(&mut s, next), g.clone()));
             last_change = change;
         }
         self.slide.clear();
