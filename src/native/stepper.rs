@@ -683,12 +683,20 @@ impl Stepper {
             iterations += sol.iterations;
             let mut change = 0.0f64;
             let mut size = 0.0f64;
-            for ((c, sk), gk) in pr.contacts.iter().zip(&s).zip(g.iter_mut()) {
+            for (((c, sk), gk), n) in pr.contacts.iter().zip(&s).zip(g.iter_mut()).zip(&sol.normal)
+            {
                 // Slips at round-off level count as none: a shift of the gaps by ~1e-17 m
                 // makes the force-free rows of a wall at rest flip in the dense back-end.
                 let new = c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs();
                 let new = if new <= COULOMB_TOLERANCE { 0.0 } else { new };
-                change = change.max((new - sk).abs());
+                // A loaded point needs its exact offset (else it lifts or sinks by the
+                // difference); an unloaded one only must not penetrate, whatever its offset.
+                let error = if *n > 0.0 {
+                    (new - sk).abs()
+                } else {
+                    (-(c.g_n + row_dot(&c.nrow, &sol.dq))).max(0.0)
+                };
+                change = change.max(error);
                 size = size.max(new);
                 *gk = new;
             }
