@@ -683,7 +683,12 @@ impl Stepper {
             iterations += sol.iterations;
             let mut change = 0.0f64;
             let mut size = 0.0f64;
-            for (((c, sk), gk), n) in pr.contacts.iter().zip(&s).zip(g.iter_mut()).zip(&sol.normal)
+            for (((c, sk), gk), n) in pr
+                .contacts
+                .iter()
+                .zip(&s)
+                .zip(g.iter_mut())
+                .zip(&sol.normal)
             {
                 // Slips at round-off level count as none: a shift of the gaps by ~1e-17 m
                 // makes the force-free rows of a wall at rest flip in the dense back-end.
