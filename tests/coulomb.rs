@@ -124,9 +124,9 @@ fn housner_blocks_at_high_friction_move_as_under_the_associative_law() {
 #[test]
 fn an_unsettled_coulomb_step_is_an_error_naming_the_step() {
     let scene = parse_scene_str(UNSETTLED, false, "unsettled", &[]).unwrap();
-    let e = run_timed(engine_by_name("native").unwrap().as_ref(), &scene)
-        .err()
-        .expect("the run should fail");
+    let Err(e) = run_timed(engine_by_name("native").unwrap().as_ref(), &scene) else {
+        panic!("the run should fail");
+    };
     let msg = e.to_string();
     assert!(
         msg.contains("step 1 (t = 0.000000 s)") && msg.contains("slip offsets did not settle"),
