@@ -22,6 +22,9 @@
 //! | `excitation` | half-sine pulse (period 0.5 s), amplitude k g tan(alpha), k 0.5 .. 20 | the base block upright |
 //! | `eccentricity` | centre of a 1.53 x 4.9 m block offset by e = 0 .. 0.8 of a 0.105 m post's half-width | standing, 2 s (full map only) |
 //!
+//! Every third cell of the grid (in the order above) runs the native engine with
+//! non-associative Coulomb friction (`native.friction_law = "coulomb"`); other engines ignore it.
+//!
 //! A cell's status: `finished`, `failed` (engine error, panic or timeout, with the reason),
 //! `unsupported` (the engine refuses the scene by design, e.g. Housner on a stack) or
 //! `skipped` (the engine is not built into this binary). Every finished cell's invariants are
@@ -119,6 +122,8 @@ struct Spec {
     theta: f64,
     dt: f64,
     pulse: Option<f64>,
+    /// The native engine with non-associative Coulomb friction (every third cell).
+    coulomb: bool,
 }
 
 impl Spec {
@@ -137,6 +142,7 @@ impl Spec {
             theta: 0.7,
             dt: 1e-3,
             pulse: None,
+            coulomb: false,
         }
     }
 
@@ -170,6 +176,9 @@ impl Spec {
             "\n[native]\ntheta = {:e}\ndt = {:e}",
             self.theta, self.dt
         );
+        if self.coulomb {
+            let _ = writeln!(s, "friction_law = \"coulomb\"");
+        }
         if let Some(a) = self.pulse {
             let _ = writeln!(
                 s,
@@ -248,7 +257,9 @@ pub fn grid(quick: bool) -> Vec<Cell> {
     let pick =
         |full: &[f64], q: &[f64]| -> Vec<f64> { if quick { q.to_vec() } else { full.to_vec() } };
     let mut cells = Vec::new();
-    let mut add = |factor: &'static str, value: f64, spec: Spec| {
+    let mut add = |factor: &'static str, value: f64, mut spec: Spec| {
+        // Every third cell runs the native engine with Coulomb friction.
+        spec.coulomb = cells.len() % 3 == 2;
         let label = label(value);
         let scene = spec.scene(&format!("stress {factor}={label}"));
         cells.push(Cell {

@@ -2,7 +2,8 @@
 //! engine to a trajectory that passes the invariants (finite, penetration, energy, standing,
 //! mirror, rerun), or ends in a typed engine error. Never a panic. The native engine runs on
 //! the default back-end (`auto`: dense for these stacks of 1-4 blocks) or, in a third of the
-//! scenes, on the sparse one.
+//! scenes, on the sparse one; a third of the scenes (drawn independently) use non-associative
+//! Coulomb friction (`native.friction_law = "coulomb"`) instead of the paper's law.
 //!
 //! `PROPTEST_CASES` sets the number of cases (default 200 in `make test`, with a fixed seed;
 //! `make proptest` runs 10,000 with a new seed, or PROPTEST_RNG_SEED). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
@@ -52,6 +53,8 @@ struct RScene {
     dual: bool,
     /// The contact back-end: `auto` (dense for these small stacks) or `sparse`.
     solver: &'static str,
+    /// Non-associative (Coulomb) friction instead of the paper's associative law.
+    coulomb: bool,
     excitation: RExcitation,
 }
 
@@ -115,6 +118,7 @@ fn scene() -> impl Strategy<Value = RScene> {
         any::<bool>(),
         prop_oneof![2 => Just("auto"), 1 => Just("sparse")],
         excitation(),
+        prop_oneof![2 => Just(false), 1 => Just(true)],
     )
         .prop_map(
             |(
@@ -129,6 +133,7 @@ fn scene() -> impl Strategy<Value = RScene> {
                 dual,
                 solver,
                 excitation,
+                coulomb,
             )| {
                 RScene {
                     blocks,
@@ -142,6 +147,7 @@ fn scene() -> impl Strategy<Value = RScene> {
                     dual,
                     solver,
                     excitation,
+                    coulomb,
                 }
             },
         )
@@ -186,11 +192,16 @@ impl RScene {
         }
         let _ = writeln!(
             s,
-            "\n[native]\nsolver = \"{}\"\ntheta = {:e}\ndt = {:e}\nformulation = \"{}\"",
+            "\n[native]\nsolver = \"{}\"\ntheta = {:e}\ndt = {:e}\nformulation = \"{}\"\nfriction_law = \"{}\"",
             self.solver,
             self.theta,
             self.dt,
-            if self.dual { "dual" } else { "primal" }
+            if self.dual { "dual" } else { "primal" },
+            if self.coulomb {
+                "coulomb"
+            } else {
+                "associative"
+            }
         );
         if let RExcitation::Pulse {
             kind,
@@ -390,6 +401,10 @@ proptest! {
                 // Typed errors are acceptable outcomes; their messages are single lines.
                 Err(e @ (EngineError::Unsupported { .. } | EngineError::Failed { .. } | EngineError::Scene(_))) => {
                     prop_assert!(!e.to_string().contains('\n'), "{name}: {e}");
+                    if *name == "native" {
+                        // Counted with `-- --nocapture`.
+                        eprintln!("native error ({:?} friction): {e}\n<<<\n{text}>>>", scene.native.friction_law);
+                    }
                 }
                 Err(e) => prop_assert!(false, "{name}: unexpected error kind: {e}\n{text}"),
             }

@@ -129,6 +129,14 @@ impl Engine for NativeEngine {
                     stepper.polished_steps,
                     stepper.solver_fallbacks()
                 )];
+                if stepper.coulomb_problems > 0 {
+                    notes.push(format!(
+                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem)",
+                        stepper.coulomb_problems,
+                        stepper.coulomb_iterations,
+                        stepper.coulomb_iterations as f64 / stepper.coulomb_problems as f64
+                    ));
+                }
                 if let Some(t) = stopped_at {
                     notes.push(format!(
                         "every block at rest from t = {t:.4} s (speeds below {:e} m/s for {REST_WINDOW} s): the run stopped there and the rest of the trajectory holds that state",

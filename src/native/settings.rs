@@ -49,8 +49,11 @@ pub enum FrictionLaw {
     /// The paper's associative law: `g0 + du_n >= mu |du_t|` (sliding dilates).
     #[default]
     Associative,
-    /// True Coulomb (non-associative): no tension, `|T| <= mu N`, no dilatancy; solved as a
-    /// fixed point on the normal forces of Tresca problems (always with Clarabel).
+    /// True Coulomb (non-associative): no tension, `|T| <= mu N`, slip opposed by the friction
+    /// force, no dilatancy. Solved per step as the associative problem with De Saxce's shifted
+    /// gaps `g_n + mu |d_t|`, iterated on the slips (plain and secant steps) with the back-end
+    /// in use, warm-started; a step that does not settle in 100 solves is an error naming it.
+    /// See docs/method.md.
     Coulomb,
 }
 

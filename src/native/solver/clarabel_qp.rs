@@ -190,62 +190,6 @@ impl ClarabelSolver {
         })
     }
 
-    /// Non-associative (true Coulomb) friction with given slip bounds `|T_k| <= bound_k`
-    /// (Tresca): the normal rows carry no friction term, so sliding does not dilate. With
-    /// `s_k >= |du_t,k|/dt` the scaled problem is
-    ///
-    /// ```text
-    /// min 1/2 u'Pu + q'u + sum_k (bound_k dt / s) s_k
-    /// s.t. -nrow u <= g_n/dt,   ±(trow u + g_t/dt) - s_k <= 0
-    /// ```
-    ///
-    /// The caller iterates `bound = mu N` to a fixed point (see `native::stepper`).
-    pub fn solve_tresca(
-        &self,
-        pr: &StepProblem,
-        bounds: &[f64],
-    ) -> Result<StepSolution, SolveFailure> {
-        let n = pr.n_dof();
-        let k = pr.contacts.len();
-        let sc = pr.scaled();
-        let mut pe = BTreeMap::new();
-        for (i, &v) in sc.p.iter().enumerate() {
-            pe.insert((i, i), v);
-        }
-        let mut q = sc.q.clone();
-        q.extend(bounds.iter().map(|b| b * pr.dt / sc.s));
-        let mut ae = BTreeMap::new();
-        let mut b = Vec::with_capacity(3 * k);
-        for (kk, c) in pr.contacts.iter().enumerate() {
-            let (rn, rp, rm) = (3 * kk, 3 * kk + 1, 3 * kk + 2);
-            for &(i, v) in &c.nrow {
-                *ae.entry((rn, i)).or_insert(0.0) -= v;
-            }
-            b.push(c.g_n / pr.dt);
-            for (r, sign) in [(rp, 1.0), (rm, -1.0)] {
-                for &(i, v) in &c.trow {
-                    *ae.entry((r, i)).or_insert(0.0) += sign * v;
-                }
-                ae.insert((r, n + kk), -1.0);
-                b.push(-sign * c.g_t / pr.dt);
-            }
-        }
-        let p = csc(n + k, n + k, &pe);
-        let a = csc(3 * k, n + k, &ae);
-        let solver = self.run(&p, &q, &a, &b, 3 * k)?;
-        let z = &solver.solution.z;
-        let zscale = sc.s / pr.dt;
-        Ok(StepSolution {
-            dq: solver.solution.x[..n].iter().map(|u| u * pr.dt).collect(),
-            normal: (0..k).map(|kk| z[3 * kk] * zscale).collect(),
-            tangential: (0..k)
-                .map(|kk| (z[3 * kk + 2] - z[3 * kk + 1]) * zscale)
-                .collect(),
-            iterations: solver.solution.iterations,
-            polished: false,
-        })
-    }
-
     fn solve_dual(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let n = pr.n_dof();
         let sc = pr.scaled();

@@ -1,0 +1,253 @@
+//! Non-associative (Coulomb) friction (`native.friction_law = "coulomb"`): the sliding block's
+//! stopping distance and the absence of lift, identity with the associative law where nothing
+//! slides, the back-ends against each other, and a failure naming its step.
+
+use rockbench::engines::{engine_by_name, run_timed};
+use rockbench::scene::{load_scene_with_overrides, parse_scene_str};
+use rockbench::trajectory::Trajectory;
+use std::path::Path;
+
+fn scene_path(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("validation/scenes/{name}.toml"))
+}
+
+fn run(name: &str, set: &[&str]) -> Trajectory {
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    let s = load_scene_with_overrides(&scene_path(name), &set).unwrap();
+    run_timed(engine_by_name("native").unwrap().as_ref(), &s)
+        .unwrap_or_else(|e| panic!("{name} {set:?}: {e}"))
+        .0
+        .trajectory
+}
+
+/// Largest rotation difference over every block and sample, rad.
+fn max_rotation_difference(a: &Trajectory, b: &Trajectory) -> f64 {
+    let mut m = 0.0f64;
+    for (ba, bb) in a.blocks.iter().zip(&b.blocks) {
+        assert_eq!(ba.phi.len(), bb.phi.len());
+        for (p, q) in ba.phi.iter().zip(&bb.phi) {
+            m = m.max((p - q).abs());
+        }
+    }
+    m
+}
+
+const COULOMB: &str = "native.friction_law=\"coulomb\"";
+
+/// sliding-block (2 m/s, mu 0.5): the block stops at v^2 / (2 mu g) and its centre stays at
+/// its resting height. The impact stepper (midpoint kinematics) and the position stepper at
+/// theta 1/2 are within 1e-5 m of the closed form at dt 1e-3; the position stepper at theta
+/// 0.7 falls short by its first-order `(theta - 1/2) v0 dt` (4e-4 m, as under the associative law).
+#[test]
+fn sliding_block_stops_at_the_closed_form_distance_without_lift() {
+    let (v0, mu, g) = (2.0, 0.5, 9.81);
+    let want = v0 * v0 / (2.0 * mu * g);
+    for (stepper, theta, short) in [
+        ("impact", 0.7, 0.0),
+        ("position", 0.5, 0.0),
+        ("position", 0.7, 0.2 * v0 * 1e-3),
+    ] {
+        for solver in ["active-set", "sparse", "clarabel"] {
+            let st = format!("native.stepper=\"{stepper}\"");
+            let th = format!("native.theta={theta}");
+            let sv = format!("native.solver=\"{solver}\"");
+            let tr = run("sliding-block", &[COULOMB, &st, &th, &sv]);
+            let b = &tr.blocks[0];
+            let x = *b.x.last().unwrap();
+            let lift = b.z.iter().fold(0.0f64, |m, z| m.max((z - 0.25).abs()));
+            eprintln!(
+                "{stepper} theta {theta} {solver}: stopped at {x:.9} m (closed form {want:.9}, short by {:.3e}), |z - 0.25| <= {lift:.2e} m",
+                want - x
+            );
+            assert!(
+                (want - x - short).abs() < 1e-5,
+                "{stepper} theta {theta} {solver}: stopped at {x} m, closed form {want} m"
+            );
+            if theta > 0.5 {
+                // (At theta 1/2 the velocity of a stopped block alternates in sign.)
+                assert!(b.vx.last().unwrap().abs() < 1e-9, "still moving");
+            }
+            assert!(
+                lift < 1e-9,
+                "{stepper} {solver}: centre off its resting height by {lift} m"
+            );
+        }
+    }
+}
+
+/// The associative law lifts the sliding block by millimetres; Coulomb's does not (the same
+/// scene, the same check as above, so the check can fail).
+#[test]
+fn the_associative_law_lifts_the_sliding_block() {
+    let b = &run("sliding-block", &[]).blocks[0];
+    let lift = b.z.iter().fold(0.0f64, |m, z| m.max(z - 0.25));
+    assert!(lift > 1e-3, "associative lift {lift} m");
+}
+
+/// Where nothing slides (Housner's blocks at the scenes' mu 0.7, above the 0.29 and 0.60 that
+/// their impacts need, and at 1.0 and 2.0) the two laws give the same rotation history to
+/// 1e-9 rad under both steppers. One exception, measured and bounded instead: the slender
+/// block under the position stepper at mu 1.0 and 2.0 lands nearly flat late in its motion
+/// (|phi| ~ 1e-5 rad, t ~ 2.9 s), in a step that closes both corners and reverses the rotation
+/// (the position law's rebound): a corner slips by ~1e-10 m, which the associative law turns
+/// into lift and Coulomb's does not; 2.8e-9 and 5.5e-9 rad apart by the end.
+#[test]
+fn housner_blocks_at_high_friction_move_as_under_the_associative_law() {
+    for name in ["housner-slender", "housner-square"] {
+        for stepper in ["position", "impact"] {
+            for mu in ["0.7", "1.0", "2.0"] {
+                let st = format!("native.stepper=\"{stepper}\"");
+                let f = format!("contact.friction={mu}");
+                let a = run(name, &[&st, &f]);
+                let c = run(name, &[&st, &f, COULOMB]);
+                let d = max_rotation_difference(&a, &c);
+                let peak = a.blocks[0].phi.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+                eprintln!(
+                    "{name} {stepper} mu {mu}: largest difference {d:.2e} rad (peak |phi| {peak:.3})"
+                );
+                assert!(peak > 0.1, "{name}: the block does not rock");
+                let tol = if name == "housner-slender" && stepper == "position" && mu != "0.7" {
+                    1e-8
+                } else {
+                    1e-9
+                };
+                assert!(d < tol, "{name} {stepper} mu {mu}: laws differ by {d} rad");
+            }
+        }
+    }
+}
+
+/// A random 4-block stack (tilted 0.33 rad, mu 1.2, theta 1, dt 5.7e-4) whose first step the
+/// slip-offset iteration does not settle (measured: the offsets still change by 4e-6 m after
+/// 100 solves): the run ends in a typed error naming the step, not in a wrong answer. When the
+/// solver learns this case, replace the expectation by a completed run.
+#[test]
+fn an_unsettled_coulomb_step_is_an_error_naming_the_step() {
+    let scene = parse_scene_str(UNSETTLED, false, "unsettled", &[]).unwrap();
+    let Err(e) = run_timed(engine_by_name("native").unwrap().as_ref(), &scene) else {
+        panic!("the run should fail");
+    };
+    let msg = e.to_string();
+    assert!(
+        msg.contains("step 1 (t = 0.000000 s)") && msg.contains("slip offsets did not settle"),
+        "{msg}"
+    );
+    assert!(!msg.contains('\n'), "{msg}");
+    // The associative law runs the same scene.
+    let assoc = UNSETTLED.replace(
+        "friction_law = \"coulomb\"",
+        "friction_law = \"associative\"",
+    );
+    let scene = parse_scene_str(&assoc, false, "unsettled", &[]).unwrap();
+    run_timed(engine_by_name("native").unwrap().as_ref(), &scene).unwrap();
+}
+
+const UNSETTLED: &str = r#"name = "random"
+duration = 1.8943207076912374e-1
+gravity = 9.81e0
+output_interval = 5.725058733987224e-4
+
+[[blocks]]
+name = "b0"
+width = 5.632392885666264e-1
+height = 7.24583469876297e-2
+density = 2.723575916214896e3
+offset = 1.420519492352133e-1
+
+[[blocks]]
+name = "b1"
+width = 5.09879603164716e-1
+height = 1.05401127614813e0
+density = 3.194680944458047e3
+offset = -1.1343323282196358e-1
+
+[[blocks]]
+name = "b2"
+width = 2.1987835454172058e0
+height = 9.364980053020877e-2
+density = 5.345718704923555e2
+offset = -2.0758365536421777e-1
+
+[[blocks]]
+name = "b3"
+width = 1.5319996592700909e0
+height = 8.177618909402884e-1
+density = 2.4650478418793963e1
+offset = -1.0510205316549308e-1
+
+[initial]
+tilt = -3.3426096987493475e-1
+
+[initial.blocks.b0]
+rotation = 0e0
+omega = 0e0
+vx = 4.581032393022421e-1
+
+[initial.blocks.b1]
+rotation = 0e0
+omega = 0e0
+vx = 0e0
+
+[initial.blocks.b2]
+rotation = 1.294351433409809e-1
+omega = 0e0
+vx = 0e0
+
+[initial.blocks.b3]
+rotation = -1.283487397065175e-1
+omega = 0e0
+vx = -1.2740940077154775e-1
+
+[contact]
+friction = 1.2054895718611291e0
+
+[contact.interfaces.b3]
+friction = 2.99554731989464e-1
+
+[native]
+solver = "auto"
+theta = 1e0
+dt = 5.725058733987224e-4
+formulation = "dual"
+friction_law = "coulomb"
+"#;
+
+/// The two-block case at mu 0.7 with Coulomb friction: the sparse back-end (and Clarabel,
+/// position stepper) against the dense one. Measured: position stepper 4.4e-13 (sparse) and
+/// 1.7e-13 rad (Clarabel) up to the statue's first impact (0.6 s), 8.0e-10 and 1.1e-9 rad at
+/// 1 s; impact stepper, sparse, 8.5e-12 and 6.1e-9 rad. (Clarabel with the impact stepper
+/// is 1.9e-6 rad off by 0.6 s: its interior-point forces decide a located impact
+/// differently, as under the associative law.)
+#[test]
+fn back_ends_agree_on_the_two_block_case_with_coulomb_friction() {
+    let max_diff = |a: &Trajectory, b: &Trajectory, until: f64| -> f64 {
+        let mut m = 0.0f64;
+        for (ba, bb) in a.blocks.iter().zip(&b.blocks) {
+            for (k, (p, q)) in ba.phi.iter().zip(&bb.phi).enumerate() {
+                if a.t[k] <= until + 1e-9 {
+                    m = m.max((p - q).abs());
+                }
+            }
+        }
+        m
+    };
+    for (stepper, solver, before, after) in [
+        ("position", "sparse", 1e-11, 1e-8),
+        ("position", "clarabel", 1e-11, 1e-8),
+        ("impact", "sparse", 1e-10, 1e-7),
+    ] {
+        let st = format!("native.stepper=\"{stepper}\"");
+        let dense = run(
+            "two-block-free-rocking",
+            &[COULOMB, &st, "duration=1.0", "native.solver=\"active-set\""],
+        );
+        let sv = format!("native.solver=\"{solver}\"");
+        let other = run(
+            "two-block-free-rocking",
+            &[COULOMB, &st, "duration=1.0", &sv],
+        );
+        let (d1, d2) = (max_diff(&dense, &other, 0.6), max_diff(&dense, &other, 1.0));
+        eprintln!("{stepper} {solver}: {d1:.2e} rad to 0.6 s, {d2:.2e} rad to 1 s");
+        assert!(d1 < before && d2 < after, "{stepper} {solver}: {d1}, {d2}");
+    }
+}
