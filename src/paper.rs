@@ -520,7 +520,6 @@ fn add_compare(p: &mut PaperDir, c: &Comparison, prefix: &str) {
             &format!("rotation history of {}, every engine", s.label),
         );
     }
-    p.finish(command, &regenerate(command))
 }
 
 #[cfg(test)]

@@ -177,4 +177,22 @@ fn paper_outputs_compile_and_render() {
         .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
         .collect();
     assert_eq!(tables, ["impact-times", "rest-times", "settings"]);
+    let val = scratch("paper-validate");
+    rockbench(&[
+        "validate",
+        "validation/suite.toml",
+        "--gates",
+        "validation/gates.toml",
+        "--case",
+        "two-block-free-rocking",
+        "--engines",
+        "native",
+        "--no-cache",
+        "--quiet",
+        "--paper",
+        "--out",
+        val.to_str().unwrap(),
+    ]);
+    check_paper(&val.join("paper"));
+    assert!(val.join("paper/validation-matrix.tex").is_file());
 }
