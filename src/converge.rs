@@ -94,6 +94,17 @@ pub struct ConvergeRun {
     pub settings: Option<serde_json::Value>,
 }
 
+impl ConvergeRun {
+    /// The step size as written in tables, `-` for an engine without one.
+    pub fn dt_label(&self) -> String {
+        if self.dt.is_finite() {
+            format!("{:e}", self.dt)
+        } else {
+            "-".into()
+        }
+    }
+}
+
 /// The error of one quantity of one series in one run.
 #[derive(Debug, Clone, Serialize)]
 pub struct ConvergePoint {
@@ -493,11 +504,7 @@ pub fn markdown(c: &Convergence, command: &str) -> String {
             md,
             "| {} | {} | {}{} | {} | {} |",
             r.engine,
-            if r.dt.is_finite() {
-                format!("{:e}", r.dt)
-            } else {
-                "-".into()
-            },
+            r.dt_label(),
             r.status,
             r.reason
                 .as_ref()

@@ -51,11 +51,7 @@ pub fn run(a: ConvergeArgs) -> Result<()> {
         eprintln!(
             "{} dt={}: {}{}",
             r.engine,
-            if r.dt.is_finite() {
-                format!("{:e}", r.dt)
-            } else {
-                "-".into()
-            },
+            r.dt_label(),
             r.status,
             r.wall_time_s
                 .map(|w| format!(" {w:.4} s"))
