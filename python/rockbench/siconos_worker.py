@@ -39,7 +39,15 @@ from typing import Any, Callable
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: threaded BLAS only costs here
 
-import numpy as np  # noqa: E402
+try:
+    import numpy as np
+except ImportError as _e:  # the worker runs under the Siconos interpreter, which has numpy 1.x
+    print(
+        f"cannot import numpy ({_e}) with {sys.executable}: run `make siconos` (Debian's "
+        "python3-siconos in a venv of /usr/bin/python3), or set ROCKBENCH_SICONOS_PYTHON",
+        file=sys.stderr,
+    )
+    sys.exit(3)
 
 FIELDS = ("x", "z", "phi", "vx", "vz", "omega")
 
