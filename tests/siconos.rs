@@ -56,7 +56,14 @@ fn agrees_with_housner(scene: &str) {
     let st = Command::new(env!("CARGO_BIN_EXE_rockbench"))
         .args(["compare"])
         .arg(root().join(format!("validation/scenes/{scene}.toml")))
-        .args(["--engines", "siconos,housner", "--reference", "housner", "--quiet", "--out"])
+        .args([
+            "--engines",
+            "siconos,housner",
+            "--reference",
+            "housner",
+            "--quiet",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
@@ -101,7 +108,10 @@ fn agrees_with_housner(scene: &str) {
         "iterations",
         "timeout",
     ] {
-        assert!(!summary["settings"][k].is_null(), "settings.{k} missing: {summary}");
+        assert!(
+            !summary["settings"][k].is_null(),
+            "settings.{k} missing: {summary}"
+        );
     }
     assert_eq!(summary["settings"]["step"], SICONOS_DEFAULT_STEP);
     let _ = std::fs::remove_dir_all(&out);
@@ -178,11 +188,7 @@ fn an_interpreter_without_siconos_says_make_siconos() {
     // and says how to install them.
     let dir = tmp("nosiconos");
     let fake = dir.join("python");
-    std::fs::write(
-        &fake,
-        "#!/bin/sh\nexec python3 -S \"$@\"\n",
-    )
-    .unwrap();
+    std::fs::write(&fake, "#!/bin/sh\nexec python3 -S \"$@\"\n").unwrap();
     use std::os::unix::fs::PermissionsExt;
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     let e = ExternalEngine::new("siconos").unwrap().with_python(&fake);
@@ -198,7 +204,9 @@ fn walls_are_unsupported_not_failed() {
     )
     .unwrap();
     match engine_by_name("siconos").unwrap().run(&scene) {
-        Err(EngineError::Unsupported { reason, .. }) => assert!(reason.contains("walls"), "{reason}"),
+        Err(EngineError::Unsupported { reason, .. }) => {
+            assert!(reason.contains("walls"), "{reason}")
+        }
         other => panic!("expected unsupported, got {other:?}"),
     }
 }

@@ -22,7 +22,8 @@ VARIANTS: list[dict[str, object]] = [
     {"scheme": scheme, "step": step, "theta": 0.5}
     for scheme in ("plain", "projection")
     for step in (1e-3, 5e-4, 2e-4, 1e-4, 5e-5)
-] + [
+]
+VARIANTS += [
     {"scheme": "projection", "step": 1e-4, "theta": 1.0},
     {"scheme": "projection", "step": 1e-4, "theta": 0.5, "restitution": 0.1},
 ]

@@ -129,7 +129,9 @@ impl ExternalEngine {
         if here.exists() {
             return Ok(here);
         }
-        let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join(SICONOS_VENV).join("bin/python");
+        let tree = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(SICONOS_VENV)
+            .join("bin/python");
         if tree.exists() {
             return Ok(tree);
         }
@@ -200,8 +202,8 @@ impl ExternalEngine {
         });
         if scene.has_excitation() {
             let step = Self::siconos_step(scene)?;
-            let gm = crate::excitation::GroundMotion::from_scene(scene)
-                .map_err(EngineError::Scene)?;
+            let gm =
+                crate::excitation::GroundMotion::from_scene(scene).map_err(EngineError::Scene)?;
             let n = (scene.duration / step).round().max(1.0) as usize;
             let (mut vx, mut vz) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
             for k in 0..=n {
@@ -257,7 +259,9 @@ impl ExternalEngine {
             let script = dir.join("siconos_worker.py");
             std::fs::write(&script, SICONOS_WORKER)
                 .map_err(|e| self.failed(format!("cannot write {}: {e}", script.display())))?;
-            cmd.arg(&script).arg("--input").env("OPENBLAS_NUM_THREADS", "1");
+            cmd.arg(&script)
+                .arg("--input")
+                .env("OPENBLAS_NUM_THREADS", "1");
         } else {
             cmd.args(["-m", "rockbench.worker", "--engine", self.engine, "--scene"]);
         }
