@@ -223,3 +223,42 @@ fn the_default_step_is_the_workers() {
         Some("siconos.step")
     );
 }
+
+#[test]
+fn a_run_past_its_timeout_is_killed_and_failed() {
+    require_siconos();
+    let e = engine_by_name("siconos").unwrap();
+    let scene = load_scene_with_overrides(
+        &root().join("validation/scenes/housner-slender.toml"),
+        &["siconos.timeout=0.5".into()],
+    )
+    .unwrap();
+    let m = failure(e.run(&scene));
+    assert!(m.contains("siconos.timeout"), "{m}");
+}
+
+/// The two-block case (a stack with an offset-free statue on a pedestal): the pedestal's first
+/// ground impact within 1 ms of the native engine's.
+#[test]
+fn two_block_ground_impact_agrees_with_native() {
+    require_siconos();
+    let scene = load_scene_with_overrides(
+        &root().join("validation/scenes/two-block-free-rocking.toml"),
+        &["duration=0.8".into()],
+    )
+    .unwrap();
+    let impact = |name: &str| {
+        let (_, s) = rockbench::engines::run_timed(engine_by_name(name).unwrap().as_ref(), &scene)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let b = s.blocks.iter().find(|b| b.name == "pedestal").unwrap();
+        *b.impacts
+            .first()
+            .unwrap_or_else(|| panic!("{name}: no ground impact"))
+    };
+    let (sic, nat) = (impact("siconos"), impact("native"));
+    assert!(
+        (sic - nat).abs() < 1e-3,
+        "siconos {sic} s vs native {nat} s"
+    );
+    assert!((0.55..0.65).contains(&sic), "{sic}");
+}
