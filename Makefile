@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps \
-	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge
+	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep
 
 all: build
 
@@ -31,12 +31,12 @@ demo: build .venv ffmpeg
 test: test-no-default-features test-rust test-python
 
 # The validation tests load the earthquake case, whose record `make records` downloads.
-test-no-default-features: chromium ffmpeg records
+test-no-default-features: chromium ffmpeg records siconos
 	$(CARGO) test --release --no-default-features
 
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
 # 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
-test-rust: chromium ffmpeg records paper-tools
+test-rust: chromium ffmpeg records paper-tools siconos
 	$(CARGO) test --release
 	$(MAKE) gates
 	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
@@ -64,6 +64,23 @@ converge: build .venv
 # Headless Chromium (Debian's package) for the report-rendering and animation tests.
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
+
+# The Siconos engine's interpreter, .siconos-venv: Debian's python3-siconos (built against numpy
+# 1.x, so it cannot import in .venv's numpy 2) in a venv of Debian's /usr/bin/python3 with the
+# system site packages. About 40 s on a fresh machine (apt-get update and ~70 packages);
+# `$ROCKBENCH_SICONOS_PYTHON` overrides the interpreter. tests/siconos.rs needs it.
+SICONOS_VENV := .siconos-venv
+siconos: $(SICONOS_VENV)/.stamp
+
+$(SICONOS_VENV)/.stamp:
+	test -f /usr/lib/python3/dist-packages/siconos/kernel.py || (apt-get update && apt-get install -y python3-siconos)
+	test -x $(SICONOS_VENV)/bin/python || /usr/bin/python3 -m venv --without-pip --system-site-packages $(SICONOS_VENV)
+	OPENBLAS_NUM_THREADS=1 $(SICONOS_VENV)/bin/python -c 'import numpy, siconos.kernel, siconos.numerics'
+	touch $@
+
+# The measurement behind the Siconos defaults (docs/engines-siconos.md), a few minutes.
+siconos-sweep: build .venv siconos
+	$(VPY) -m rockbench.siconos_sweep --out out/siconos-sweep.md
 
 # ffmpeg (Debian's package) for `--video` and the animation test (ffprobe).
 ffmpeg:

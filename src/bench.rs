@@ -47,6 +47,7 @@ pub fn step_setting(engine: &str) -> Option<&'static str> {
         "rapier" => Some("rapier.dt"),
         "mujoco" => Some("mujoco.timestep"),
         "pybullet" => Some("pybullet.fixed_time_step"),
+        "siconos" => Some("siconos.step"),
         _ => None,
     }
 }

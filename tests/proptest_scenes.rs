@@ -352,7 +352,7 @@ proptest! {
         let tol = Tolerances::default();
         // In-process engines only: the external (Python worker) engines cost a process start
         // per run; their faults are covered by tests/external_engine.rs and the stress map.
-        for name in ENGINE_NAMES.iter().filter(|n| !["mujoco", "pybullet"].contains(n)) {
+        for name in ENGINE_NAMES.iter().filter(|n| !["mujoco", "pybullet", "siconos"].contains(n)) {
             let engine = engine_by_name(name).unwrap();
             let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true })

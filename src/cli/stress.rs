@@ -13,8 +13,9 @@ pub struct StressArgs {
     /// The small grid for CI (runs in well under a minute in release mode).
     #[arg(long)]
     quick: bool,
-    /// Engines to run, comma-separated (default: every engine built in). Engines that are not
-    /// built into this binary are reported as skipped.
+    /// Engines to run, comma-separated (default: every engine built in but siconos, which has
+    /// no measured contract yet). Engines that are not built into this binary are reported as
+    /// skipped.
     #[arg(long, value_delimiter = ',')]
     engines: Vec<String>,
     /// Output directory: stress.csv, <engine>.csv, <engine>.html, stress.json.
@@ -37,7 +38,11 @@ pub struct StressArgs {
 
 pub fn stress(a: StressArgs) -> Result<()> {
     let engines: Vec<String> = if a.engines.is_empty() {
-        ENGINE_NAMES.iter().map(|s| s.to_string()).collect()
+        ENGINE_NAMES
+            .iter()
+            .filter(|s| **s != "siconos")
+            .map(|s| s.to_string())
+            .collect()
     } else {
         a.engines.clone()
     };

@@ -1,4 +1,4 @@
-//! Engines that run in a Python worker process: `mujoco` and `pybullet`.
+//! Engines that run in a Python worker process: `mujoco`, `pybullet` and `siconos`.
 //!
 //! The scene is written as JSON ([`Scene::to_json`]) into a fresh temporary directory and
 //! `PYTHON -m rockbench.worker --engine E --scene scene.json --out DIR` is run there
@@ -12,6 +12,16 @@
 //! (the engine table's `timeout` setting, default [`DEFAULT_TIMEOUT_S`]); past it the worker is
 //! killed. A missing interpreter or package, a crash, a hang past the timeout, a NaN, or a
 //! missing or truncated output file is an [`EngineError::Failed`] with a one-line reason.
+//!
+//! Siconos (Debian's `python3-siconos`, built against numpy 1.x) cannot share the `.venv`
+//! (numpy 2): it runs under its own interpreter, `$ROCKBENCH_SICONOS_PYTHON`, else
+//! `./.siconos-venv/bin/python`, else the `.siconos-venv` of this source tree (made by
+//! `make siconos`). Its worker, `python/rockbench/siconos_worker.py`, is a standalone script
+//! (compiled into this crate and written next to the input) that imports neither `rockbench`
+//! nor its extension, so what needs the Rust side is computed here and written into its input:
+//! the initial layout, the supports, each interface's friction and the ground velocity at every
+//! step boundary (`siconos.step`). Scenes it cannot model (walls placed by absolute `x`) are
+//! [`EngineError::Unsupported`] (skipped by the harness).
 
 use super::{Engine, EngineError, RunOutput};
 use crate::scene::{Scene, SceneError};
@@ -27,8 +37,21 @@ pub const DEFAULT_TIMEOUT_S: f64 = 600.0;
 /// Environment variable naming the Python interpreter of the workers.
 pub const PYTHON_ENV: &str = "ROCKBENCH_PYTHON";
 
-/// Names of the engines run by the Python worker.
-pub const EXTERNAL_ENGINES: [&str; 2] = ["mujoco", "pybullet"];
+/// Environment variable naming the interpreter of the Siconos worker.
+pub const SICONOS_PYTHON_ENV: &str = "ROCKBENCH_SICONOS_PYTHON";
+
+/// The Siconos interpreter's directory (`make siconos`), relative to the working directory or
+/// the source tree.
+pub const SICONOS_VENV: &str = ".siconos-venv";
+
+/// Default `siconos.step`, s (the worker's `SETTINGS["step"]`; a test compares them).
+pub const SICONOS_DEFAULT_STEP: f64 = 1e-4;
+
+/// The Siconos worker script, written next to its input for every run.
+pub const SICONOS_WORKER: &str = include_str!("../../python/rockbench/siconos_worker.py");
+
+/// Names of the engines run by a Python worker.
+pub const EXTERNAL_ENGINES: [&str; 3] = ["mujoco", "pybullet", "siconos"];
 
 /// An engine run by `python -m rockbench.worker`.
 #[derive(Debug, Clone)]
@@ -77,6 +100,9 @@ impl ExternalEngine {
         if let Some(p) = &self.python {
             return Ok(p.clone());
         }
+        if self.engine == "siconos" {
+            return self.siconos_interpreter();
+        }
         if let Some(p) = std::env::var_os(PYTHON_ENV).filter(|p| !p.is_empty()) {
             return Ok(PathBuf::from(p));
         }
@@ -95,12 +121,104 @@ impl ExternalEngine {
         )))
     }
 
+    fn siconos_interpreter(&self) -> Result<PathBuf, EngineError> {
+        if let Some(p) = std::env::var_os(SICONOS_PYTHON_ENV).filter(|p| !p.is_empty()) {
+            return Ok(PathBuf::from(p));
+        }
+        let here = Path::new(SICONOS_VENV).join("bin/python");
+        if here.exists() {
+            return Ok(here);
+        }
+        let tree = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(SICONOS_VENV)
+            .join("bin/python");
+        if tree.exists() {
+            return Ok(tree);
+        }
+        Err(self.failed(format!(
+            "no Siconos interpreter: neither ./{SICONOS_VENV}/bin/python nor {} exists: run \
+             `make siconos` (or set {SICONOS_PYTHON_ENV})",
+            tree.display()
+        )))
+    }
+
+    /// The scene's table of this engine's settings.
+    fn table<'a>(&self, scene: &'a Scene) -> Option<&'a serde_json::Value> {
+        match self.engine {
+            "mujoco" => scene.mujoco.as_ref(),
+            "siconos" => scene.siconos.as_ref(),
+            _ => scene.pybullet.as_ref(),
+        }
+    }
+
+    /// `siconos.step`: the step the ground motion is sampled at (the worker checks the rest).
+    pub fn siconos_step(scene: &Scene) -> Result<f64, EngineError> {
+        let Some(v) = scene.siconos.as_ref().and_then(|t| t.get("step")) else {
+            return Ok(SICONOS_DEFAULT_STEP);
+        };
+        match v.as_f64() {
+            Some(s) if s.is_finite() && s > 0.0 => Ok(s),
+            _ => Err(EngineError::Scene(SceneError::new(
+                &scene.source,
+                "siconos.step",
+                format!("must be a positive number (got {v})"),
+            ))),
+        }
+    }
+
+    /// What the Siconos worker reads: the scene and what only this crate computes.
+    fn siconos_input(&self, scene: &Scene) -> Result<serde_json::Value, EngineError> {
+        for b in &scene.blocks {
+            if b.x.is_some() {
+                return Err(EngineError::Unsupported {
+                    engine: "siconos",
+                    scene: scene.name.clone(),
+                    reason: format!(
+                        "block `{}` is placed by absolute `x` (walls): only single blocks and \
+                         stacks are modelled",
+                        b.name
+                    ),
+                });
+            }
+        }
+        let layout = scene.layout();
+        let blocks: Vec<serde_json::Value> = layout
+            .blocks
+            .iter()
+            .map(|b| {
+                serde_json::json!({
+                    "x": b.x, "z": b.z, "phi": b.phi, "vx": b.vx, "vz": b.vz, "omega": b.omega
+                })
+            })
+            .collect();
+        let friction: Vec<f64> = (0..scene.blocks.len())
+            .map(|i| scene.friction_below(i))
+            .collect();
+        let mut input = serde_json::json!({
+            "scene": scene.to_json(),
+            "layout": blocks,
+            "supports": layout.supports,
+            "friction_below": friction,
+        });
+        if scene.has_excitation() {
+            let step = Self::siconos_step(scene)?;
+            let gm =
+                crate::excitation::GroundMotion::from_scene(scene).map_err(EngineError::Scene)?;
+            let n = (scene.duration / step).round().max(1.0) as usize;
+            let (mut vx, mut vz) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
+            for k in 0..=n {
+                let (a, b) = gm.vel(k as f64 * step);
+                vx.push(a);
+                vz.push(b);
+            }
+            input["ground"] = serde_json::json!({ "step": step, "vx": vx, "vz": vz });
+        }
+        Ok(input)
+    }
+
     /// The worker's wall-clock limit from the scene's `<engine>.timeout`.
     pub fn timeout(&self, scene: &Scene) -> Result<Duration, EngineError> {
-        let table = match self.engine {
-            "mujoco" => scene.mujoco.as_ref(),
-            _ => scene.pybullet.as_ref(),
-        };
+        let table = self.table(scene);
         let Some(v) = table.and_then(|t| t.get("timeout")) else {
             return Ok(Duration::from_secs_f64(DEFAULT_TIMEOUT_S));
         };
@@ -115,11 +233,21 @@ impl ExternalEngine {
     }
 
     fn run_in(&self, scene: &Scene, dir: &Path) -> Result<RunOutput, EngineError> {
+        let siconos = self.engine == "siconos";
+        let input = if siconos {
+            Some(self.siconos_input(scene)?)
+        } else {
+            None
+        };
         let python = self.interpreter()?;
         let timeout = self.timeout(scene)?;
         let scene_json = dir.join("scene.json");
         let out = dir.join("out");
-        let json = serde_json::to_string_pretty(&scene.to_json()).expect("scenes serialise");
+        let json = match &input {
+            Some(v) => serde_json::to_string(v),
+            None => serde_json::to_string_pretty(&scene.to_json()),
+        }
+        .expect("scenes serialise");
         std::fs::write(&scene_json, json)
             .map_err(|e| self.failed(format!("cannot write {}: {e}", scene_json.display())))?;
         let log = |name: &str| {
@@ -127,8 +255,17 @@ impl ExternalEngine {
                 .map_err(|e| self.failed(format!("cannot create {}: {e}", dir.display())))
         };
         let mut cmd = Command::new(&python);
-        cmd.args(["-m", "rockbench.worker", "--engine", self.engine, "--scene"])
-            .arg(&scene_json)
+        if siconos {
+            let script = dir.join("siconos_worker.py");
+            std::fs::write(&script, SICONOS_WORKER)
+                .map_err(|e| self.failed(format!("cannot write {}: {e}", script.display())))?;
+            cmd.arg(&script)
+                .arg("--input")
+                .env("OPENBLAS_NUM_THREADS", "1");
+        } else {
+            cmd.args(["-m", "rockbench.worker", "--engine", self.engine, "--scene"]);
+        }
+        cmd.arg(&scene_json)
             .arg("--out")
             .arg(&out)
             .arg("--source")
@@ -140,8 +277,13 @@ impl ExternalEngine {
             cmd.env(k, v);
         }
         let mut child = cmd.spawn().map_err(|e| {
+            let (make, env) = if siconos {
+                ("siconos", SICONOS_PYTHON_ENV)
+            } else {
+                (".venv", PYTHON_ENV)
+            };
             self.failed(format!(
-                "cannot start the Python worker {}: {e}: run `make .venv` (or set {PYTHON_ENV})",
+                "cannot start the Python worker {}: {e}: run `make {make}` (or set {env})",
                 python.display()
             ))
         })?;
@@ -164,6 +306,13 @@ impl ExternalEngine {
             }
         };
         let stderr = std::fs::read_to_string(dir.join("stderr.txt")).unwrap_or_default();
+        if siconos && status.code() == Some(5) {
+            return Err(EngineError::Unsupported {
+                engine: "siconos",
+                scene: scene.name.clone(),
+                reason: one_line(stderr.trim()),
+            });
+        }
         if !status.success() {
             return Err(self.failed(self.exit_reason(&python, status, &stderr)));
         }

@@ -66,9 +66,11 @@ pub trait Engine: Send + Sync {
 }
 
 #[cfg(feature = "rapier")]
-pub const ENGINE_NAMES: &[&str] = &["native", "housner", "rapier", "mujoco", "pybullet"];
+pub const ENGINE_NAMES: &[&str] = &[
+    "native", "housner", "rapier", "mujoco", "pybullet", "siconos",
+];
 #[cfg(not(feature = "rapier"))]
-pub const ENGINE_NAMES: &[&str] = &["native", "housner", "mujoco", "pybullet"];
+pub const ENGINE_NAMES: &[&str] = &["native", "housner", "mujoco", "pybullet", "siconos"];
 
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     match name {
@@ -82,7 +84,7 @@ pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
             engine: "rapier",
             feature: "rapier",
         }),
-        "mujoco" | "pybullet" => Ok(Box::new(
+        "mujoco" | "pybullet" | "siconos" => Ok(Box::new(
             external::ExternalEngine::new(name).expect("an external engine name"),
         )),
         other => Err(EngineError::Unknown(other.to_string())),

@@ -109,6 +109,10 @@ pub struct Scene {
     pub mujoco: Option<serde_json::Value>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pybullet: Option<serde_json::Value>,
+    /// Settings of the Siconos engine (the worker validates them; the harness reads `step` and
+    /// `timeout`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub siconos: Option<serde_json::Value>,
     /// Directory of the scene file: record paths are relative to it.
     #[serde(skip)]
     pub base_dir: PathBuf,
