@@ -44,6 +44,7 @@ use crate::scene::{ExcitationSpec, MotionSpec, Scene};
 use crate::trajectory::Trajectory;
 use serde::Serialize;
 use std::f64::consts::PI;
+use std::time::Instant;
 
 /// A single block below this fraction of its tipping energy after the pulse is safe (early stop).
 pub const SAFE_ENERGY_FRACTION: f64 = 0.9;
@@ -333,9 +334,13 @@ impl<'a> Spectrum<'a> {
     /// Run at (ratio, amplitude) and decide.
     pub fn run(&self, ratio: f64, amplitude: f64) -> Result<Outcome, EngineError> {
         let scene = self.scene(ratio, amplitude);
-        let (tr, exact, stop) = if self.engine.name() == "native" && self.settings.early_stop {
+        let early = self.settings.early_stop;
+        let (tr, exact, stop) = if self.engine.name() == "native" && early {
             let (tr, stop) = native_early_stop(&scene)?;
             (tr, None, stop)
+        } else if self.engine.name() == "housner" && early && scene.blocks.len() == 1 {
+            let (tr, impacts, stop) = housner_early_stop(&scene)?;
+            (tr, Some(vec![impacts]), stop)
         } else {
             let out = self.engine.run(&scene)?;
             if !out.trajectory.is_finite() {
@@ -442,6 +447,44 @@ impl<'a> Spectrum<'a> {
     }
 }
 
+/// The similarity law (Dimitrakopoulos & DeJong 2012): `phi/alpha` of the bottom block against
+/// `p t` of two scenes driven by the same pulse at the same `Pi` and `A` (full runs, no early
+/// stop), on a common grid of `n` points over `[0, p t_d + tail]`: (p t, curve of `a`, curve of
+/// `b`). The samples are interpolated linearly.
+pub fn similarity(
+    a: &Scene,
+    b: &Scene,
+    engine: &dyn Engine,
+    pulse: Pulse,
+    ratio: f64,
+    amplitude: f64,
+    settings: &Settings,
+    n: usize,
+) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), EngineError> {
+    let curve = |s: &Scene| -> Result<(Vec<f64>, Vec<f64>, f64), EngineError> {
+        let sp = Spectrum::new(s, engine, pulse, settings);
+        let scene = sp.scene(ratio, amplitude);
+        let out = engine.run(&scene)?;
+        let b = &out.trajectory.blocks[0];
+        let pt: Vec<f64> = out.trajectory.t.iter().map(|t| t * sp.p).collect();
+        let y: Vec<f64> = b.phi.iter().map(|x| x / sp.alpha).collect();
+        let end = scene.duration * sp.p;
+        Ok((pt, y, end))
+    };
+    let (xa, ya, ea) = curve(a)?;
+    let (xb, yb, eb) = curve(b)?;
+    let end = ea.min(eb);
+    let grid: Vec<f64> = (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect();
+    let interp = |x: &[f64], y: &[f64], t: f64| -> f64 {
+        let k = x.partition_point(|&s| s <= t).clamp(1, x.len() - 1);
+        let f = ((t - x[k - 1]) / (x[k] - x[k - 1])).clamp(0.0, 1.0);
+        y[k - 1] + f * (y[k] - y[k - 1])
+    };
+    let ga = grid.iter().map(|&t| interp(&xa, &ya, t)).collect();
+    let gb = grid.iter().map(|&t| interp(&xb, &yb, t)).collect();
+    Ok((grid, ga, gb))
+}
+
 /// The result of a minimum search at one ratio.
 #[derive(Debug, Clone, Serialize)]
 pub struct Minimum {
@@ -493,7 +536,7 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
     let single = scene.blocks.len() == 1;
     let b0 = &scene.blocks[0];
     let z_rest = layout.blocks[0].z;
-    let barrier = scene.gravity * (0.5 * b0.width.hypot(b0.height) - 0.5 * b0.height);
+    let barrier = tipping_energy(b0, scene.gravity);
     let mut prev: Vec<f64> = vec![0.0; scene.blocks.len()];
     for k in 1..=n_steps {
         stepper
@@ -525,13 +568,11 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
             if still >= window {
                 return Ok((tr, Stop::AtRest));
             }
-            if single && rel[0].0.abs() < crit[0] {
-                // Energy per unit mass: kinetic (centroid and rotation about it) + potential.
-                let s = &states[0];
-                let i_over_m = (b0.width * b0.width + b0.height * b0.height) / 12.0;
-                let e = 0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5])
-                    + scene.gravity * (s[1] - z_rest);
-                if e < SAFE_ENERGY_FRACTION * barrier {
+            if single
+                && rel[0].0.abs() < crit[0]
+                && energy(&states[0], b0, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier
+            {
+                {
                     return Ok((tr, Stop::BelowTippingEnergy));
                 }
             }
@@ -541,6 +582,85 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
         }
     }
     Ok((tr, Stop::End))
+}
+
+/// Mechanical energy per unit mass of a block's state `(x, z, phi, vx, vz, omega)` relative to
+/// the ground: kinetic (centroid and rotation about it) plus potential above `z_rest`.
+fn energy(s: &[f64; 6], b: &crate::scene::BlockSpec, g: f64, z_rest: f64) -> f64 {
+    let i_over_m = (b.width * b.width + b.height * b.height) / 12.0;
+    0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5]) + g * (s[1] - z_rest)
+}
+
+/// The energy per unit mass a block at rest needs to tip over its corner: `g (R - H/2)`.
+fn tipping_energy(b: &crate::scene::BlockSpec, g: f64) -> f64 {
+    g * (0.5 * b.width.hypot(b.height) - 0.5 * b.height)
+}
+
+/// The Housner engine's integration ([`housner::integrate`], the engine's settings) through
+/// the pulse, then free rocking in chunks of 1/p with the early stops of the module docs
+/// checked between chunks. Returns the trajectory (the engine's centroid states), the impact
+/// instants above the noise floor and the stop.
+pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop), EngineError> {
+    use crate::engines::housner::{self, HousnerBlock, Span};
+    let gm = GroundMotion::from_scene(scene)?;
+    let b = &scene.blocks[0];
+    let blk = HousnerBlock::new(b.width, b.height, scene.gravity, scene.housner.restitution);
+    let step = housner::housner_step(&blk, &scene.housner);
+    let span = |duration: f64| Span {
+        duration,
+        output_interval: scene.output_interval,
+        max_step: step,
+        event_tolerance: scene.housner.event_tolerance,
+    };
+    let pulse_end = gm.breakpoints().last().copied().unwrap_or(0.0);
+    let chunk = (1.0 / blk.p2.sqrt()).max(scene.output_interval);
+    let mut tr = Trajectory::new(std::slice::from_ref(&b.name));
+    let mut impacts = Vec::new();
+    let z_rest = 0.5 * b.height;
+    let barrier = tipping_energy(b, scene.gravity);
+    let free = GroundMotion::default();
+    let (mut t0, mut state) = (0.0, (0.0, 0.0));
+    let mut first = true;
+    loop {
+        let len = if first {
+            pulse_end.min(scene.duration)
+        } else {
+            chunk.min(scene.duration - t0)
+        };
+        let run = housner::integrate(&blk, if first { &gm } else { &free }, state, span(len));
+        for (k, (t, s)) in run.trajectory.iter().enumerate() {
+            if k > 0 || first {
+                tr.push(t0 + t, &[*s]);
+            }
+        }
+        impacts.extend(
+            run.impacts
+                .iter()
+                .filter(|(_, amp)| *amp >= events::NOISE_FLOOR)
+                .map(|(t, _)| t0 + t),
+        );
+        first = false;
+        t0 += len;
+        let s = run.trajectory.last().expect("one sample").1;
+        let (th, om) = (s[2], s[5]);
+        state = (th, om);
+        if t0 >= scene.duration - 1e-12 {
+            return Ok((tr, impacts, Stop::End));
+        }
+        if th.abs() >= std::f64::consts::FRAC_PI_2 - events::ON_SIDE_TOLERANCE
+            || (th.abs() > blk.alpha && th * om > 0.0)
+        {
+            return Ok((tr, impacts, Stop::Overturned));
+        }
+        if th == 0.0 && om == 0.0 {
+            return Ok((tr, impacts, Stop::AtRest));
+        }
+        if th.abs() < blk.alpha
+            && energy(&s, b, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier
+        {
+            return Ok((tr, impacts, Stop::BelowTippingEnergy));
+        }
+    }
 }
 
 /// The engine's name, checked (one line for an unknown one).
@@ -556,7 +676,12 @@ pub fn parse_block(s: &str) -> Option<(f64, f64)> {
 }
 
 /// The scene of a single block `B x H` on the ground with the given friction.
-pub fn block_scene(width: f64, height: f64, friction: f64) -> Result<Scene, String> {
+pub fn block_scene(
+    width: f64,
+    height: f64,
+    friction: f64,
+    overrides: &[String],
+) -> Result<Scene, String> {
     if !(width.is_finite() && width > 0.0 && height.is_finite() && height > 0.0) {
         return Err(format!(
             "a block is BxH with B, H > 0 metres (got {width}x{height})"
@@ -565,7 +690,8 @@ pub fn block_scene(width: f64, height: f64, friction: f64) -> Result<Scene, Stri
     let text = format!(
         "name = \"block {width}x{height}\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = {width}\nheight = {height}\n\n[contact]\nfriction = {friction}\n"
     );
-    let s = crate::scene::parse_scene_str(&text, false, "block", &[]).map_err(|e| e.to_string())?;
+    let s = crate::scene::parse_scene_str(&text, false, "block", overrides)
+        .map_err(|e| e.to_string())?;
     s.check().map_err(|e| e.to_string())?;
     Ok(s)
 }
@@ -598,6 +724,433 @@ pub fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
         return Err(format!("{what} must be > 0 (got {x})"));
     }
     Ok(v)
+}
+
+/// A whole spectrum: pulses x engines, minimum curves and maps.
+#[derive(Debug, Clone)]
+pub struct Request {
+    pub pulses: Vec<Pulse>,
+    pub engines: Vec<String>,
+    /// Ratios of the minimum search.
+    pub ratios: Vec<f64>,
+    /// The map grid (empty: no map).
+    pub map_ratios: Vec<f64>,
+    pub map_amplitudes: Vec<f64>,
+    /// Also search the lowest amplitude that overturns without impact.
+    pub no_impact: bool,
+    pub settings: Settings,
+}
+
+/// One minimum of one engine and pulse.
+#[derive(Debug, Clone, Serialize)]
+pub struct MinimumRow {
+    pub engine: String,
+    pub pulse: Pulse,
+    pub ratio: f64,
+    /// p t_d of the pulse.
+    pub p_td: f64,
+    /// Lowest amplitude that overturns, and the safe one below it.
+    pub minimum: Minimum,
+    /// Lowest amplitude that overturns without impact (with `no_impact`).
+    pub without_impact: Option<Minimum>,
+    pub closed_form: Option<f64>,
+    pub wall_s: f64,
+}
+
+/// One cell of a map.
+#[derive(Debug, Clone, Serialize)]
+pub struct MapCell {
+    pub engine: String,
+    pub pulse: Pulse,
+    pub ratio: f64,
+    pub outcome: Outcome,
+}
+
+/// Everything a spectrum computed.
+#[derive(Debug, Clone, Serialize)]
+pub struct Results {
+    pub minima: Vec<MinimumRow>,
+    pub map: Vec<MapCell>,
+    /// Engine -> (settings of its last run, version).
+    pub engines: std::collections::BTreeMap<String, serde_json::Value>,
+    pub p: f64,
+    pub alpha: f64,
+    pub wall_s: f64,
+}
+
+fn native_version() -> String {
+    format!(
+        "rockbench {} (clarabel {}, nalgebra {})",
+        env!("CARGO_PKG_VERSION"),
+        env!("RB_VERSION_CLARABEL"),
+        env!("RB_VERSION_NALGEBRA")
+    )
+}
+
+/// Run a whole spectrum; `progress` gets one line per minimum and per map row.
+pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<Results, String> {
+    req.settings.check()?;
+    let start = Instant::now();
+    let (p, alpha) = p_alpha(base);
+    let mut res = Results {
+        minima: Vec::new(),
+        map: Vec::new(),
+        engines: Default::default(),
+        p,
+        alpha,
+        wall_s: 0.0,
+    };
+    for name in &req.engines {
+        let eng = engine(name)?;
+        let fail = |e: EngineError| format!("{name}: {e}");
+        for &pulse in &req.pulses {
+            let sp = Spectrum::new(base, eng.as_ref(), pulse, &req.settings);
+            for &r in &req.ratios {
+                let t0 = Instant::now();
+                let m = sp.minimum(r, |o| o.overturned).map_err(fail)?;
+                let w = if req.no_impact {
+                    Some(sp.minimum(r, |o| o.without_impact).map_err(fail)?)
+                } else {
+                    None
+                };
+                let row = MinimumRow {
+                    engine: name.clone(),
+                    pulse,
+                    ratio: r,
+                    p_td: pulse.duration(r * p) * p,
+                    minimum: m,
+                    without_impact: w,
+                    closed_form: closed_form(pulse, r),
+                    wall_s: t0.elapsed().as_secs_f64(),
+                };
+                progress(&format!(
+                    "{name} {} Pi={r}: A_min {}{} ({} runs, {:.2} s)",
+                    pulse.name(),
+                    row.minimum
+                        .amplitude
+                        .map_or("none".into(), |a| format!("{a:.5}")),
+                    row.without_impact
+                        .as_ref()
+                        .and_then(|w| w.amplitude)
+                        .map_or(String::new(), |a| format!(", without impact {a:.5}")),
+                    row.minimum.runs + row.without_impact.as_ref().map_or(0, |w| w.runs),
+                    row.wall_s
+                ));
+                res.minima.push(row);
+            }
+            for &r in &req.map_ratios {
+                let t0 = Instant::now();
+                let cells = sp.map(&[r], &req.map_amplitudes).map_err(fail)?;
+                let n = cells.iter().filter(|(_, o)| o.overturned).count();
+                progress(&format!(
+                    "{name} {} Pi={r}: map {n}/{} overturn ({:.2} s)",
+                    pulse.name(),
+                    cells.len(),
+                    t0.elapsed().as_secs_f64()
+                ));
+                res.map
+                    .extend(cells.into_iter().map(|(ratio, outcome)| MapCell {
+                        engine: name.clone(),
+                        pulse,
+                        ratio,
+                        outcome,
+                    }));
+            }
+            let (settings, version) = if name == "native" && req.settings.early_stop {
+                (
+                    serde_json::to_value(&base.native).unwrap_or_default(),
+                    native_version(),
+                )
+            } else if name == "housner" && req.settings.early_stop && base.blocks.len() == 1 {
+                (
+                    serde_json::json!({
+                        "housner": base.housner,
+                        "integrator": "RK4 with bisection event location (housner::integrate), restarted every 1/p after the pulse for the early stop",
+                    }),
+                    format!("rockbench {} housner", env!("CARGO_PKG_VERSION")),
+                )
+            } else {
+                sp.engine_settings
+                    .borrow()
+                    .clone()
+                    .unwrap_or((serde_json::Value::Null, String::new()))
+            };
+            res.engines.insert(
+                name.clone(),
+                serde_json::json!({"version": version, "settings": settings}),
+            );
+        }
+    }
+    res.wall_s = start.elapsed().as_secs_f64();
+    Ok(res)
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map_or(String::new(), |x| format!("{x:.6}"))
+}
+
+/// `minimum.csv`.
+pub fn minimum_csv(res: &Results) -> String {
+    let mut s = String::from(
+        "engine,pulse,ratio,p_td,a_min,a_safe_below,runs,a_min_without_impact,a_safe_below_without_impact,runs_without_impact,closed_form,closed_form_kind,error_pct,wall_s\n",
+    );
+    for r in &res.minima {
+        let w = r.without_impact.as_ref();
+        // The closed form is compared with the boundary it describes.
+        let measured = match r.pulse {
+            Pulse::OneSine => w.and_then(|w| w.amplitude),
+            _ => r.minimum.amplitude,
+        };
+        let err = match (measured, r.closed_form) {
+            (Some(m), Some(c)) => format!("{:.4}", (m / c - 1.0) * 100.0),
+            _ => String::new(),
+        };
+        s += &format!(
+            "{},{},{},{:.6},{},{:.6},{},{},{},{},{},{},{err},{:.3}\n",
+            r.engine,
+            r.pulse.name(),
+            r.ratio,
+            r.p_td,
+            opt(r.minimum.amplitude),
+            r.minimum.safe_below,
+            r.minimum.runs,
+            opt(w.and_then(|w| w.amplitude)),
+            w.map_or(String::new(), |w| format!("{:.6}", w.safe_below)),
+            w.map_or(String::new(), |w| w.runs.to_string()),
+            opt(r.closed_form),
+            closed_form_kind(r.pulse).unwrap_or(""),
+            r.wall_s
+        );
+    }
+    s
+}
+
+/// `map.csv`.
+pub fn map_csv(res: &Results) -> String {
+    let mut s = String::from(
+        "engine,pulse,ratio,amplitude,overturned,without_impact,p_t_overturn,stop,p_t_end\n",
+    );
+    for c in &res.map {
+        let o = &c.outcome;
+        s += &format!(
+            "{},{},{},{},{},{},{},{},{:.4}\n",
+            c.engine,
+            c.pulse.name(),
+            c.ratio,
+            o.amplitude,
+            o.overturned,
+            o.without_impact,
+            opt(o.p_t_overturn),
+            o.stop.name(),
+            o.p_t_end
+        );
+    }
+    s
+}
+
+const COLORS: [&str; 5] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// One SVG per pulse: a panel per engine with the overturn/safe map (filled: overturns,
+/// empty: safe) and the minimum curves of every engine and the closed form.
+pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
+    use std::fmt::Write as _;
+    let mins: Vec<&MinimumRow> = res.minima.iter().filter(|r| r.pulse == pulse).collect();
+    let cells: Vec<&MapCell> = res.map.iter().filter(|c| c.pulse == pulse).collect();
+    let xs: Vec<f64> = mins
+        .iter()
+        .map(|r| r.ratio)
+        .chain(cells.iter().map(|c| c.ratio))
+        .collect();
+    let ys: Vec<f64> = mins
+        .iter()
+        .filter_map(|r| r.minimum.amplitude)
+        .chain(cells.iter().map(|c| c.outcome.amplitude))
+        .collect();
+    let (x0, x1) = (0.0, xs.iter().cloned().fold(1.0, f64::max) * 1.05);
+    let (y0, y1) = (0.0, ys.iter().cloned().fold(2.0, f64::max) * 1.05);
+    let (pw, ph, ml, mt, mb) = (420.0, 320.0, 60.0, 40.0, 50.0);
+    let n = engines.len().max(1);
+    let width = n as f64 * (pw + ml + 20.0);
+    let legend = 15.0 * (2 * engines.len() + 2) as f64;
+    let height = ph + mt + mb + 30.0 + legend;
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = write!(
+        s,
+        r#"<rect width="100%" height="100%" fill="white"/><text x="10" y="18" font-size="14">{} pulse: minimum overturning amplitude and overturn/safe map (p = {:.4} 1/s, alpha = {:.4} rad)</text>"#,
+        pulse.name(),
+        res.p,
+        res.alpha
+    );
+    for (k, eng) in engines.iter().enumerate() {
+        let ox = k as f64 * (pw + ml + 20.0) + ml;
+        let px = |x: f64| ox + (x - x0) / (x1 - x0) * pw;
+        let py = |y: f64| mt + ph - (y - y0) / (y1 - y0) * ph;
+        let _ = write!(
+            s,
+            r#"<rect x="{ox}" y="{mt}" width="{pw}" height="{ph}" fill="none" stroke="black"/><text x="{}" y="{}" text-anchor="middle" font-size="13">{}</text>"#,
+            ox + pw / 2.0,
+            mt - 6.0,
+            esc(eng)
+        );
+        for t in crate::report::svg::ticks(x0, x1, 6) {
+            let _ = write!(
+                s,
+                r#"<line x1="{0}" x2="{0}" y1="{1}" y2="{2}" stroke="black"/><text x="{0}" y="{3}" text-anchor="middle">{t}</text>"#,
+                px(t),
+                mt + ph,
+                mt + ph + 5.0,
+                mt + ph + 18.0
+            );
+        }
+        for t in crate::report::svg::ticks(y0, y1, 6) {
+            let _ = write!(
+                s,
+                r#"<line x1="{0}" x2="{1}" y1="{2}" y2="{2}" stroke="black"/><text x="{3}" y="{4}" text-anchor="end">{t}</text>"#,
+                ox - 5.0,
+                ox,
+                py(t),
+                ox - 8.0,
+                py(t) + 4.0
+            );
+        }
+        let _ = write!(
+            s,
+            r#"<text x="{}" y="{}" text-anchor="middle">omega_p / p</text><text x="{}" y="{}" text-anchor="middle" transform="rotate(-90 {} {})">a_p / (g tan alpha)</text>"#,
+            ox + pw / 2.0,
+            mt + ph + 36.0,
+            ox - 42.0,
+            mt + ph / 2.0,
+            ox - 42.0,
+            mt + ph / 2.0
+        );
+        for c in cells.iter().filter(|c| &c.engine == eng) {
+            let (x, y) = (px(c.ratio), py(c.outcome.amplitude));
+            if c.outcome.overturned {
+                let fill = if c.outcome.without_impact {
+                    "#333"
+                } else {
+                    "#e08040"
+                };
+                let _ = write!(
+                    s,
+                    r##"<circle cx="{x:.2}" cy="{y:.2}" r="3" fill="{fill}"/>"##
+                );
+            } else {
+                let _ = write!(
+                    s,
+                    r##"<circle cx="{x:.2}" cy="{y:.2}" r="3" fill="none" stroke="#999"/>"##
+                );
+            }
+        }
+        // Closed form (dashed), then every engine's minimum curve; this panel's engine bold.
+        let mut lines: Vec<(String, &str, bool, f64, Vec<(f64, f64)>)> = Vec::new();
+        let rs: Vec<f64> = {
+            let mut v: Vec<f64> = mins.iter().map(|r| r.ratio).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        };
+        if closed_form(pulse, 1.0).is_some() && !rs.is_empty() {
+            let (a, b) = (rs[0], rs[rs.len() - 1]);
+            let pts = (0..=100)
+                .map(|i| a + (b - a) * i as f64 / 100.0)
+                .filter_map(|r| closed_form(pulse, r).map(|c| (r, c)))
+                .filter(|&(_, c)| c <= y1)
+                .collect();
+            lines.push((
+                format!("closed form ({})", closed_form_kind(pulse).unwrap_or("")),
+                "black",
+                true,
+                1.0,
+                pts,
+            ));
+        }
+        for (j, e) in engines.iter().enumerate() {
+            let pts = mins
+                .iter()
+                .filter(|r| &r.engine == e)
+                .filter_map(|r| r.minimum.amplitude.map(|a| (r.ratio, a)))
+                .collect();
+            let w = if e == eng { 2.5 } else { 1.0 };
+            lines.push((format!("{e}: minimum"), COLORS[j % 5], false, w, pts));
+            let pts: Vec<(f64, f64)> = mins
+                .iter()
+                .filter(|r| &r.engine == e)
+                .filter_map(|r| {
+                    r.without_impact
+                        .as_ref()
+                        .and_then(|m| m.amplitude)
+                        .map(|a| (r.ratio, a))
+                })
+                .collect();
+            if !pts.is_empty() {
+                lines.push((
+                    format!("{e}: minimum without impact"),
+                    COLORS[j % 5],
+                    true,
+                    w,
+                    pts,
+                ));
+            }
+        }
+        for (li, (name, color, dashed, w, pts)) in lines.iter().enumerate() {
+            if pts.is_empty() {
+                continue;
+            }
+            let d: Vec<String> = pts
+                .iter()
+                .map(|&(x, y)| format!("{:.2},{:.2}", px(x), py(y)))
+                .collect();
+            let dash = if *dashed {
+                r#" stroke-dasharray="6 4""#
+            } else {
+                ""
+            };
+            let _ = write!(
+                s,
+                r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="{w}"{dash}/>"#,
+                d.join(" ")
+            );
+            let ly = mt + ph + 56.0 + 15.0 * li as f64;
+            let _ = write!(
+                s,
+                r#"<line x1="{}" x2="{}" y1="{ly}" y2="{ly}" stroke="{color}" stroke-width="2"{dash}/><text x="{}" y="{}">{}</text>"#,
+                ox + 8.0,
+                ox + 30.0,
+                ox + 34.0,
+                ly + 4.0,
+                esc(name)
+            );
+        }
+        if !cells.is_empty() {
+            let ly = mt + ph + 56.0 + 15.0 * lines.len() as f64;
+            let _ = write!(
+                s,
+                r##"<circle cx="{}" cy="{ly}" r="3" fill="#333"/><text x="{}" y="{}">overturns without impact</text><circle cx="{}" cy="{ly}" r="3" fill="#e08040"/><text x="{}" y="{}">after impact</text><circle cx="{}" cy="{ly}" r="3" fill="none" stroke="#999"/><text x="{}" y="{}">safe</text>"##,
+                ox + 14.0,
+                ox + 22.0,
+                ly + 4.0,
+                ox + 184.0,
+                ox + 192.0,
+                ly + 4.0,
+                ox + 284.0,
+                ox + 292.0,
+                ly + 4.0
+            );
+        }
+    }
+    s += "</svg>\n";
+    s
 }
 
 #[cfg(test)]
@@ -637,7 +1190,7 @@ mod tests {
         assert!(parse_list("1,x", "--ratios").unwrap_err().contains("`x`"));
         assert_eq!(parse_list("1:3:3", "r").unwrap(), vec![1.0, 2.0, 3.0]);
         assert_eq!(parse_block("0.2x4"), Some((0.2, 4.0)));
-        assert!(block_scene(0.0, 4.0, 1.0).is_err());
+        assert!(block_scene(0.0, 4.0, 1.0, &[]).is_err());
         let s = Settings {
             tolerance: 0.1,
             ..Settings::default()
