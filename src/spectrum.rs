@@ -221,7 +221,7 @@ impl Settings {
         pos("--tolerance", self.tolerance)?;
         pos("--scan-from", self.scan_from)?;
         pos("--scan-step", self.scan_step)?;
-        if !(self.scan_to > self.scan_from) {
+        if self.scan_to.is_nan() || self.scan_to <= self.scan_from {
             return Err(format!(
                 "--scan-to must exceed --scan-from (got {} and {})",
                 self.scan_to, self.scan_from
@@ -447,6 +447,9 @@ impl<'a> Spectrum<'a> {
     }
 }
 
+/// Curves of [`similarity`]: p t and phi/alpha of the two scenes.
+pub type Similarity = (Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// The similarity law (Dimitrakopoulos & DeJong 2012): `phi/alpha` of the bottom block against
 /// `p t` of two scenes driven by the same pulse at the same `Pi` and `A` (full runs, no early
 /// stop), on a common grid of `n` points over `[0, p t_d + tail]`: (p t, curve of `a`, curve of
@@ -455,12 +458,10 @@ pub fn similarity(
     a: &Scene,
     b: &Scene,
     engine: &dyn Engine,
-    pulse: Pulse,
-    ratio: f64,
-    amplitude: f64,
+    (pulse, ratio, amplitude): (Pulse, f64, f64),
     settings: &Settings,
     n: usize,
-) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), EngineError> {
+) -> Result<Similarity, EngineError> {
     let curve = |s: &Scene| -> Result<(Vec<f64>, Vec<f64>, f64), EngineError> {
         let sp = Spectrum::new(s, engine, pulse, settings);
         let scene = sp.scene(ratio, amplitude);
@@ -948,6 +949,9 @@ pub fn map_csv(res: &Results) -> String {
     s
 }
 
+/// A curve of the spectrum plot: name, colour, dashed, width, points.
+type Line<'a> = (String, &'a str, bool, f64, Vec<(f64, f64)>);
+
 const COLORS: [&str; 5] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
 
 fn esc(s: &str) -> String {
@@ -986,7 +990,7 @@ pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
     );
     let _ = write!(
         s,
-        r#"<rect width="100%" height="100%" fill="white"/><text x="10" y="18" font-size="14">{} pulse: minimum overturning amplitude and overturn/safe map (p = {:.4} 1/s, alpha = {:.4} rad)</text>"#,
+        r#"<rect width="100%" height="100%" fill="white"/><text x="10" y="18" font-size="14">{} pulse: minimum overturning amplitude and map (p = {:.4} 1/s, alpha = {:.4} rad)</text>"#,
         pulse.name(),
         res.p,
         res.alpha
@@ -997,7 +1001,7 @@ pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
         let py = |y: f64| mt + ph - (y - y0) / (y1 - y0) * ph;
         let _ = write!(
             s,
-            r#"<rect x="{ox}" y="{mt}" width="{pw}" height="{ph}" fill="none" stroke="black"/><text x="{}" y="{}" text-anchor="middle" font-size="13">{}</text>"#,
+            r#"<clipPath id="panel{k}"><rect x="{ox}" y="{mt}" width="{pw}" height="{ph}"/></clipPath><rect x="{ox}" y="{mt}" width="{pw}" height="{ph}" fill="none" stroke="black"/><text x="{}" y="{}" text-anchor="middle" font-size="13">{}</text>"#,
             ox + pw / 2.0,
             mt - 6.0,
             esc(eng)
@@ -1053,7 +1057,7 @@ pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
             }
         }
         // Closed form (dashed), then every engine's minimum curve; this panel's engine bold.
-        let mut lines: Vec<(String, &str, bool, f64, Vec<(f64, f64)>)> = Vec::new();
+        let mut lines: Vec<Line> = Vec::new();
         let rs: Vec<f64> = {
             let mut v: Vec<f64> = mins.iter().map(|r| r.ratio).collect();
             v.sort_by(f64::total_cmp);
@@ -1118,7 +1122,7 @@ pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
             };
             let _ = write!(
                 s,
-                r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="{w}"{dash}/>"#,
+                r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="{w}"{dash} clip-path="url(#panel{k})"/>"#,
                 d.join(" ")
             );
             let ly = mt + ph + 56.0 + 15.0 * li as f64;

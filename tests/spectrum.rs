@@ -150,8 +150,15 @@ fn spectrum_similarity_law() {
         tail: 22.0 - PI / 3.0,
         ..Settings::default()
     };
-    let (pt, ya, yb) =
-        similarity(&a, &b, &HousnerEngine, Pulse::HalfSine, 3.0, 2.2, &st, 2201).unwrap();
+    let (pt, ya, yb) = similarity(
+        &a,
+        &b,
+        &HousnerEngine,
+        (Pulse::HalfSine, 3.0, 2.2),
+        &st,
+        2201,
+    )
+    .unwrap();
     let peak = ya.iter().fold(0.0f64, |m, y| m.max(y.abs()));
     let diff = ya
         .iter()
@@ -172,9 +179,7 @@ fn spectrum_similarity_law() {
         &a,
         &b,
         &HousnerEngine,
-        Pulse::HalfSine,
-        3.0,
-        2.2 * 1.02,
+        (Pulse::HalfSine, 3.0, 2.2 * 1.02),
         &st,
         2201,
     )
@@ -188,8 +193,15 @@ fn spectrum_similarity_law() {
         "a 2 % change in A moves the curve by {d2}, similarity {diff}"
     );
 
-    let (pt, ya, yb) =
-        similarity(&a, &b, &NativeEngine, Pulse::HalfSine, 3.0, 2.2, &st, 2201).unwrap();
+    let (pt, ya, yb) = similarity(
+        &a,
+        &b,
+        &NativeEngine,
+        (Pulse::HalfSine, 3.0, 2.2),
+        &st,
+        2201,
+    )
+    .unwrap();
     let first = ya.iter().position(|y| *y < -1e-3).unwrap_or(ya.len());
     let diff = ya[..first]
         .iter()

@@ -50,6 +50,13 @@ pub struct SpectrumArgs {
     /// Largest amplitude scanned.
     #[arg(long, default_value_t = 100.0)]
     scan_to: f64,
+    /// The similarity law: also run this second block `BxH` (same friction and --set) at
+    /// --similarity-at and write DIR/similarity.{csv,svg} (phi/alpha against p t, every engine).
+    #[arg(long)]
+    similarity: Option<String>,
+    /// `RATIO,AMPLITUDE` of the similarity runs (the first pulse of --pulse).
+    #[arg(long, default_value = "3,2.2")]
+    similarity_at: String,
     /// Run every native run to its end (no early stop at overturning, rest or low energy).
     #[arg(long)]
     no_early_stop: bool,
@@ -109,6 +116,26 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
             s
         }
     };
+    let similar = match &a.similarity {
+        Some(bh) => {
+            let (b, h) = spectrum::parse_block(bh)
+                .ok_or_else(|| anyhow!("--similarity: `{bh}` is not a block BxH (e.g. 0.12x6)"))?;
+            let at = spectrum::parse_list(&a.similarity_at, "--similarity-at")
+                .map_err(|e| anyhow!(e))?;
+            if at.len() != 2 {
+                return Err(anyhow!(
+                    "--similarity-at: give RATIO,AMPLITUDE (got {} numbers)",
+                    at.len()
+                ));
+            }
+            Some((
+                spectrum::block_scene(b, h, a.friction, &a.set).map_err(|e| anyhow!(e))?,
+                at[0],
+                at[1],
+            ))
+        }
+        None => None,
+    };
     let req = Request {
         pulses: pulses.clone(),
         engines: a.engines.clone(),
@@ -136,6 +163,65 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
             &format!("spectrum-{}.svg", p.name()),
             spectrum::svg(&res, p, &a.engines),
         )?;
+    }
+    if let Some((other, ratio, amp)) = &similar {
+        let st = Settings {
+            early_stop: false,
+            ..req.settings.clone()
+        };
+        let mut plot = crate::report::svg::Plot {
+            title: format!(
+                "Similarity: {} pulse, omega_p/p = {ratio}, a_p/(g tan alpha) = {amp}",
+                pulses[0].name()
+            ),
+            x_label: "p t".into(),
+            y_label: "phi / alpha".into(),
+            ..Default::default()
+        };
+        let mut csv = String::from("engine,p_t,phi_over_alpha_a,phi_over_alpha_b\n");
+        let colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+        let name = |s: &crate::scene::Scene| {
+            let b = &s.blocks[0];
+            let (_, al) = spectrum::p_alpha(s);
+            format!("{}x{} m (alpha {al:.3})", b.width, b.height)
+        };
+        for (k, e) in a.engines.iter().enumerate() {
+            let eng = spectrum::engine(e).map_err(|e| anyhow!(e))?;
+            let (pt, ya, yb) = spectrum::similarity(
+                &base,
+                other,
+                eng.as_ref(),
+                (pulses[0], *ratio, *amp),
+                &st,
+                2001,
+            )
+            .map_err(|err| anyhow!("--similarity: {e}: {err}"))?;
+            let diff = ya
+                .iter()
+                .zip(&yb)
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            eprintln!("similarity {e}: max |difference| of phi/alpha {diff:.5}");
+            for i in 0..pt.len() {
+                csv += &format!("{e},{:.6},{:.8},{:.8}\n", pt[i], ya[i], yb[i]);
+            }
+            let c = colors[k % colors.len()].to_string();
+            plot.curves.push(crate::report::svg::Curve {
+                name: format!("{e}: {}", name(&base)),
+                color: c.clone(),
+                dashed: false,
+                x: pt.clone(),
+                y: ya,
+            });
+            plot.curves.push(crate::report::svg::Curve {
+                name: format!("{e}: {} (max diff {diff:.4})", name(other)),
+                color: c,
+                dashed: true,
+                x: pt,
+                y: yb,
+            });
+        }
+        write("similarity.csv", csv)?;
+        write("similarity.svg", plot.render())?;
     }
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let b0 = &base.blocks[0];
