@@ -28,9 +28,9 @@
 //! point already overturns the scan steps down first.
 //!
 //! **Early stop** (opt-in, on for `rockbench spectrum`, native engine only; every stop is
-//! recorded with its reason): after the pulse has ended a native run stops when a block is
-//! beyond its critical angle and still turning outwards (it can no longer come back: it has
-//! overturned), when every block has been still for [`REST_WINDOW`] (at rest), or, for a single
+//! recorded with its reason): after the pulse has ended a native run stops when a single block
+//! is beyond its critical angle and still turning outwards (it can no longer come back: it has
+//! overturned; in a stack: when a block lies on its side), when every block has been still for [`REST_WINDOW`] (at rest), or, for a single
 //! block inside its critical angle, when its mechanical energy relative to the ground is below
 //! [`SAFE_ENERGY_FRACTION`] of the tipping barrier `m g (R - H/2)` (free rocking only loses
 //! energy, so it cannot overturn later). The Housner engine is cheap enough to run to the
@@ -307,7 +307,8 @@ impl<'a> Spectrum<'a> {
         }
     }
 
-    /// The scene of one run: the base scene with the pulse as its horizontal excitation.
+    /// The scene of one run: the base scene (its initial state kept) with the pulse as its
+    /// horizontal excitation.
     pub fn scene(&self, ratio: f64, amplitude: f64) -> Scene {
         let omega_p = ratio * self.p;
         let a_p = amplitude * self.base.gravity * self.alpha.tan();
@@ -557,7 +558,14 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
             .collect();
         if state.t > pulse_end {
             for (i, &(phi, w)) in rel.iter().enumerate() {
-                if phi.abs() > crit[i] && phi * w > 0.0 && phi.abs() > prev[i] {
+                // One block on the ground cannot come back from beyond its critical angle
+                // when turning outwards; a block on a moving block can, until it lies on its side.
+                let gone = if single {
+                    phi.abs() > crit[i] && phi * w > 0.0 && phi.abs() > prev[i]
+                } else {
+                    phi.abs() >= std::f64::consts::FRAC_PI_2 - events::ON_SIDE_TOLERANCE
+                };
+                if gone {
                     return Ok((tr, Stop::Overturned));
                 }
             }
