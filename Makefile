@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps \
-	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep
+	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum
 
 all: build
 
@@ -60,6 +60,14 @@ paper: build .venv paper-tools
 converge: build .venv
 	$(BIN) converge validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet --reference housner --out out/converge/housner-slender
 	$(BIN) converge validation/scenes/housner-square.toml --engines native,rapier,mujoco,pybullet --reference housner --out out/converge/housner-square
+
+# Overturning spectra of the pulse block (B = 0.4 m, H = 4 m) under all five pulse families on
+# the Housner and native engines (minimum overturning amplitude and the no-impact boundary at 20
+# ratios, the overturn/safe map on 20 x 45 points), and the similarity law of two blocks
+# (out/spectrum/similarity/); about 45 s on 2 cores. See docs/spectrum.md.
+spectrum: build
+	$(BIN) spectrum 0.4x4 --pulse rectangular,half-sine,one-sine,one-cosine,ricker --ratios 0.5:10:20 --amplitudes 1:12:45 --engines housner,native --no-impact --out out/spectrum
+	$(BIN) spectrum 0.1x2 --pulse half-sine --ratios 3 --amplitudes none --engines housner,native --similarity 0.12x6 --similarity-at 3,2.2 --set housner.restitution=0.95 --set native.dt=2e-4 --out out/spectrum/similarity
 
 # Headless Chromium (Debian's package) for the report-rendering and animation tests.
 chromium:

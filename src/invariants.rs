@@ -534,6 +534,8 @@ pub fn mirror_scene(scene: &Scene) -> Scene {
         match h {
             MotionSpec::HalfSine { amplitude, .. }
             | MotionSpec::OneSine { amplitude, .. }
+            | MotionSpec::OneCosine { amplitude, .. }
+            | MotionSpec::Ricker { amplitude, .. }
             | MotionSpec::Rectangular { amplitude, .. } => *amplitude = -*amplitude,
             MotionSpec::Record { scale, .. } | MotionSpec::Displacement { scale, .. } => {
                 *scale = -*scale

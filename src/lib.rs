@@ -45,6 +45,7 @@ pub mod paper;
 pub mod python;
 pub mod report;
 pub mod scene;
+pub mod spectrum;
 pub mod stress;
 pub mod summary;
 pub mod trajectory;

@@ -8,6 +8,7 @@ mod converge;
 mod gate;
 mod references;
 mod run;
+mod spectrum;
 mod stress;
 mod validate;
 
@@ -53,6 +54,10 @@ enum Command {
     /// Animate runs made with `rockbench run` (RUN_DIR/trajectory.csv, summary.json and the
     /// scene): one self-contained HTML page, optionally a video.
     Animate(animate::AnimateArgs),
+    /// Overturning spectra of a block (or stack) under pulse families: minimum overturning
+    /// amplitude per frequency ratio and the overturn/safe map, every engine; writes
+    /// DIR/minimum.csv, map.csv, spectrum-<pulse>.svg and spectrum.json.
+    Spectrum(spectrum::SpectrumArgs),
 }
 
 /// Parse the command line and run it.
@@ -69,5 +74,6 @@ pub fn main() -> Result<()> {
         Command::References(a) => references::references_cmd(a),
         Command::Stress(a) => stress::stress(a),
         Command::Animate(a) => animate::animate(a),
+        Command::Spectrum(a) => spectrum::run(a),
     }
 }

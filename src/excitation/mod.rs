@@ -24,7 +24,32 @@ pub enum DefinedBy {
 pub enum PulseShape {
     HalfSine,
     OneSine,
+    /// `A cos(2 pi s / T)` over one period T.
+    OneCosine,
+    /// Ricker wavelet of period `T_p = duration / RICKER_WINDOW`, centred in its window.
+    Ricker,
     Rectangular,
+}
+
+/// A Ricker pulse lasts this many of its periods T_p (centred: |t - t_c| <= 1.5 T_p, where
+/// |a| < 1e-8 A).
+pub const RICKER_WINDOW: f64 = 3.0;
+
+/// Ricker wavelet on its window: (acceleration, velocity, displacement) per unit amplitude at
+/// `s` in [0, d] (d the window), from rest at s = 0; exact integrals (`d/du [u e^{-u^2}] =
+/// (1 - 2 u^2) e^{-u^2}`).
+fn ricker(d: f64, s: f64) -> (f64, f64, f64) {
+    let tp = d / RICKER_WINDOW;
+    let k = PI / tp;
+    let c = 0.5 * d;
+    let u = k * (s - c);
+    let u0 = -k * c;
+    let (e, e0) = ((-u * u).exp(), (-u0 * u0).exp());
+    (
+        (1.0 - 2.0 * u * u) * e,
+        (u * e - u0 * e0) / k,
+        (0.5 * (e0 - e) - u0 * e0 * (u - u0)) / (k * k),
+    )
 }
 
 /// One component (horizontal or vertical) of ground motion.
@@ -72,6 +97,8 @@ impl Component {
                 match shape {
                     PulseShape::HalfSine => a * (PI * s / d).sin(),
                     PulseShape::OneSine => a * (2.0 * PI * s / d).sin(),
+                    PulseShape::OneCosine => a * (2.0 * PI * s / d).cos(),
+                    PulseShape::Ricker => a * ricker(*d, s).0,
                     PulseShape::Rectangular => *a,
                 }
             }
@@ -97,6 +124,8 @@ impl Component {
                 match shape {
                     PulseShape::HalfSine => a * d / PI * (1.0 - (PI * s / d).cos()),
                     PulseShape::OneSine => a * d / (2.0 * PI) * (1.0 - (2.0 * PI * s / d).cos()),
+                    PulseShape::OneCosine => a * d / (2.0 * PI) * (2.0 * PI * s / d).sin(),
+                    PulseShape::Ricker => a * ricker(*d, s).1,
                     PulseShape::Rectangular => a * s,
                 }
             }
@@ -142,6 +171,14 @@ impl Component {
                             a / w * (sc - (w * sc).sin() / w),
                             a / w * (1.0 - (w * sc).cos()),
                         )
+                    }
+                    PulseShape::OneCosine => {
+                        let w = 2.0 * PI / d;
+                        (a / (w * w) * (1.0 - (w * sc).cos()), a / w * (w * sc).sin())
+                    }
+                    PulseShape::Ricker => {
+                        let (_, v, x) = ricker(*d, sc);
+                        (a * x, a * v)
                     }
                     PulseShape::Rectangular => (0.5 * a * sc * sc, a * sc),
                 };
@@ -287,6 +324,27 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
             duration: duration.or(*period).unwrap_or(0.0),
             start: *start,
         },
+        MotionSpec::OneCosine {
+            amplitude,
+            duration,
+            period,
+            start,
+        } => Component::Pulse {
+            shape: PulseShape::OneCosine,
+            amplitude: *amplitude,
+            duration: duration.or(*period).unwrap_or(0.0),
+            start: *start,
+        },
+        MotionSpec::Ricker {
+            amplitude,
+            period,
+            start,
+        } => Component::Pulse {
+            shape: PulseShape::Ricker,
+            amplitude: *amplitude,
+            duration: RICKER_WINDOW * period,
+            start: *start,
+        },
         MotionSpec::Rectangular {
             amplitude,
             duration,
@@ -430,6 +488,8 @@ mod tests {
         for shape in [
             PulseShape::HalfSine,
             PulseShape::OneSine,
+            PulseShape::OneCosine,
+            PulseShape::Ricker,
             PulseShape::Rectangular,
         ] {
             let c = pulse(shape);
@@ -454,6 +514,25 @@ mod tests {
                 c.disp(0.8)
             );
         }
+    }
+
+    /// The one-cosine and Ricker pulses end at rest (zero ground velocity); the Ricker
+    /// wavelet peaks at A in the middle of its window and the one-cosine pulse starts at A.
+    #[test]
+    fn one_cosine_and_ricker_shapes() {
+        for shape in [PulseShape::OneCosine, PulseShape::Ricker] {
+            let c = pulse(shape);
+            assert!(
+                c.vel(0.5).abs() < 1e-9,
+                "{shape:?} ends moving: {}",
+                c.vel(0.5)
+            );
+        }
+        assert!((pulse(PulseShape::Ricker).acc(0.3) - 2.0).abs() < 1e-12);
+        assert!((pulse(PulseShape::OneCosine).acc(0.1) - 2.0).abs() < 1e-12);
+        // The Ricker window's ends: below 1e-8 of the amplitude.
+        assert!(pulse(PulseShape::Ricker).acc(0.1).abs() < 2e-8);
+        assert!(pulse(PulseShape::Ricker).acc(0.5).abs() < 2e-8);
     }
 
     #[test]

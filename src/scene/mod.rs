@@ -255,6 +255,25 @@ pub enum MotionSpec {
         #[serde(default)]
         start: f64,
     },
+    /// `a(t) = A cos(2 pi (t - t0) / T)` for `0 <= t - t0 <= T` (T = duration = period).
+    OneCosine {
+        amplitude: f64,
+        #[serde(default)]
+        duration: Option<f64>,
+        #[serde(default)]
+        period: Option<f64>,
+        #[serde(default)]
+        start: f64,
+    },
+    /// Ricker wavelet (Mexican hat) of peak `A` and period `T_p` (omega_p = 2 pi / T_p):
+    /// `a(t) = A (1 - 2 u^2) exp(-u^2)`, `u = pi (t - t0 - 1.5 T_p) / T_p`, for
+    /// `0 <= t - t0 <= 3 T_p` (zero outside; the cut-off ends are below 1e-8 A).
+    Ricker {
+        amplitude: f64,
+        period: f64,
+        #[serde(default)]
+        start: f64,
+    },
     /// `a(t) = A` for `0 <= t - t0 <= T`.
     Rectangular {
         amplitude: f64,

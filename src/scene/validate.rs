@@ -221,6 +221,12 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
                     duration,
                     period,
                     start,
+                }
+                | MotionSpec::OneCosine {
+                    amplitude,
+                    duration,
+                    period,
+                    start,
                 } => {
                     finite(&f("amplitude"), *amplitude)?;
                     finite(&f("start"), *start)?;
@@ -234,6 +240,15 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
                             );
                         }
                     }
+                }
+                MotionSpec::Ricker {
+                    amplitude,
+                    period,
+                    start,
+                } => {
+                    finite(&f("amplitude"), *amplitude)?;
+                    finite(&f("start"), *start)?;
+                    positive(&f("period"), *period)?;
                 }
                 MotionSpec::Rectangular {
                     amplitude,

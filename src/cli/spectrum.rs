@@ -1,0 +1,273 @@
+//! `rockbench spectrum SCENE_OR_BLOCK --pulse P --ratios ... --engines ... --out DIR`: overturning
+//! spectra (see `crate::spectrum`). Writes DIR/minimum.csv, DIR/map.csv, one SVG per pulse
+//! (DIR/spectrum-<pulse>.svg) and DIR/spectrum.json (settings, versions, the command).
+
+use crate::spectrum::{self, Pulse, Request, Settings};
+use anyhow::{Context, Result, anyhow};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct SpectrumArgs {
+    /// A scene file (its blocks, contact and engine settings; its excitation is replaced by the
+    /// pulse) or a single block `BxH` in metres, e.g. `0.2x4`.
+    target: String,
+    /// Pulse families, comma-separated: rectangular, half-sine, one-sine, one-cosine, ricker.
+    #[arg(long, default_value = "half-sine", value_delimiter = ',')]
+    pulse: Vec<String>,
+    /// Frequency ratios omega_p / p of the minimum search: `a,b,c` or `from:to:n`.
+    #[arg(long, default_value = "1:10:10", allow_hyphen_values = true)]
+    ratios: String,
+    /// Ratios of the overturn/safe map (default: those of --ratios).
+    #[arg(long, allow_hyphen_values = true)]
+    map_ratios: Option<String>,
+    /// Amplitudes a_p / (g tan alpha) of the map: `a,b,c` or `from:to:n`; `none`: no map.
+    #[arg(long, default_value = "1:10:19", allow_hyphen_values = true)]
+    amplitudes: String,
+    /// Engines, comma-separated.
+    #[arg(long, default_value = "housner,native", value_delimiter = ',')]
+    engines: Vec<String>,
+    /// Also find the lowest amplitude that overturns without an impact first.
+    #[arg(long)]
+    no_impact: bool,
+    /// Friction coefficient of a `BxH` block on the ground (high: pure rocking).
+    #[arg(long, default_value_t = 2.0)]
+    friction: f64,
+    /// Override a scene field (repeatable), e.g. --set native.dt=5e-4.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Run length after the pulse, in units of 1/p.
+    #[arg(long, default_value_t = 30.0)]
+    tail: f64,
+    /// Relative width of the bisection bracket of a minimum.
+    #[arg(long, default_value_t = 1e-4)]
+    tolerance: f64,
+    /// First amplitude of the upward scan.
+    #[arg(long, default_value_t = 1.0)]
+    scan_from: f64,
+    /// Relative step of the upward scan.
+    #[arg(long, default_value_t = 0.05)]
+    scan_step: f64,
+    /// Largest amplitude scanned.
+    #[arg(long, default_value_t = 100.0)]
+    scan_to: f64,
+    /// The similarity law: also run this second block `BxH` (same friction and --set) at
+    /// --similarity-at and write DIR/similarity.{csv,svg} (phi/alpha against p t, every engine).
+    #[arg(long)]
+    similarity: Option<String>,
+    /// `RATIO,AMPLITUDE` of the similarity runs (the first pulse of --pulse).
+    #[arg(long, default_value = "3,2.2")]
+    similarity_at: String,
+    /// Run every native run to its end (no early stop at overturning, rest or low energy).
+    #[arg(long)]
+    no_early_stop: bool,
+    #[arg(long, default_value = "out/spectrum")]
+    out: PathBuf,
+}
+
+pub fn run(a: SpectrumArgs) -> Result<()> {
+    let pulses = a
+        .pulse
+        .iter()
+        .map(|p| Pulse::parse(p))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| anyhow!("--pulse: {e}"))?;
+    let ratios = spectrum::parse_list(&a.ratios, "--ratios").map_err(|e| anyhow!(e))?;
+    let map_ratios = match &a.map_ratios {
+        Some(r) => spectrum::parse_list(r, "--map-ratios").map_err(|e| anyhow!(e))?,
+        None => ratios.clone(),
+    };
+    let amplitudes = if a.amplitudes == "none" {
+        Vec::new()
+    } else {
+        spectrum::parse_list(&a.amplitudes, "--amplitudes").map_err(|e| anyhow!(e))?
+    };
+    for e in &a.engines {
+        spectrum::engine(e).map_err(|e| anyhow!("--engines: {e}"))?;
+    }
+    let settings = Settings {
+        tail: a.tail,
+        tolerance: a.tolerance,
+        scan_from: a.scan_from,
+        scan_step: a.scan_step,
+        scan_to: a.scan_to,
+        early_stop: !a.no_early_stop,
+    };
+    settings.check().map_err(|e| anyhow!(e))?;
+    let base = match spectrum::parse_block(&a.target) {
+        Some((b, h)) => {
+            if !(a.friction.is_finite() && a.friction >= 0.0) {
+                return Err(anyhow!(
+                    "--friction must be a non-negative number (got {})",
+                    a.friction
+                ));
+            }
+            spectrum::block_scene(b, h, a.friction, &a.set).map_err(|e| anyhow!(e))?
+        }
+        None => {
+            let path = PathBuf::from(&a.target);
+            if !path.exists() {
+                return Err(anyhow!(
+                    "{}: neither a scene file nor a block BxH (e.g. 0.2x4)",
+                    a.target
+                ));
+            }
+            let s = crate::scene::load_scene_with_overrides(&path, &a.set)?;
+            s.check()?;
+            s
+        }
+    };
+    let similar = match &a.similarity {
+        Some(bh) => {
+            let (b, h) = spectrum::parse_block(bh)
+                .ok_or_else(|| anyhow!("--similarity: `{bh}` is not a block BxH (e.g. 0.12x6)"))?;
+            let at = spectrum::parse_list(&a.similarity_at, "--similarity-at")
+                .map_err(|e| anyhow!(e))?;
+            if at.len() != 2 {
+                return Err(anyhow!(
+                    "--similarity-at: give RATIO,AMPLITUDE (got {} numbers)",
+                    at.len()
+                ));
+            }
+            Some((
+                spectrum::block_scene(b, h, a.friction, &a.set).map_err(|e| anyhow!(e))?,
+                at[0],
+                at[1],
+            ))
+        }
+        None => None,
+    };
+    let req = Request {
+        pulses: pulses.clone(),
+        engines: a.engines.clone(),
+        ratios,
+        map_ratios: if amplitudes.is_empty() {
+            Vec::new()
+        } else {
+            map_ratios
+        },
+        map_amplitudes: amplitudes,
+        no_impact: a.no_impact,
+        settings,
+    };
+    let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}")).map_err(|e| anyhow!(e))?;
+    let out = &a.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let write = |name: &str, text: String| -> Result<()> {
+        let p = out.join(name);
+        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
+    };
+    write("minimum.csv", spectrum::minimum_csv(&res))?;
+    write("map.csv", spectrum::map_csv(&res))?;
+    for &p in &pulses {
+        write(
+            &format!("spectrum-{}.svg", p.name()),
+            spectrum::svg(&res, p, &a.engines),
+        )?;
+    }
+    if let Some((other, ratio, amp)) = &similar {
+        let st = Settings {
+            early_stop: false,
+            ..req.settings.clone()
+        };
+        let mut plot = crate::report::svg::Plot {
+            title: format!(
+                "Similarity: {} pulse, omega_p/p = {ratio}, a_p/(g tan alpha) = {amp}",
+                pulses[0].name()
+            ),
+            x_label: "p t".into(),
+            y_label: "phi / alpha".into(),
+            ..Default::default()
+        };
+        let mut csv = String::from("engine,p_t,phi_over_alpha_a,phi_over_alpha_b\n");
+        let colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+        let name = |s: &crate::scene::Scene| {
+            let b = &s.blocks[0];
+            let (_, al) = spectrum::p_alpha(s);
+            format!("{}x{} m (alpha {al:.3})", b.width, b.height)
+        };
+        for (k, e) in a.engines.iter().enumerate() {
+            let eng = spectrum::engine(e).map_err(|e| anyhow!(e))?;
+            let (pt, ya, yb) = spectrum::similarity(
+                &base,
+                other,
+                eng.as_ref(),
+                (pulses[0], *ratio, *amp),
+                &st,
+                2001,
+            )
+            .map_err(|err| anyhow!("--similarity: {e}: {err}"))?;
+            let diff = ya
+                .iter()
+                .zip(&yb)
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            eprintln!("similarity {e}: max |difference| of phi/alpha {diff:.5}");
+            for i in 0..pt.len() {
+                csv += &format!("{e},{:.6},{:.8},{:.8}\n", pt[i], ya[i], yb[i]);
+            }
+            let c = colors[k % colors.len()].to_string();
+            plot.curves.push(crate::report::svg::Curve {
+                name: format!("{e}: {}", name(&base)),
+                color: c.clone(),
+                dashed: false,
+                x: pt.clone(),
+                y: ya,
+            });
+            plot.curves.push(crate::report::svg::Curve {
+                name: format!("{e}: {} (max diff {diff:.4})", name(other)),
+                color: c,
+                dashed: true,
+                x: pt,
+                y: yb,
+            });
+        }
+        write("similarity.csv", csv)?;
+        write("similarity.svg", plot.render())?;
+    }
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let b0 = &base.blocks[0];
+    let json = serde_json::json!({
+        "command": command,
+        "provenance": crate::report::provenance::Provenance::collect(&command),
+        "scene": base.to_json(),
+        "normalisation": {
+            "block": b0.name,
+            "width_m": b0.width,
+            "height_m": b0.height,
+            "gravity": base.gravity,
+            "p_per_s": res.p,
+            "alpha_rad": res.alpha,
+            "g_tan_alpha_m_per_s2": base.gravity * res.alpha.tan(),
+            "ratio": "omega_p / p",
+            "amplitude": "a_p / (g tan alpha)",
+        },
+        "pulses": pulses.iter().map(|p| serde_json::json!({
+            "pulse": p.name(),
+            "duration_times_omega_p": p.duration(1.0),
+        })).collect::<Vec<_>>(),
+        "settings": req.settings,
+        "search": "upward scan from scan_from by factors (1 + scan_step) to the first overturning amplitude (down first if that one overturns), then bisection to a relative width `tolerance`; the minimum is the bracket's upper end",
+        "early_stop": if req.settings.early_stop {
+            format!("native runs stop after the pulse when a block is beyond its critical angle turning outwards (overturned), when every block is still for {} s (at rest), or when a single block inside its critical angle has less than {} of its tipping energy m g (R - H/2); each map cell's `stop` says which", crate::engines::native::REST_WINDOW, spectrum::SAFE_ENERGY_FRACTION)
+        } else {
+            "off: every run lasts its full duration".into()
+        },
+        "ratios": req.ratios,
+        "map_ratios": req.map_ratios,
+        "map_amplitudes": req.map_amplitudes,
+        "engines": res.engines,
+        "minima": res.minima,
+        "wall_s": res.wall_s,
+    });
+    write(
+        "spectrum.json",
+        serde_json::to_string_pretty(&json).expect("json") + "\n",
+    )?;
+    println!(
+        "{} minima, {} map cells in {:.1} s; wrote {}",
+        res.minima.len(),
+        res.map.len(),
+        res.wall_s,
+        out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,319 @@
+//! `rockbench spectrum` against the closed forms of the linearised slender block
+//! (VULNERABILITY.md), the similarity law, and its one-line errors.
+
+use rockbench::engines::{Engine, housner::HousnerEngine, native::NativeEngine};
+use rockbench::spectrum::*;
+use std::f64::consts::PI;
+use std::process::Command;
+
+/// The closed-form block: B = 0.06 m, H = 2 m (alpha = 0.030 rad, p = 2.71 1/s), friction 2
+/// (pure rocking), native step 5e-4 s (p dt = 1.4e-3).
+fn slender() -> rockbench::scene::Scene {
+    block_scene(0.06, 2.0, 2.0, &["native.dt=5e-4".to_string()]).unwrap()
+}
+
+/// (pulse, ratio, the design note's number, the minimum searched: `true` overturning without
+/// impact).
+fn cases() -> Vec<(Pulse, f64, f64, bool)> {
+    vec![
+        // Rectangular at p t_d = 0.5, 1, 2 (omega_p = pi / t_d): 1 / (1 - exp(-p t_d)).
+        (Pulse::Rectangular, PI / 0.5, 2.542, false),
+        (Pulse::Rectangular, PI / 1.0, 1.582, false),
+        (
+            Pulse::Rectangular,
+            PI / 2.0,
+            1.0 / (1.0 - (-2.0f64).exp()),
+            false,
+        ),
+        (Pulse::HalfSine, 1.0, 1.322, false),
+        (Pulse::HalfSine, 2.0, 1.801, false),
+        (Pulse::HalfSine, 4.0, 2.791, false),
+        (Pulse::OneSine, 1.0, 1.418, true),
+        (Pulse::OneSine, 2.0, 2.350, true),
+        (Pulse::OneSine, 4.0, 5.239, true),
+    ]
+}
+
+fn check_engine(engine: &dyn Engine) {
+    let scene = slender();
+    let st = Settings::default();
+    let mut worst = 0.0f64;
+    for (pulse, ratio, note, no_impact) in cases() {
+        let cf = closed_form(pulse, ratio).unwrap();
+        // The closed form is the design note's number (rounded there to 3 decimals).
+        assert!(
+            (cf - note).abs() < 6e-4,
+            "{pulse:?} {ratio}: {cf} vs {note}"
+        );
+        let sp = Spectrum::new(&scene, engine, pulse, &st);
+        let m = if no_impact {
+            sp.minimum(ratio, |o| o.without_impact).unwrap()
+        } else {
+            sp.minimum(ratio, |o| o.overturned).unwrap()
+        };
+        let a = m.amplitude.expect("overturns");
+        let err = a / cf - 1.0;
+        println!(
+            "{} {:?} Pi={ratio:.4}: {a:.5} vs {cf:.5} ({:+.4} %), {} runs",
+            engine.name(),
+            pulse,
+            err * 100.0,
+            m.runs
+        );
+        // The bracket is the stated tolerance wide.
+        assert!((a - m.safe_below) / a <= st.tolerance * 1.0001);
+        assert!(
+            err.abs() < 0.005,
+            "{} {pulse:?} Pi={ratio}: {a} is {:.3} % from the closed form {cf}",
+            engine.name(),
+            err * 100.0
+        );
+        worst = worst.max(err.abs());
+    }
+    println!("{}: worst {:.4} %", engine.name(), worst * 100.0);
+}
+
+#[test]
+fn spectrum_minima_match_closed_forms_housner() {
+    check_engine(&HousnerEngine);
+}
+
+#[test]
+fn spectrum_minima_match_closed_forms_native() {
+    check_engine(&NativeEngine);
+}
+
+/// Below the one-sine no-impact boundary the block still overturns after an impact (mode 1)
+/// at Pi = 2: the minimum overturning amplitude lies below the no-impact boundary.
+#[test]
+fn spectrum_one_sine_overturns_after_impact_below_the_no_impact_boundary() {
+    let scene = slender();
+    let st = Settings::default();
+    let sp = Spectrum::new(&scene, &HousnerEngine, Pulse::OneSine, &st);
+    let any = sp
+        .minimum(2.0, |o| o.overturned)
+        .unwrap()
+        .amplitude
+        .unwrap();
+    let clean = sp
+        .minimum(2.0, |o| o.without_impact)
+        .unwrap()
+        .amplitude
+        .unwrap();
+    assert!(any < 0.9 * clean, "{any} vs {clean}");
+    let o = sp.run(2.0, 0.5 * (any + clean)).unwrap();
+    assert!(o.overturned && !o.without_impact, "{o:?}");
+}
+
+/// The early stop does not change a minimum by more than the bisection tolerance.
+#[test]
+fn spectrum_early_stop_keeps_the_minimum() {
+    let scene = slender();
+    for engine in [&HousnerEngine as &dyn Engine, &NativeEngine] {
+        let on = Settings::default();
+        let off = Settings {
+            early_stop: false,
+            tail: 15.0,
+            ..Settings::default()
+        };
+        let on_ = Settings { tail: 15.0, ..on };
+        let a = Spectrum::new(&scene, engine, Pulse::HalfSine, &on_)
+            .minimum(2.0, |o| o.overturned)
+            .unwrap()
+            .amplitude
+            .unwrap();
+        let b = Spectrum::new(&scene, engine, Pulse::HalfSine, &off)
+            .minimum(2.0, |o| o.overturned)
+            .unwrap()
+            .amplitude
+            .unwrap();
+        assert!((a / b - 1.0).abs() <= 2.0 * on.tolerance, "{a} vs {b}");
+    }
+}
+
+/// The similarity law: blocks 0.1 x 2 m (alpha = 0.050) and 0.12 x 6 m (alpha = 0.020), 3x the
+/// size, driven by a half-sine at Pi = 3, A = 2.2 (below the minimum 2.29: the block rocks and
+/// impacts), with the restitution held at 0.95: phi/alpha against p t agree to 1 % of alpha
+/// over p t in [0, 22] (the linearised model is exact as alpha -> 0; here the difference is
+/// O(alpha^2)). The native engine (its own impact law, restitution not settable) is checked up
+/// to the first impact.
+#[test]
+fn spectrum_similarity_law() {
+    let r = [
+        "housner.restitution=0.95".to_string(),
+        "native.dt=2e-4".to_string(),
+    ];
+    let a = block_scene(0.1, 2.0, 2.0, &r).unwrap();
+    let b = block_scene(0.12, 6.0, 2.0, &r).unwrap();
+    let st = Settings {
+        early_stop: false,
+        tail: 22.0 - PI / 3.0,
+        ..Settings::default()
+    };
+    let (pt, ya, yb) = similarity(
+        &a,
+        &b,
+        &HousnerEngine,
+        (Pulse::HalfSine, 3.0, 2.2),
+        &st,
+        2201,
+    )
+    .unwrap();
+    let peak = ya.iter().fold(0.0f64, |m, y| m.max(y.abs()));
+    let diff = ya
+        .iter()
+        .zip(&yb)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    let impacts = ya.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
+    println!(
+        "housner: peak phi/alpha {peak:.4}, max difference {diff:.5}, {impacts} impacts over p t = {:.1}",
+        pt[pt.len() - 1]
+    );
+    assert!(
+        peak > 0.3 && impacts >= 3,
+        "the blocks rock: peak {peak}, {impacts} impacts"
+    );
+    assert!(diff < 0.01, "housner: phi/alpha differ by {diff}");
+    // Not the same curve when the amplitude differs by 2 %: the test can tell.
+    let (_, yc, _) = similarity(
+        &a,
+        &b,
+        &HousnerEngine,
+        (Pulse::HalfSine, 3.0, 2.2 * 1.02),
+        &st,
+        2201,
+    )
+    .unwrap();
+    let d2 = ya
+        .iter()
+        .zip(&yc)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(
+        d2 > 3.0 * diff,
+        "a 2 % change in A moves the curve by {d2}, similarity {diff}"
+    );
+
+    let (pt, ya, yb) = similarity(
+        &a,
+        &b,
+        &NativeEngine,
+        (Pulse::HalfSine, 3.0, 2.2),
+        &st,
+        2201,
+    )
+    .unwrap();
+    let first = ya.iter().position(|y| *y < -1e-3).unwrap_or(ya.len());
+    let diff = ya[..first]
+        .iter()
+        .zip(&yb[..first])
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    println!(
+        "native: max difference {diff:.5} up to the first impact at p t = {:.2}",
+        pt[first.min(pt.len() - 1)]
+    );
+    assert!(
+        first > 100,
+        "the native block impacts at p t = {}",
+        pt[first]
+    );
+    assert!(diff < 0.01, "native: phi/alpha differ by {diff}");
+}
+
+fn rockbench(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_rockbench"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Bad input stops before running anything, with one line naming the problem.
+#[test]
+fn spectrum_bad_input_one_line_errors() {
+    let dir = std::env::temp_dir().join(format!("rb-spectrum-bad-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    for (args, expect) in [
+        (
+            vec!["0.2x4", "--pulse", "triangle"],
+            "unknown pulse `triangle`",
+        ),
+        (
+            vec!["0.2x4", "--ratios", "1,0"],
+            "--ratios must be > 0 (got 0)",
+        ),
+        (vec!["0.2x4", "--ratios", "-1"], "--ratios must be > 0"),
+        (
+            vec!["0.2x4", "--amplitudes", "1,x"],
+            "`x` is not a positive number",
+        ),
+        (
+            vec!["0.2x4", "--engines", "ode45"],
+            "unknown engine `ode45`",
+        ),
+        (vec!["0x4"], "B, H > 0"),
+        (vec!["nope.toml"], "neither a scene file nor a block"),
+        (
+            vec!["0.2x4", "--tolerance", "0"],
+            "--tolerance must be a positive number",
+        ),
+        (vec!["0.2x4", "--set", "native.dt=-1"], "native.dt"),
+    ] {
+        let mut all = args.clone();
+        all.extend(["--out", d]);
+        let (ok, _, err) = rockbench(&[&["spectrum"], &all[..]].concat());
+        assert!(!ok, "{args:?} should fail");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(expect), "{args:?}: {err}");
+    }
+    assert!(!dir.exists(), "nothing is written on bad input");
+}
+
+/// The command writes its CSV, SVG and JSON; every map cell records its stop.
+#[test]
+fn spectrum_command_writes_outputs() {
+    let dir = std::env::temp_dir().join(format!("rb-spectrum-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (ok, out, err) = rockbench(&[
+        "spectrum",
+        "0.2x4",
+        "--pulse",
+        "half-sine,ricker",
+        "--ratios",
+        "2,4",
+        "--amplitudes",
+        "1:5:5",
+        "--engines",
+        "housner,native",
+        "--out",
+        d,
+    ]);
+    assert!(ok, "{out}{err}");
+    let min = std::fs::read_to_string(dir.join("minimum.csv")).unwrap();
+    assert_eq!(min.lines().count(), 1 + 2 * 2 * 2);
+    let map = std::fs::read_to_string(dir.join("map.csv")).unwrap();
+    assert_eq!(map.lines().count(), 1 + 2 * 2 * 2 * 5);
+    assert!(map.lines().skip(1).all(|l| {
+        ["end", "overturned", "at-rest", "below-tipping-energy"]
+            .iter()
+            .any(|s| l.contains(&format!(",{s},")))
+    }));
+    for p in ["half-sine", "ricker"] {
+        let svg = std::fs::read_to_string(dir.join(format!("spectrum-{p}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("omega_p / p"));
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("spectrum.json")).unwrap()).unwrap();
+    assert!(json["command"].as_str().unwrap().contains("spectrum"));
+    assert!(
+        json["engines"]["native"]["version"]
+            .as_str()
+            .unwrap()
+            .contains("clarabel")
+    );
+    assert!(json["engines"]["housner"]["version"].is_string());
+    std::fs::remove_dir_all(&dir).ok();
+}
