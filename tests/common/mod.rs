@@ -1,7 +1,37 @@
-//! Shared by the integration tests that render reports.
+//! Shared by the integration tests that run the binary and render reports.
+#![allow(dead_code)] // each test binary uses some of these
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// The rockbench binary built for these tests.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rockbench"))
+}
+
+/// The project's root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A fresh scratch directory `<prefix>-<name>-<pid>` under the system's temporary directory.
+pub fn tmp(prefix: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("{prefix}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run a command that must succeed; its stdout.
+pub fn run_ok(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap();
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout).to_string(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    );
+    assert!(out.status.success(), "failed: {so}\n{se}");
+    so
+}
 
 /// Open `out/report.html` in headless Chromium and check that the screenshot is not blank and
 /// shows the first engine's curve colour (#1f77b4), i.e. the plots rendered, not only the text.
