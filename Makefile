@@ -23,8 +23,8 @@ build:
 # The main job: the paper's two-block case on every engine, compared with the native engine;
 # writes out/demo/report.html (the verdict first, then the motion animated; also report.md,
 # metrics.csv, each engine's trajectory) and out/demo/animation.mp4.
-demo: build .venv ffmpeg
-	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --reference native --video --out out/demo
+demo: build .venv ffmpeg siconos
+	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet,siconos --reference native --video --out out/demo
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
