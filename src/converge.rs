@@ -273,16 +273,13 @@ pub fn converge(
             runs.push(r);
         }
         // The reference of this engine's runs.
-        let own_finest = match (&common, done.last()) {
-            (Some(_), _) => None,
-            (None, Some((dt, run))) => Some((*dt, run.clone())),
-            (None, None) => None,
+        let Some((finest_dt, finest)) = done.last() else {
+            continue;
         };
         for (dt, run) in &done {
-            let (reference, is_reference) = match (&common, &own_finest) {
-                (Some(c), _) => (c, false),
-                (None, Some((fdt, f))) => (f, fdt == dt),
-                (None, None) => unreachable!("a finished run makes a finest run"),
+            let (reference, is_reference) = match &common {
+                Some(c) => (c, false),
+                None => (finest, dt == finest_dt),
             };
             let rows = match compare_runs(&base, run, reference, &MetricSettings::default()) {
                 Ok(rows) => rows,
@@ -318,17 +315,15 @@ pub fn converge(
     for engine in &opts.engines {
         for label in &labels {
             for (q, _, _) in QUANTITIES {
-                let pairs: Vec<(f64, f64)> = points
+                let mine: Vec<&ConvergePoint> = points
                     .iter()
                     .filter(|p| &p.engine == engine && &p.series == label && p.quantity == q)
-                    .filter_map(|p| Some((p.dt, p.error?)))
                     .collect();
-                if points
-                    .iter()
-                    .all(|p| &p.engine != engine || &p.series != label || p.quantity != q)
-                {
+                if mine.is_empty() {
                     continue;
                 }
+                let pairs: Vec<(f64, f64)> =
+                    mine.iter().filter_map(|p| Some((p.dt, p.error?))).collect();
                 let (order, std_error, range) = observed_order(&pairs);
                 orders.push(Order {
                     engine: engine.clone(),
