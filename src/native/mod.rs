@@ -4,13 +4,14 @@
 //! [`settings`] for the `[native]` table.
 
 pub mod assembly;
+pub mod material;
 pub mod problem;
 pub mod settings;
 pub mod solver;
 pub mod stepper;
 
 pub use problem::{StepProblem, StepSolution};
-pub use settings::{Formulation, FrictionLaw, Kinematics, NativeSettings, SolverKind, StepperKind};
+pub use settings::{Formulation, FrictionLaw, NativeSettings, SolverKind, StepperKind};
 pub use stepper::{NativeState, StepError, Stepper};
 
 use crate::excitation::GroundMotion;

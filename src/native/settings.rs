@@ -14,32 +14,24 @@ pub enum Formulation {
     Dual,
 }
 
-/// The contact law in time (see `native::stepper`).
+/// The contact law in time (see `native::stepper` and docs/method.md).
 #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum StepperKind {
-    /// The paper's position-level law on every contact point (the default).
+    /// The paper's scheme (`paper`; the older name `position` is accepted): the theta-method
+    /// with the position-level law on every contact point. The step that closes a contact
+    /// rebounds by about `(1 - theta)/theta`, which makes stocky blocks rebound spuriously;
+    /// first order. The default until the impact stepper's stack cases converge (see
+    /// docs/method.md).
     #[default]
-    Position,
-    /// Impact-consistent (Moreau-Jean): velocity-level law on points that are closed or
-    /// closing, impacts located within the step, midpoint kinematics by default (see
-    /// `native.kinematics`, `native.locate_impacts`). Measured on the square block: first two
-    /// amplitudes within 1.2 % of Housner for every theta at dt 1e-3 (`position` at theta 0.7:
-    /// -2 % / -63 %, the spurious rebound). Not the default: the position projection after a
-    /// penetration adds potential energy (see docs/method.md), and `position` is the paper's.
+    #[serde(alias = "position")]
+    Paper,
+    /// Impact-consistent and second order: midpoint kinematics, contact rows as
+    /// discrete gradients of the contact points' gap functions over the step (a closed contact
+    /// neither drifts nor works), impacts located within the step and plastic there (Moreau's
+    /// law, Housner's restitution on a sticking corner). Energy never grows without excitation.
+    /// `theta` does not enter it.
     Impact,
-}
-
-/// The kinematic update of the impact-consistent stepper (see `native::stepper`).
-#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Kinematics {
-    /// `dq = dt ((1 - theta) v0 + theta v)`, as in the paper's scheme.
-    Theta,
-    /// `dq = dt (v0 + v)/2` whatever theta (the default): exact for a constant acceleration
-    /// within the step, where the theta-weighted update errs by `(theta - 1/2) dt^2 a` per step.
-    #[default]
-    Midpoint,
 }
 
 /// The friction law of the interfaces.
@@ -97,8 +89,8 @@ fn d_reach() -> f64 {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct NativeSettings {
-    /// Theta of the time discretisation, in [0.5, 1] (default 0.7, the paper's value).
-    /// `v = (dq/dt - (1 - theta) v0) / theta`.
+    /// Theta of the paper's stepper, in [0.5, 1] (default 0.7, the paper's value):
+    /// `v = (dq/dt - (1 - theta) v0) / theta`. The impact stepper does not use it.
     #[serde(default = "d_theta")]
     pub theta: f64,
     /// Time step, s (default 1e-3).
@@ -107,7 +99,8 @@ pub struct NativeSettings {
     /// `primal` (displacement-based) or `dual` (force-based) QP (default primal).
     #[serde(default)]
     pub formulation: Formulation,
-    /// `position` (the paper's scheme, the default) or `impact` (impact-consistent).
+    /// `paper` (the paper's theta-method with the position-level law, the default; `position`
+    /// is accepted for it) or `impact` (impact-consistent, second order).
     #[serde(default)]
     pub stepper: StepperKind,
     /// Impact-consistent stepper only: locate the instant within a step at which a new contact
@@ -116,11 +109,6 @@ pub struct NativeSettings {
     /// Ignored by the position-level stepper.
     #[serde(default = "d_true")]
     pub locate_impacts: bool,
-    /// Impact-consistent stepper only: the kinematic update, `midpoint` (default) or `theta`.
-    /// Ignored by the position-level stepper, whose position-level contact law needs the theta
-    /// update (with the midpoint one the closing step would rebound elastically).
-    #[serde(default)]
-    pub kinematics: Kinematics,
     /// `associative` (the paper's law, default) or `coulomb` (non-associative).
     #[serde(default)]
     pub friction_law: FrictionLaw,
@@ -175,7 +163,6 @@ impl Default for NativeSettings {
             stepper: StepperKind::default(),
             friction_law: FrictionLaw::default(),
             locate_impacts: true,
-            kinematics: Kinematics::default(),
             solver: SolverKind::default(),
             tolerance: d_tol(),
             max_iterations: d_max_iter(),

@@ -51,8 +51,9 @@
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
 use super::assembly::{Bodies, contact_rows, poses};
+use super::material::MaterialContact;
 use super::problem::{SparseRow, StepProblem, StepSolution};
-use super::settings::{FrictionLaw, Kinematics, NativeSettings, StepperKind};
+use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 
 /// Penetration beyond which the impact-consistent stepper projects positions back, m.
 pub const PENETRATION_TOLERANCE: f64 = 1e-9;
@@ -60,6 +61,18 @@ pub const PENETRATION_TOLERANCE: f64 = 1e-9;
 /// Impact-consistent stepper: a point whose gap is at most this is closed (velocity-level
 /// law, part of an impact), m. Round-off-level gaps of persistent contacts stay below it.
 pub const CLOSED_GAP: f64 = PENETRATION_TOLERANCE;
+
+/// Impact stepper: the discrete-gradient rows are re-evaluated until the loaded points' gap
+/// functions at the end of the step agree with the rows to this, m.
+pub const DRIFT_TOLERANCE: f64 = 1e-13;
+/// Impact stepper: an end velocity approaching a loaded point by less than this in a step
+/// (m) is kept as it is (see `settle_velocity`).
+pub const VELOCITY_TOLERANCE: f64 = 1e-15;
+/// Impact stepper: most impacts located within one step (the paper's stepper with located
+/// impacts: one).
+pub const LOCATED_PER_STEP: usize = 8;
+/// Impact stepper: most solves of one step for its discrete-gradient rows.
+pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 
 /// Largest number of solves per problem for non-associative friction (see `solve_coulomb`).
 pub const COULOMB_ITERATIONS: usize = 100;
@@ -171,8 +184,16 @@ pub struct Stepper {
     pub polished_steps: u64,
     /// Steps split at a located impact instant.
     pub split_steps: u64,
-    /// Position projections after an impact (impact-consistent stepper).
+    /// Position projections after an impact (impact stepper without impact location).
     pub projections: u64,
+    /// Impact stepper: solves for the discrete-gradient rows, all steps together.
+    pub gradient_solves: u64,
+    /// Impact stepper: end velocities made admissible on the loaded points (`settle_velocity`).
+    pub settled_velocities: u64,
+    /// Impact stepper: plastic impacts at the start of a step on closed points that approach.
+    pub start_impacts: u64,
+    /// Impact stepper: the acceleration of the last sub-step (the predictor of the next).
+    accel: Vec<f64>,
     /// Sorted keys of the points that carried a normal force at the end of the last step
     /// (impact location: a point that did is not a new impact).
     loaded: Vec<u64>,
@@ -206,6 +227,7 @@ impl Stepper {
         applied_as: AppliedAs,
         solver: Box<dyn ContactSolver>,
     ) -> Self {
+        let n_blocks = bodies.len();
         Stepper {
             settings,
             bodies,
@@ -218,6 +240,10 @@ impl Stepper {
             polished_steps: 0,
             split_steps: 0,
             projections: 0,
+            gradient_solves: 0,
+            start_impacts: 0,
+            settled_velocities: 0,
+            accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
             slide: Vec::new(),
             coulomb_iterations: 0,
@@ -237,9 +263,9 @@ impl Stepper {
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
     /// theta, or 1/2 with midpoint kinematics.
     fn kinematic_weight(&self) -> f64 {
-        match (self.settings.stepper, self.settings.kinematics) {
-            (StepperKind::Impact, Kinematics::Midpoint) => 0.5,
-            _ => self.settings.theta,
+        match self.settings.stepper {
+            StepperKind::Impact => 0.5,
+            StepperKind::Paper => self.settings.theta,
         }
     }
 
@@ -247,7 +273,7 @@ impl Stepper {
         let th = self.kinematic_weight();
         // Midpoint kinematics: the ground follows the same update as the blocks,
         // from its exact mean acceleration, for both definitions.
-        let from_velocity = th == 0.5 && self.settings.kinematics == Kinematics::Midpoint;
+        let from_velocity = self.settings.stepper == StepperKind::Impact;
         let (t0, t1) = (s.t, s.t + dt);
         let comp = |c: Option<&crate::excitation::Component>, w0: f64| -> (f64, f64, f64) {
             match c {
@@ -359,14 +385,17 @@ impl Stepper {
                         vn -= n.0 * w0.0 + n.1 * w0.1;
                         vt -= n.1 * w0.0 - n.0 * w0.1;
                     }
-                    // Closed (gap within CLOSED_GAP) or closing within the first 1 - w of the
-                    // step: velocity-level law on the end-of-step relative velocity,
-                    // (n ± mu t)·v >= 0, i.e.
-                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0.
-                    // A persistent contact (gap and v_n0 at round-off level) sits on the
-                    // boundary of the second test, and for a sliding one the two laws differ
-                    // (the tangential offset): the gap test keeps it on one side.
-                    if c.gap <= CLOSED_GAP || c.gap + (1.0 - th) * dt * vn <= 0.0 {
+                    if c.gap <= CLOSED_GAP {
+                        // Closed: `g0+ + G dq >= 0` with the discrete-gradient rows, i.e. the
+                        // mean relative velocity of the step does not approach (a penetration
+                        // at round-off level is held, not pushed out: that would do work).
+                        r.g_n += c.gap.max(0.0) - c.gap;
+                    } else if !self.settings.locate_impacts && c.gap + (1.0 - th) * dt * vn <= 0.0 {
+                        // Closing within the first half of the step, impacts not located: the
+                        // velocity-level law on the end-of-step relative
+                        // velocity, (n ± mu t)·v >= 0, i.e.
+                        // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0:
+                        // plastic, no rebound.
                         r.g_n += -c.gap - (1.0 - th) * dt * vn;
                         r.g_t += -(1.0 - th) * dt * vt;
                     }
@@ -409,8 +438,20 @@ impl Stepper {
     /// step (see `step_locating`).
     pub fn step(&mut self, s: &mut NativeState) -> Result<StepSolution, StepError> {
         let dt = self.settings.dt;
-        let contacts = self.detect(s);
+        let mut contacts = self.detect(s);
         let t_end = s.t + dt;
+        if self.settings.stepper == StepperKind::Impact && self.approaching(s, &contacts) {
+            // A closed point that approaches (an impact the last step did not resolve): the
+            // mean-velocity law would reflect it, so the plastic impact first.
+            self.impact(s, &contacts, &[])
+                .map_err(|failure| StepError::Solver {
+                    step: s.step + 1,
+                    t: s.t,
+                    failure,
+                })?;
+            self.start_impacts += 1;
+            contacts = self.detect(s);
+        }
         let sol = if self.settings.stepper == StepperKind::Impact && self.settings.locate_impacts {
             self.step_locating(s, contacts, dt)?
         } else {
@@ -421,6 +462,16 @@ impl Stepper {
         s.t = t_end;
         s.step += 1;
         Ok(sol)
+    }
+
+    /// Whether a closed point (gap within `CLOSED_GAP`) approaches faster than it would close
+    /// `CLOSED_GAP` in a step.
+    fn approaching(&self, s: &NativeState, contacts: &[ContactPoint]) -> bool {
+        let ps = poses(&s.q);
+        contacts.iter().filter(|c| c.gap <= CLOSED_GAP).any(|c| {
+            let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
+            self.normal_speed(c, &r.nrow, &s.v, s.ground_w) * self.settings.dt < -CLOSED_GAP
+        })
     }
 
     /// One step with the impact instant located.
@@ -437,86 +488,129 @@ impl Stepper {
     fn step_locating(
         &mut self,
         s: &mut NativeState,
-        contacts: Vec<ContactPoint>,
+        mut contacts: Vec<ContactPoint>,
         dt: f64,
     ) -> Result<StepSolution, StepError> {
         let t_end = s.t + dt;
-        let s0 = s.clone();
-        let (sol, pr) = self.sub_step(s, &contacts, dt, true)?;
-        let carries = loaded(&sol);
-        let fresh: Vec<usize> = (0..contacts.len())
-            .filter(|&k| {
-                contacts[k].gap > CLOSED_GAP
-                    && carries[k]
-                    && self.loaded.binary_search(&pr.contacts[k].key).is_err()
-            })
-            .collect();
-        if fresh.is_empty() {
-            self.loaded = loaded_keys(&pr, &sol);
-            self.last_contacts = contacts;
-            return Ok(sol);
+        let mut iterations = 0;
+        let mut located_here: Vec<u64> = Vec::new();
+        let impact = self.settings.stepper == StepperKind::Impact;
+        let rounds = if impact { LOCATED_PER_STEP } else { 1 };
+        for round in 0..=rounds {
+            let h = t_end - s.t;
+            let s0 = s.clone();
+            let (mut sol, pr) = self.sub_step(s, &contacts, h, true)?;
+            let carries = loaded(&sol);
+            let fresh: Vec<usize> = (0..contacts.len())
+                .filter(|&k| {
+                    contacts[k].gap > CLOSED_GAP
+                        && carries[k]
+                        && self.loaded.binary_search(&pr.contacts[k].key).is_err()
+                })
+                .collect();
+            let tau = if fresh.is_empty() || round == rounds {
+                None
+            } else {
+                let after_ordinary = s.clone();
+                iterations += sol.iterations;
+                // Free trial.
+                *s = s0.clone();
+                let free: Vec<ContactPoint> = (0..contacts.len())
+                    .filter(|k| !fresh.contains(k))
+                    .map(|k| contacts[k])
+                    .collect();
+                let (trial, _) = self.sub_step(s, &free, h, false)?;
+                iterations += trial.iterations;
+                let tau = self.closing_instant(&s0, s, &contacts, &fresh, h);
+                if tau.is_none() {
+                    // The free motion does not close the points within the step: keep the
+                    // ordinary step.
+                    *s = after_ordinary;
+                    iterations -= sol.iterations;
+                } else {
+                    *s = s0;
+                }
+                tau.map(|t| (t, free))
+            };
+            let Some((tau, free)) = tau else {
+                // The located points have just closed: not a new impact in the next step even if
+                // the short rest of this one left them without a force (gap within the fall of
+                // `g h^2/2`).
+                self.loaded = loaded_keys(&pr, &sol);
+                self.loaded.extend(&located_here);
+                self.loaded.sort_unstable();
+                self.loaded.dedup();
+                sol.iterations += iterations;
+                self.last_contacts = contacts;
+                return Ok(sol);
+            };
+            let located: Vec<u64> = {
+                let ps = poses(&s.q);
+                fresh
+                    .iter()
+                    .map(|&k| contact_rows(&contacts[k], &ps, 0.0, (0.0, 0.0)).key)
+                    .collect()
+            };
+            if tau > 1e-9 * h {
+                let (first, pr) = self.sub_step(s, &free, tau, true)?;
+                iterations += first.iterations;
+                self.loaded = loaded_keys(&pr, &first);
+            }
+            let at = self.detect(s);
+            iterations += self
+                .impact(s, &at, &located)
+                .map_err(|failure| StepError::Solver {
+                    step: s.step + 1,
+                    t: s.t,
+                    failure,
+                })?;
+            located_here.extend(&located);
+            self.loaded.extend(&located);
+            self.loaded.sort_unstable();
+            self.loaded.dedup();
+            self.split_steps += 1;
+            contacts = self.detect(s);
         }
-        let after_ordinary = s.clone();
-        let mut iterations = sol.iterations;
-        // Free trial.
-        *s = s0.clone();
-        let free: Vec<ContactPoint> = (0..contacts.len())
-            .filter(|k| !fresh.contains(k))
-            .map(|k| contacts[k])
-            .collect();
-        let (trial, _) = self.sub_step(s, &free, dt, false)?;
-        iterations += trial.iterations;
+        unreachable!("the last round returns")
+    }
+
+    /// The instant within a sub-step of length `h` from `s0` at which the first of the `fresh`
+    /// points closes, from the free trial's end state `s1` (see `step_locating`).
+    fn closing_instant(
+        &self,
+        s0: &NativeState,
+        s1: &NativeState,
+        contacts: &[ContactPoint],
+        fresh: &[usize],
+        h: f64,
+    ) -> Option<f64> {
         let w = self.kinematic_weight();
         let ps = poses(&s0.q);
+        let impact = self.settings.stepper == StepperKind::Impact;
         let mut tau: Option<f64> = None;
-        for &k in &fresh {
+        for &k in fresh {
             let c = &contacts[k];
             let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
             let vn0 = self.normal_speed(c, &r.nrow, &s0.v, s0.ground_w);
-            let vn1 = self.normal_speed(c, &r.nrow, &s.v, s.ground_w);
-            if let Some(t) = first_root(c.gap, vn0, w * (vn1 - vn0) / dt, dt) {
+            // The gap within the step, `g0 + vn0 tau + c2 tau^2`: for the impact stepper through
+            // the point's exact gap at the end of the free trial (local error O(h^3) whatever
+            // the motion), else from the normal speeds at both ends.
+            let c2 = if impact {
+                let mut g1 = MaterialContact::new(c, &ps).gaps(&s1.q).0;
+                if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
+                    let dd = (s1.ground_d.0 - s0.ground_d.0, s1.ground_d.1 - s0.ground_d.1);
+                    g1 -= c.normal.0 * dd.0 + c.normal.1 * dd.1;
+                }
+                (g1 - c.gap - vn0 * h) / (h * h)
+            } else {
+                let vn1 = self.normal_speed(c, &r.nrow, &s1.v, s1.ground_w);
+                w * (vn1 - vn0) / h
+            };
+            if let Some(t) = first_root(c.gap, vn0, c2, h) {
                 tau = Some(tau.map_or(t, |x: f64| x.min(t)));
             }
         }
-        let Some(tau) = tau else {
-            // The free motion does not close the point within the step: keep the ordinary step.
-            *s = after_ordinary;
-            self.loaded = loaded_keys(&pr, &sol);
-            self.last_contacts = contacts;
-            return Ok(sol);
-        };
-        *s = s0;
-        let located: Vec<u64> = {
-            let ps = poses(&s.q);
-            fresh
-                .iter()
-                .map(|&k| contact_rows(&contacts[k], &ps, 0.0, (0.0, 0.0)).key)
-                .collect()
-        };
-        if tau > 1e-9 * dt {
-            let (first, _) = self.sub_step(s, &free, tau, true)?;
-            iterations += first.iterations;
-        }
-        let at = self.detect(s);
-        iterations += self
-            .impact(s, &at, &located)
-            .map_err(|failure| StepError::Solver {
-                step: s.step + 1,
-                t: s.t,
-                failure,
-            })?;
-        let rest = self.detect(s);
-        let (mut last, pr) = self.sub_step(s, &rest, t_end - s.t, true)?;
-        // The located points have just closed: not a new impact in the next step even if the
-        // short rest of this one left them without a force (gap within the fall of `g h^2/2`).
-        self.loaded = loaded_keys(&pr, &last);
-        self.loaded.extend(&located);
-        self.loaded.sort_unstable();
-        self.loaded.dedup();
-        last.iterations += iterations;
-        self.split_steps += 1;
-        self.last_contacts = rest;
-        Ok(last)
+        tau
     }
 
     /// A plastic impact at the current instant: the velocities jump to the closest ones (in
@@ -564,7 +658,7 @@ impl Stepper {
     }
 
     /// Advance by `h` from the given contacts; `project`: project out a penetration after the
-    /// step (impact-consistent stepper; off for trial steps).
+    /// step (impact stepper without impact location; off for trial steps).
     fn sub_step(
         &mut self,
         s: &mut NativeState,
@@ -572,16 +666,25 @@ impl Stepper {
         h: f64,
         project: bool,
     ) -> Result<(StepSolution, StepProblem), StepError> {
-        let (pr, g) = self.problem(s, contacts, h);
+        let (mut pr, g) = self.problem(s, contacts, h);
         let fail = |failure| StepError::Solver {
             step: s.step + 1,
             t: s.t,
             failure,
         };
-        let sol = self.solve_law(&pr).map_err(fail)?;
+        let impact = self.settings.stepper == StepperKind::Impact;
+        let (mut sol, points) = if impact {
+            self.solve_discrete_gradient(s, contacts, &mut pr, h)
+                .map_err(fail)?
+        } else {
+            (self.solve_law(&pr).map_err(fail)?, Vec::new())
+        };
         let th = self.kinematic_weight();
         for i in 0..s.q.len() {
             let v = (sol.dq[i] / h - (1.0 - th) * s.v[i]) / th;
+            if impact {
+                self.accel[i] = (v - s.v[i]) / h;
+            }
             s.v[i] = v;
             s.q[i] += sol.dq[i];
         }
@@ -589,9 +692,18 @@ impl Stepper {
         s.ground_d.1 += g.dd.1;
         s.ground_w = g.w1;
         s.t += h;
+        if impact {
+            sol.iterations += self
+                .settle_velocity(s, contacts, &points, &sol, h)
+                .map_err(|failure| StepError::Solver {
+                    step: s.step + 1,
+                    t: s.t,
+                    failure,
+                })?;
+        }
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
-        if project && self.settings.stepper == StepperKind::Impact {
+        if project && impact && !self.settings.locate_impacts {
             self.project_out_penetration(s)
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
@@ -606,6 +718,116 @@ impl Stepper {
             });
         }
         Ok((sol, pr))
+    }
+
+    /// The impact stepper's solve: the rows of every point are the discrete gradients of its gap
+    /// functions between `q0` and a predicted end of the step (`native::material`), first from
+    /// the last smooth acceleration, `q1 = q0 + h v0 + h^2 a/2`, then from each solution, until
+    /// the loaded points' gaps at the solution's end agree with the rows to `DRIFT_TOLERANCE`
+    /// (at most `DISCRETE_GRADIENT_SOLVES` solves; every one conserves energy exactly, the
+    /// iteration only removes the drift of the closed contacts).
+    fn solve_discrete_gradient(
+        &mut self,
+        s: &NativeState,
+        contacts: &[ContactPoint],
+        pr: &mut StepProblem,
+        h: f64,
+    ) -> Result<(StepSolution, Vec<MaterialContact>), SolveFailure> {
+        let ps = poses(&s.q);
+        let points: Vec<MaterialContact> = contacts
+            .iter()
+            .map(|c| MaterialContact::new(c, &ps))
+            .collect();
+        let start: Vec<(f64, f64)> = points.iter().map(|m| m.gaps(&s.q)).collect();
+        let mut q1: Vec<f64> = (0..s.q.len())
+            .map(|i| s.q[i] + h * s.v[i] + 0.5 * h * h * self.accel[i])
+            .collect();
+        let mut iterations = 0;
+        for solve in 1..=DISCRETE_GRADIENT_SOLVES {
+            for (r, m) in pr.contacts.iter_mut().zip(&points) {
+                m.set_rows(r, &s.q, &q1, &self.bodies.mass);
+            }
+            let mut sol = self.solve_law(pr)?;
+            iterations += sol.iterations;
+            for (q, (q0, d)) in q1.iter_mut().zip(s.q.iter().zip(&sol.dq)) {
+                *q = q0 + d;
+            }
+            let carries = loaded(&sol);
+            let drift = points
+                .iter()
+                .zip(&pr.contacts)
+                .zip(&start)
+                .zip(&carries)
+                .filter(|(_, l)| **l)
+                .map(|(((m, r), g0), _)| {
+                    let (gn, gt) = m.gaps(&q1);
+                    let dn = gn - g0.0 - row_dot(&r.nrow, &sol.dq);
+                    let dt = gt - g0.1 - row_dot(&r.trow, &sol.dq);
+                    dn.abs().max(dt.abs())
+                })
+                .fold(0.0f64, f64::max);
+            if drift <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
+                self.gradient_solves += solve as u64;
+                sol.iterations = iterations;
+                return Ok((sol, points));
+            }
+        }
+        unreachable!("the last solve returns")
+    }
+
+    /// The end velocity of an impact-stepper sub-step, `v = 2 dq/h - v0`, made admissible on the
+    /// points that carried a force: when some `(n ± mu t)·v` (rows at the end configuration)
+    /// approaches by more than `VELOCITY_TOLERANCE`, `v` becomes its closest admissible
+    /// velocity in the kinetic-energy norm (Moreau's plastic law; kinetic energy can only
+    /// drop). Without it the mean-velocity law would leave the end velocity ringing, `v = -v0`,
+    /// after a contact sticks or closes. On a smooth motion along a contact the change is
+    /// O(h^3) a step. Returns the solver iterations.
+    fn settle_velocity(
+        &mut self,
+        s: &mut NativeState,
+        contacts: &[ContactPoint],
+        points: &[MaterialContact],
+        sol: &StepSolution,
+        h: f64,
+    ) -> Result<u32, SolveFailure> {
+        let w = match self.applied_as {
+            AppliedAs::MovingGround => s.ground_w,
+            AppliedAs::InertialForces => (0.0, 0.0),
+        };
+        let carries = loaded(sol);
+        let ps = poses(&s.q);
+        let mut rows = Vec::new();
+        let mut worst = 0.0f64;
+        for ((c, m), l) in contacts.iter().zip(points).zip(&carries) {
+            if !*l {
+                continue;
+            }
+            let mu = self.bodies.friction(c);
+            let mut r = contact_rows(c, &ps, mu, w);
+            r.g_n -= c.gap;
+            let (gn, gt, len) = m.gradients(&s.q);
+            r.nrow = gn[..len].to_vec();
+            r.trow = gt[..len].to_vec();
+            let vn = r.g_n + row_dot(&r.nrow, &s.v);
+            let vt = r.g_t + row_dot(&r.trow, &s.v);
+            worst = worst.max(mu * vt.abs() - vn);
+            rows.push(r);
+        }
+        if worst * h <= VELOCITY_TOLERANCE {
+            return Ok(0);
+        }
+        let pr = StepProblem {
+            theta: 1.0,
+            dt: 1.0,
+            mass: self.bodies.mass.clone(),
+            force: vec![0.0; s.v.len()],
+            v0: s.v.clone(),
+            contacts: rows,
+        };
+        let settled = self.solve_law(&pr)?;
+        s.v.copy_from_slice(&settled.dq);
+        self.settled_velocities += 1;
+        Ok(settled.iterations)
     }
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
