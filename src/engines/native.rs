@@ -129,6 +129,15 @@ impl Engine for NativeEngine {
                     stepper.polished_steps,
                     stepper.solver_fallbacks()
                 )];
+                if stepper.gradient_solves > 0 {
+                    notes.push(format!(
+                        "impact stepper: {} solves for the discrete-gradient rows ({:.2} a step), {} end velocities settled, {} plastic impacts at the start of a step",
+                        stepper.gradient_solves,
+                        stepper.gradient_solves as f64 / computed.max(1) as f64,
+                        stepper.settled_velocities,
+                        stepper.start_impacts
+                    ));
+                }
                 if stepper.coulomb_problems > 0 {
                     notes.push(format!(
                         "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem)",

@@ -64,7 +64,7 @@ pub const CLOSED_GAP: f64 = PENETRATION_TOLERANCE;
 
 /// Impact stepper: the discrete-gradient rows are re-evaluated until the loaded points' gap
 /// functions at the end of the step agree with the rows to this, m.
-pub const DRIFT_TOLERANCE: f64 = 1e-13;
+pub const DRIFT_TOLERANCE: f64 = 1e-15;
 /// Impact stepper: an end velocity approaching a loaded point by less than this in a step
 /// (m) is kept as it is (see `settle_velocity`).
 pub const VELOCITY_TOLERANCE: f64 = 1e-15;
