@@ -40,6 +40,7 @@ pub mod geometry;
 pub mod invariants;
 pub mod metrics;
 pub mod native;
+pub mod output;
 pub mod paper;
 #[cfg(feature = "python")]
 pub mod python;

@@ -1,9 +1,8 @@
 //! `rockbench compare SCENE --engines a,b,c --reference ENGINE|FILE --out DIR`: run every
 //! engine once, compare each with the reference, write the metrics and the report.
 
-use crate::compare::{
-    CompareOptions, ReferenceSpec, compare, default_jobs, summary_paragraphs_for, write_comparison,
-};
+use crate::compare::{CompareOptions, ReferenceSpec, compare, default_jobs};
+use crate::report::{summary_paragraphs_for, write_comparison};
 use crate::scene::load_scene_with_overrides;
 use anyhow::{Result, bail};
 use std::path::PathBuf;

@@ -12,24 +12,10 @@ pub mod rapier_settings;
 
 use crate::scene::{Scene, SceneError};
 use crate::summary::Summary;
-use crate::trajectory::Trajectory;
 use std::path::Path;
 use std::time::Instant;
 
-/// What an engine returns.
-#[derive(Debug, Clone)]
-pub struct RunOutput {
-    pub trajectory: Trajectory,
-    /// Every setting that changes the answer, as used.
-    pub settings: serde_json::Value,
-    pub engine_version: String,
-    pub steps: u64,
-    pub solver_iterations: Option<u64>,
-    /// Impact times per block located by the engine itself (the Housner engine's exact
-    /// events); `None`: events are taken from the trajectory.
-    pub exact_impacts: Option<Vec<Vec<f64>>>,
-    pub notes: Vec<String>,
-}
+pub use crate::output::RunOutput;
 
 #[derive(Debug, thiserror::Error)]
 pub enum EngineError {
