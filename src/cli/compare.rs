@@ -2,8 +2,8 @@
 //! engine once, compare each with the reference, write the metrics and the report.
 
 use crate::compare::{CompareOptions, ReferenceSpec, compare, default_jobs};
+use crate::engines::registry::load_scene_with_overrides;
 use crate::report::{summary_paragraphs_for, write_comparison};
-use crate::scene::load_scene_with_overrides;
 use anyhow::{Result, bail};
 use std::path::PathBuf;
 

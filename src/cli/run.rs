@@ -1,7 +1,7 @@
 //! `rockbench run SCENE --engine E --out DIR`: one engine, one scene.
 
+use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{engine_by_name, run_timed, write_outputs};
-use crate::scene::load_scene_with_overrides;
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 

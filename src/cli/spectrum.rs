@@ -111,9 +111,7 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
                     a.target
                 ));
             }
-            let s = crate::scene::load_scene_with_overrides(&path, &a.set)?;
-            s.check()?;
-            s
+            crate::engines::registry::load_scene_with_overrides(&path, &a.set)?
         }
     };
     let similar = match &a.similarity {

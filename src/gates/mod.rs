@@ -35,8 +35,9 @@ pub mod cache;
 pub mod junit;
 
 use crate::compare::{CompareOptions, EngineRun, ReferenceSpec, Status, compare_with};
+use crate::engines::registry::load_scene_with_overrides;
 use crate::metrics::{self, MetricRow};
-use crate::scene::{Scene, load_scene_with_overrides};
+use crate::scene::Scene;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

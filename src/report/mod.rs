@@ -1378,7 +1378,7 @@ mod tests {
         let runner = |name: &str, sc: &Scene| -> EngineRun {
             if name == "lossy" {
                 let mut s = sc.clone();
-                s.housner.restitution = Some(0.6);
+                s.set_setting("housner", "restitution", 0.6);
                 let mut r = run_engine("housner", &s);
                 r.engine = "lossy".into();
                 r
