@@ -16,7 +16,8 @@ pub struct CompareArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "native,rapier,mujoco,pybullet,housner"
+        default_value = "native,rapier,mujoco,pybullet,housner",
+        long_help = super::engines_help("Engines, comma-separated.")
     )]
     engines: Vec<String>,
     /// The reference: an engine name (run too if not in --engines) or a trajectory.csv file.

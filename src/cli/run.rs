@@ -10,7 +10,7 @@ pub struct RunArgs {
     /// Scene file (TOML or JSON).
     scene: PathBuf,
     /// Engine name (see `rockbench run --help`): native, housner, ...
-    #[arg(long, default_value = "native")]
+    #[arg(long, default_value = "native", long_help = super::engines_help("Engine name."))]
     engine: String,
     /// Override a scene field, e.g. --set native.dt=5e-4 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]

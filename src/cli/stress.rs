@@ -38,12 +38,11 @@ pub struct StressArgs {
 }
 
 fn engines_help() -> String {
-    format!(
+    super::engines_help(&format!(
         "Engines to run, comma-separated (default: {}). Engines that are not built into this \
-         binary are reported as skipped.\n{}",
-        registry::stress_defaults().join(","),
-        registry::help()
-    )
+         binary are reported as skipped.",
+        registry::stress_defaults().join(",")
+    ))
 }
 
 pub fn stress(a: StressArgs) -> Result<()> {

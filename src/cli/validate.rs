@@ -23,7 +23,8 @@ pub struct ValidateArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "native,housner,rapier,mujoco,pybullet"
+        default_value = "native,housner,rapier,mujoco,pybullet",
+        long_help = super::engines_help("Engines to run, comma-separated (gates of other engines are left out; Siconos runs in `make validate-siconos`).")
     )]
     engines: Vec<String>,
     /// Only these cases (repeatable); default all.

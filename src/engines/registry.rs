@@ -200,7 +200,7 @@ pub static ENGINES: &[EngineInfo] = &[
         }),
         contract: siconos::contract,
         listed: true,
-        stress_default: false,
+        stress_default: true,
         build: || Ok(Box::new(external::ExternalEngine::of(&siconos::WORKER))),
         availability: || worker_available(&siconos::WORKER),
     },

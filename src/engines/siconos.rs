@@ -14,7 +14,7 @@
 
 use super::EngineError;
 use super::external::WorkerSpec;
-use crate::contract::Contract;
+use crate::contract::{Contract, soft};
 use crate::scene::{Scene, SceneError};
 
 /// Environment variable naming the interpreter of the Siconos worker.
@@ -115,7 +115,34 @@ pub fn input(scene: &Scene) -> Result<serde_json::Value, EngineError> {
     Ok(input)
 }
 
-/// Siconos' contract: CONTRACT_PLACEHOLDER
+/// Siconos' contract, measured with `rockbench stress --quick --engines siconos` on
+/// 2026-11-23 (rockbench 0.1.0, python3-siconos 4.4.0, defaults: Moreau-Jean theta 0.5 with
+/// projection, step 1e-4 s, e = 0, NSGS 1e-12). Contacts are hard, so penetration stays at
+/// round-off; the projection step and the solver tolerance leave an energy growth at impacts
+/// and a mirror asymmetry (NSGS visits the contacts in order). The column of 20 bricks timed
+/// out (600 s through the Python relations on loaded shared cores) and an overturned block
+/// falls through the ground (the worker models the base corners only): both are listed in
+/// `validation/stress-known.toml`.
 pub fn contract() -> Contract {
-    crate::contract::strict("siconos")
+    soft(
+        "siconos",
+        "nonsmooth contact (Moreau-Jean theta 0.5 with projection, step 1e-4, Newton e = 0, NSGS 1e-12)",
+        (
+            1e-4,
+            "quick map: 1.6e-9 m at most (mass ratio 1e-3, 1 m blocks), 7.5e-10 m on the 0.02 m wide block (3.7e-8 of it): round-off, the strict limit; an overturned block (pulse k = 20) falls through the ground: known",
+        ),
+        (
+            5e-5,
+            "quick map: 1.1e-5 (a 5 cm block), 8.6e-6 (a square block), 2.9e-6 (mass ratio 1e-3), 1.6e-6 (the base block, at its first impact); 4.7e-9 (H/B = 20)",
+        ),
+        (
+            1e-8,
+            "quick map: 3.5e-9 m (1.4e-9 of the height) for a column of 5 bricks in 2 s; 1 brick 5.6e-17 m; the column of 20 timed out (known)",
+        ),
+        (
+            2e-4,
+            "quick map: 5.0e-5 (mass ratio 1000, up to the first impact at 0.857 s), 5.8e-9 (5 bricks); every single-block cell bit-symmetric",
+        ),
+        "deterministic: bit-identical reruns on every measured cell",
+    )
 }
