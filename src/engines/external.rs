@@ -32,6 +32,11 @@ pub const DEFAULT_TIMEOUT_S: f64 = 600.0;
 /// Environment variable naming the Python interpreter of the workers.
 pub const PYTHON_ENV: &str = "ROCKBENCH_PYTHON";
 
+/// A worker's input built from the scene.
+pub type WorkerInput = fn(&Scene) -> Result<serde_json::Value, EngineError>;
+/// A check of the table keys the harness reads.
+pub type TableKeysCheck = fn(&Scene) -> Result<(), SceneError>;
+
 /// What distinguishes one worker engine from another.
 #[derive(Debug)]
 pub struct WorkerSpec {
@@ -48,9 +53,9 @@ pub struct WorkerSpec {
     /// rockbench.worker --engine E --scene SCENE --out DIR --source FILE`.
     pub script: Option<&'static str>,
     /// The worker's input; `None`: the scene as JSON ([`Scene::to_json`]).
-    pub input: Option<fn(&Scene) -> Result<serde_json::Value, EngineError>>,
+    pub input: Option<WorkerInput>,
     /// Checks of the table keys the harness reads itself (besides `timeout`).
-    pub check: Option<fn(&Scene) -> Result<(), SceneError>>,
+    pub check: Option<TableKeysCheck>,
     /// Environment variables set for the worker.
     pub env: &'static [(&'static str, &'static str)],
     /// The exit code by which the worker says it cannot model the scene (its stderr says why).
