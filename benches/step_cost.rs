@@ -79,7 +79,7 @@ fn step_cost(c: &mut Criterion) {
                 continue;
             }
             let mut scene = if n == 210 { wall(10) } else { stack(n) };
-            scene.native.solver = serde_json::from_value(serde_json::json!(solver)).unwrap();
+            scene.set_setting("native", "solver", solver);
             let (mut stepper, mut state) = stepper_for(&scene).unwrap();
             // Into the motion: 0.1 s for stacks (rocking), one step for the wall.
             let warm = if n == 210 { 1 } else { 100 };
@@ -100,7 +100,7 @@ fn wall_at_rest(c: &mut Criterion) {
         .sample_size(20);
     for courses in [2usize, 5, 10, 20, 40] {
         let mut scene = wall(courses);
-        scene.native.solver = serde_json::from_value(serde_json::json!("sparse")).unwrap();
+        scene.set_setting("native", "solver", "sparse");
         let (mut stepper, mut state) = stepper_for(&scene).unwrap();
         // Past the first steps, in which the tallest walls settle by round-off amounts.
         for _ in 0..100 {

@@ -169,7 +169,9 @@ fn main() {
     for (label, edit) in variants {
         let with = |scene: &Scene| {
             let mut s = scene.clone();
-            edit(&mut s.rapier);
+            let mut r = RapierSettings::of(&s).expect("the validation scenes' [rapier] is valid");
+            edit(&mut r);
+            s.set_table("rapier", &r);
             s
         };
         println!(

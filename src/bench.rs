@@ -1,15 +1,16 @@
 //! Work-precision benchmark: every engine at every step size (and every native variant), the
 //! median wall time of N runs against the error metrics of `crate::metrics`.
 //!
-//! The step size is set through each engine's own setting (`native.dt`, `rapier.dt`,
-//! `mujoco.timestep`, `pybullet.fixed_time_step`); engines without one (housner, auto) run
-//! once. Runs that fail or blow up stay in the table as failed, with their reason.
+//! The step size is set through each engine's own setting, named in the engine registry
+//! (`native.dt`, `rapier.dt`, `mujoco.timestep`, ...); engines without one (housner, auto)
+//! run once. Runs that fail or blow up stay in the table as failed, with their reason.
 
 use crate::compare::{ReferenceSpec, Status, classify};
+use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{RunOutput, engine_by_name, run_timed};
 use crate::metrics::{Cost, MetricRow, MetricSettings, Run, compare_runs};
 use crate::report::svg::{Curve, Plot};
-use crate::scene::{Scene, load_scene_with_overrides};
+use crate::scene::Scene;
 use crate::summary::Summary;
 use crate::trajectory::Trajectory;
 use serde::Serialize;
@@ -40,16 +41,9 @@ pub fn native_variants() -> Vec<Variant> {
     v
 }
 
-/// The scene setting that holds an engine's step size.
+/// The scene setting that holds an engine's step size (the registry's).
 pub fn step_setting(engine: &str) -> Option<&'static str> {
-    match engine {
-        "native" => Some("native.dt"),
-        "rapier" => Some("rapier.dt"),
-        "mujoco" => Some("mujoco.timestep"),
-        "pybullet" => Some("pybullet.fixed_time_step"),
-        "siconos" => Some("siconos.step"),
-        _ => None,
-    }
+    crate::engines::registry::step_setting(engine)
 }
 
 #[derive(Debug, Clone)]

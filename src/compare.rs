@@ -3,7 +3,9 @@
 //! metrics, the trajectories, the summaries and the report.
 //!
 //! [`compare`] returns the metric rows as data ([`Comparison::rows`]) so that other front
-//! ends (the Python bindings) can wrap it; [`write_comparison`] writes the files.
+//! ends (the Python bindings) can wrap it; [`write_run_files`] writes the metrics, trajectories
+//! and summaries, and [`crate::report::write_comparison`] those and the report. The report
+//! reads a [`Comparison`]; this module does not know the report.
 
 use crate::engines::{EngineError, RunOutput, engine_by_name, run_timed, write_outputs};
 use crate::metrics::{self, Cost, MetricRow, MetricSettings, Run};
@@ -479,10 +481,10 @@ pub fn write_metrics_csv(path: &Path, rows: &[MetricRow]) -> std::io::Result<()>
     w.flush()
 }
 
-/// Write every file of a comparison into `dir`: `metrics.csv`, `metrics.json`,
-/// `<engine>/trajectory.csv` and `<engine>/summary.json` for every engine that ran,
-/// `report.md`, `report.html` and the plots under `plots/`.
-pub fn write_comparison(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
+/// Write the data files of a comparison into `dir`: `metrics.csv`, `metrics.json`,
+/// `<engine>/trajectory.csv` and `<engine>/summary.json` for every engine that ran (the report
+/// is [`crate::report::write_comparison`]).
+pub fn write_run_files(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
     let io = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
     for er in c.ok_runs() {
@@ -519,18 +521,7 @@ pub fn write_comparison(dir: &Path, c: &Comparison, command: &str) -> Result<(),
         &p,
         serde_json::to_string_pretty(&json).expect("metrics serialise") + "\n",
     )
-    .map_err(|e| io(&p, e))?;
-    crate::report::write_report(dir, c, command)
-}
-
-/// The summary paragraphs of the report, as printed by `rockbench compare`.
-pub fn summary_paragraphs_for(c: &Comparison) -> Vec<String> {
-    let own = c
-        .reference_run
-        .as_ref()
-        .and_then(|r| metrics::compare_runs(&c.scene, r, r, &c.settings).ok())
-        .unwrap_or_default();
-    crate::report::summary_paragraphs(c, &own)
+    .map_err(|e| io(&p, e))
 }
 
 #[cfg(test)]
@@ -581,8 +572,6 @@ mod tests {
         assert_eq!(st("housner"), Status::Ok);
         // Nothing but the reference ran, so there are no rows, and the summary says why.
         assert!(c.rows.is_empty());
-        let text = summary_paragraphs_for(&c).join(" ");
-        assert!(text.contains("diverged at step 7") && text.contains("nothing is compared"));
     }
 
     #[test]

@@ -127,7 +127,7 @@ pub fn strict(engine: &str) -> Contract {
 
 /// A soft-contact engine's contract: finite, complete and bit-identical reruns as strictly as
 /// any engine; penetration, energy, standing drift and mirror symmetry to measured limits.
-fn soft(
+pub fn soft(
     engine: &str,
     kind: &str,
     penetration: (f64, &str),
@@ -152,50 +152,55 @@ fn soft(
     c
 }
 
-/// The contract an engine declares (the strict one for an engine without its own).
-pub fn of(engine: &str) -> Contract {
-    match engine {
-        "rapier" => soft(
-            "rapier",
-            "soft contact (240 Hz / 10 softness, 4 stabilization iterations, dt 1e-3)",
-            (
-                5e-2,
-                "full map: 2.95e-2 (the 0.105 m post under a 1.53 x 4.9 m block sinks 3.1 mm), 2.1e-2 (mass ratio 1000: a 1.25 m pedestal under a 1000-times-denser statue sinks 2.1 cm); 1 block 3.8e-6, a column of 100 bricks 4.0e-3",
-            ),
-            (
-                5e-3,
-                "full map: 2.6e-3 (a column of 100 bricks, 0.63 s); 1 block 6.8e-6 (at an impact), mass ratio 1000 5.4e-4",
-            ),
-            (
-                2.5e-3,
-                "full map: 1.5e-3 of the height (a column of 100 bricks settles 7.6 cm in 2 s); 10 bricks 1.5e-4, a 10-course wall 6.6e-5; the eccentric block on a post (full map only) tips off it: listed in validation/stress-known.toml",
-            ),
-            (
-                2e-3,
-                "full map: 9.5e-4 rad (eccentric block on a post), 5.6e-5 (pulse k = 20), 3.5e-5 (a 5 cm block): rapier's sequential solver visits contacts in order",
-            ),
-            "enhanced-determinism: bit-identical on the whole map",
+/// rapier's contract (measured with `rockbench stress` on the full map).
+pub fn rapier() -> Contract {
+    soft(
+        "rapier",
+        "soft contact (240 Hz / 10 softness, 4 stabilization iterations, dt 1e-3)",
+        (
+            5e-2,
+            "full map: 2.95e-2 (the 0.105 m post under a 1.53 x 4.9 m block sinks 3.1 mm), 2.1e-2 (mass ratio 1000: a 1.25 m pedestal under a 1000-times-denser statue sinks 2.1 cm); 1 block 3.8e-6, a column of 100 bricks 4.0e-3",
         ),
-        "mujoco" => soft(
-            "mujoco",
-            "soft contact (solref 0.0003 1, solimp 0.99 0.999 0.0001, timestep 1e-4)",
-            (MUJOCO.0, MUJOCO_MEASURED[0]),
-            (MUJOCO.1, MUJOCO_MEASURED[1]),
-            (MUJOCO.2, MUJOCO_MEASURED[2]),
-            (MUJOCO.3, MUJOCO_MEASURED[3]),
-            MUJOCO_MEASURED[4],
+        (
+            5e-3,
+            "full map: 2.6e-3 (a column of 100 bricks, 0.63 s); 1 block 6.8e-6 (at an impact), mass ratio 1000 5.4e-4",
         ),
-        "pybullet" => soft(
-            "pybullet",
-            "soft contact (fixed step 1e-3, 10 sub-steps, 50 iterations, ERP 0.2)",
-            (PYBULLET.0, PYBULLET_MEASURED[0]),
-            (PYBULLET.1, PYBULLET_MEASURED[1]),
-            (PYBULLET.2, PYBULLET_MEASURED[2]),
-            (PYBULLET.3, PYBULLET_MEASURED[3]),
-            PYBULLET_MEASURED[4],
+        (
+            2.5e-3,
+            "full map: 1.5e-3 of the height (a column of 100 bricks settles 7.6 cm in 2 s); 10 bricks 1.5e-4, a 10-course wall 6.6e-5; the eccentric block on a post (full map only) tips off it: listed in validation/stress-known.toml",
         ),
-        other => strict(other),
-    }
+        (
+            2e-3,
+            "full map: 9.5e-4 rad (eccentric block on a post), 5.6e-5 (pulse k = 20), 3.5e-5 (a 5 cm block): rapier's sequential solver visits contacts in order",
+        ),
+        "enhanced-determinism: bit-identical on the whole map",
+    )
+}
+
+/// MuJoCo's contract.
+pub fn mujoco() -> Contract {
+    soft(
+        "mujoco",
+        "soft contact (solref 0.0003 1, solimp 0.99 0.999 0.0001, timestep 1e-4)",
+        (MUJOCO.0, MUJOCO_MEASURED[0]),
+        (MUJOCO.1, MUJOCO_MEASURED[1]),
+        (MUJOCO.2, MUJOCO_MEASURED[2]),
+        (MUJOCO.3, MUJOCO_MEASURED[3]),
+        MUJOCO_MEASURED[4],
+    )
+}
+
+/// PyBullet's contract.
+pub fn pybullet() -> Contract {
+    soft(
+        "pybullet",
+        "soft contact (fixed step 1e-3, 10 sub-steps, 50 iterations, ERP 0.2)",
+        (PYBULLET.0, PYBULLET_MEASURED[0]),
+        (PYBULLET.1, PYBULLET_MEASURED[1]),
+        (PYBULLET.2, PYBULLET_MEASURED[2]),
+        (PYBULLET.3, PYBULLET_MEASURED[3]),
+        PYBULLET_MEASURED[4],
+    )
 }
 
 /// MuJoCo: penetration (of the smallest dimension), energy, standing (of the height), mirror.
@@ -274,49 +279,6 @@ impl Contract {
     }
 }
 
-/// Every engine's contract, with command-line changes.
-#[derive(Debug, Clone, Default)]
-pub struct Contracts {
-    changed: Vec<Contract>,
-}
-
-impl Contracts {
-    /// Apply `ENGINE.CHECK=VALUE` assignments.
-    pub fn with_changes(changes: &[String]) -> Result<Contracts, String> {
-        let mut c = Contracts::default();
-        for a in changes {
-            let err = |m: String| format!("--contract {a}: {m}");
-            let (key, value) = a
-                .split_once('=')
-                .ok_or_else(|| err("expected ENGINE.CHECK=VALUE".into()))?;
-            let (engine, check) = key
-                .split_once('.')
-                .ok_or_else(|| err("expected ENGINE.CHECK=VALUE".into()))?;
-            let v: f64 = value
-                .trim()
-                .parse()
-                .map_err(|_| err(format!("`{value}` is not a number")))?;
-            let k = match c.changed.iter().position(|x| x.engine == engine) {
-                Some(k) => k,
-                None => {
-                    c.changed.push(of(engine));
-                    c.changed.len() - 1
-                }
-            };
-            c.changed[k].set(check.trim(), v).map_err(err)?;
-        }
-        Ok(c)
-    }
-
-    pub fn of(&self, engine: &str) -> Contract {
-        self.changed
-            .iter()
-            .find(|c| c.engine == engine)
-            .cloned()
-            .unwrap_or_else(|| of(engine))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -324,36 +286,17 @@ mod tests {
     #[test]
     fn round_off_engines_promise_the_strict_tolerances() {
         let t = Tolerances::default();
-        for e in ["native", "housner"] {
-            let c = of(e);
+        for c in [strict("native"), strict("housner")] {
             assert_eq!(c.promise("energy").unwrap().limit, t.energy_rel);
             assert_eq!(c.promise("standing").unwrap().limit, t.drift);
             assert_eq!(c.promise("standing").unwrap().basis, Basis::Absolute);
             assert_eq!(c.promise("penetration").unwrap().limit, t.penetration_rel);
         }
         // Soft contacts promise more than round-off only where measured, never on reruns.
-        for e in ["rapier", "mujoco", "pybullet"] {
-            let c = of(e);
+        for c in [rapier(), mujoco(), pybullet()] {
             assert!(c.promise("penetration").unwrap().limit > t.penetration_rel);
             assert_eq!(c.promise("rerun").unwrap().limit, 0.0);
             assert_eq!(c.promise("finite").unwrap().limit, 0.0);
-        }
-    }
-
-    #[test]
-    fn command_line_changes_are_checked() {
-        let c = Contracts::with_changes(&["rapier.standing=1e-9".into()]).unwrap();
-        assert_eq!(c.of("rapier").promise("standing").unwrap().limit, 1e-9);
-        assert_eq!(c.of("native").promise("standing").unwrap().limit, 1e-9);
-        for bad in [
-            "rapier",
-            "rapier.nope=1",
-            "rapier.energy=x",
-            "rapier.energy=-1",
-        ] {
-            let e = Contracts::with_changes(&[bad.into()]).unwrap_err();
-            assert!(e.starts_with(&format!("--contract {bad}: ")), "{e}");
-            assert!(!e.contains('\n'));
         }
     }
 }

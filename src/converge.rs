@@ -17,10 +17,10 @@
 
 use crate::bench::{reference_run, run_of, step_setting};
 use crate::compare::ReferenceSpec;
+use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{engine_by_name, run_timed};
 use crate::metrics::{MetricRow, MetricSettings, Run, compare_runs, series_of};
 use crate::report::svg::{Curve, Plot};
-use crate::scene::load_scene_with_overrides;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;

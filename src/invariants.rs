@@ -272,8 +272,11 @@ pub fn check_complete(scene: &Scene, tr: &Trajectory) -> Check {
     if !tr.t.windows(2).all(|w| w[1] > w[0]) {
         problems.push("times do not increase".into());
     }
-    if !(last >= scene.duration - slack
-        && last < scene.duration + scene.native.dt.max(scene.rapier.dt) + slack)
+    // The native and rapier engines end on a whole step past the duration.
+    let native_dt = crate::native::settings_of(scene).map_or(0.0, |s| s.dt);
+    let rapier_dt =
+        crate::engines::rapier_settings::RapierSettings::of(scene).map_or(0.0, |s| s.dt);
+    if !(last >= scene.duration - slack && last < scene.duration + native_dt.max(rapier_dt) + slack)
     {
         problems.push(format!(
             "ends at {last} s, the duration is {} s",

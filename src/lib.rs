@@ -22,7 +22,8 @@
 //! ## Layout
 //! [`scene`] (files, checks, initial layout) · [`excitation`] (pulses, records) ·
 //! [`geometry`] (contact detection) · [`native`] (the theta step and its QP solvers) ·
-//! [`engines`] (native, housner) · [`trajectory`] · [`events`] · [`summary`] ·
+//! [`engines`] (every engine; [`engines::registry`] the one list of them) · [`trajectory`] ·
+//! [`output`] (what a run returns) · [`events`] · [`summary`] ·
 //! [`metrics`] (comparing two trajectories) · [`compare`] (running engines against a reference)
 //! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML) · [`validation`] (the validation suite,
 //! its reference-data generator and report).
@@ -40,6 +41,7 @@ pub mod geometry;
 pub mod invariants;
 pub mod metrics;
 pub mod native;
+pub mod output;
 pub mod paper;
 #[cfg(feature = "python")]
 pub mod python;

@@ -517,7 +517,8 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
         message: m,
     };
     let (mut stepper, mut state) = crate::native::stepper_for(scene)?;
-    let dt = scene.native.dt;
+    let ns = stepper.settings.clone();
+    let dt = ns.dt;
     let n_steps = ((scene.duration / dt - 1e-9).ceil() as u64).max(1);
     let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
     let mut tr = Trajectory::new(&names);
@@ -569,7 +570,7 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
                     return Ok((tr, Stop::Overturned));
                 }
             }
-            let v = scene.native.rest_velocity;
+            let v = ns.rest_velocity;
             let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
                 st[3].abs() < v && st[4].abs() < v && (st[5] * b.width.max(b.height)).abs() < v
             });
@@ -613,13 +614,14 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
     use crate::engines::housner::{self, HousnerBlock, Span};
     let gm = GroundMotion::from_scene(scene)?;
     let b = &scene.blocks[0];
-    let blk = HousnerBlock::new(b.width, b.height, scene.gravity, scene.housner.restitution);
-    let step = housner::housner_step(&blk, &scene.housner);
+    let hs = housner::HousnerSettings::of(scene)?;
+    let blk = HousnerBlock::new(b.width, b.height, scene.gravity, hs.restitution);
+    let step = housner::housner_step(&blk, &hs);
     let span = |duration: f64| Span {
         duration,
         output_interval: scene.output_interval,
         max_step: step,
-        event_tolerance: scene.housner.event_tolerance,
+        event_tolerance: hs.event_tolerance,
     };
     let pulse_end = gm.breakpoints().last().copied().unwrap_or(0.0);
     let chunk = (1.0 / blk.p2.sqrt()).max(scene.output_interval);
@@ -701,7 +703,7 @@ pub fn block_scene(
     );
     let s = crate::scene::parse_scene_str(&text, false, "block", overrides)
         .map_err(|e| e.to_string())?;
-    s.check().map_err(|e| e.to_string())?;
+    crate::engines::registry::check(&s).map_err(|e| e.to_string())?;
     Ok(s)
 }
 
@@ -867,13 +869,16 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
             }
             let (settings, version) = if name == "native" && req.settings.early_stop {
                 (
-                    serde_json::to_value(&base.native).unwrap_or_default(),
+                    crate::native::settings_of(base)
+                        .ok()
+                        .and_then(|s| serde_json::to_value(s).ok())
+                        .unwrap_or_default(),
                     native_version(),
                 )
             } else if name == "housner" && req.settings.early_stop && base.blocks.len() == 1 {
                 (
                     serde_json::json!({
-                        "housner": base.housner,
+                        "housner": crate::engines::housner::HousnerSettings::of(base).ok(),
                         "integrator": "RK4 with bisection event location (housner::integrate), restarted every 1/p after the pulse for the early stop",
                     }),
                     format!("rockbench {} housner", env!("CARGO_PKG_VERSION")),

@@ -33,10 +33,11 @@
 //! known, explained cases (`validation/stress-known.toml`), and the command fails when any is
 //! unexplained. Invariants beyond round-off but within the contract are reported, not failed.
 
-use crate::contract::Contracts;
+use crate::contract::Contract;
+use crate::engines::registry::{self, check_scene_str};
 use crate::engines::{Engine, EngineError, engine_by_name};
 use crate::invariants::{CHECK_NAMES, InvariantReport, Tolerances};
-use crate::scene::{Scene, check_scene_str};
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -506,6 +507,49 @@ impl KnownList {
                     && k.check == check
             })
             .map(|k| k.reason.clone())
+    }
+}
+
+/// Every engine's contract ([`registry::contract`]), with command-line changes.
+#[derive(Debug, Clone, Default)]
+pub struct Contracts {
+    changed: Vec<Contract>,
+}
+
+impl Contracts {
+    /// Apply `ENGINE.CHECK=VALUE` assignments.
+    pub fn with_changes(changes: &[String]) -> Result<Contracts, String> {
+        let mut c = Contracts::default();
+        for a in changes {
+            let err = |m: String| format!("--contract {a}: {m}");
+            let (key, value) = a
+                .split_once('=')
+                .ok_or_else(|| err("expected ENGINE.CHECK=VALUE".into()))?;
+            let (engine, check) = key
+                .split_once('.')
+                .ok_or_else(|| err("expected ENGINE.CHECK=VALUE".into()))?;
+            let v: f64 = value
+                .trim()
+                .parse()
+                .map_err(|_| err(format!("`{value}` is not a number")))?;
+            let k = match c.changed.iter().position(|x| x.engine == engine) {
+                Some(k) => k,
+                None => {
+                    c.changed.push(registry::contract(engine));
+                    c.changed.len() - 1
+                }
+            };
+            c.changed[k].set(check.trim(), v).map_err(err)?;
+        }
+        Ok(c)
+    }
+
+    pub fn of(&self, engine: &str) -> Contract {
+        self.changed
+            .iter()
+            .find(|c| c.engine == engine)
+            .cloned()
+            .unwrap_or_else(|| registry::contract(engine))
     }
 }
 
@@ -1373,5 +1417,22 @@ mod fault_tests {
             "{}",
             r.reason
         );
+    }
+
+    #[test]
+    fn command_line_changes_are_checked() {
+        let c = Contracts::with_changes(&["rapier.standing=1e-9".into()]).unwrap();
+        assert_eq!(c.of("rapier").promise("standing").unwrap().limit, 1e-9);
+        assert_eq!(c.of("native").promise("standing").unwrap().limit, 1e-9);
+        for bad in [
+            "rapier",
+            "rapier.nope=1",
+            "rapier.energy=x",
+            "rapier.energy=-1",
+        ] {
+            let e = Contracts::with_changes(&[bad.into()]).unwrap_err();
+            assert!(e.starts_with(&format!("--contract {bad}: ")), "{e}");
+            assert!(!e.contains('\n'));
+        }
     }
 }

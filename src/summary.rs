@@ -1,7 +1,7 @@
 //! `summary.json`: what an engine run produced, with the settings and versions behind it.
 
-use crate::engines::RunOutput;
 use crate::events::{self, History, ImpactSource, Peak};
+use crate::output::RunOutput;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

@@ -135,8 +135,9 @@ fn primal_and_dual_give_the_same_step_over_one_second() {
             ],
         );
         let (mut stepper, mut state) = stepper_for(&sc).unwrap();
-        let mut dual = ClarabelSolver::with_formulation(&sc.native, Formulation::Dual);
-        let mut primal = ClarabelSolver::with_formulation(&sc.native, Formulation::Primal);
+        let ns = rockbench::native::settings_of(&sc).unwrap();
+        let mut dual = ClarabelSolver::with_formulation(&ns, Formulation::Dual);
+        let mut primal = ClarabelSolver::with_formulation(&ns, Formulation::Primal);
         let mut worst = 0.0f64;
         for _ in 0..1000 {
             let pr = stepper.next_problem(&state);

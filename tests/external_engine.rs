@@ -204,6 +204,6 @@ fn external_engines_are_registered_by_name() {
     for name in ["mujoco", "pybullet"] {
         let e = rockbench::engines::engine_by_name(name).unwrap();
         assert_eq!(e.name(), name);
-        assert!(rockbench::engines::ENGINE_NAMES.contains(&name));
+        assert!(rockbench::engines::registry::names().contains(&name));
     }
 }

@@ -2,8 +2,9 @@
 //! review, replayed through the same calls as the fuzz targets in fuzz/fuzz_targets/. Add a
 //! file under tests/fuzz_regressions/<target>/ for every crash `make fuzz` finds.
 
+use rockbench::engines::registry::check_scene_str;
 use rockbench::excitation::records::{parse_at2, parse_two_column};
-use rockbench::scene::{check_scene_str, parse_scene_str};
+use rockbench::scene::parse_scene_str;
 use std::path::{Path, PathBuf};
 
 fn inputs(target: &str) -> Vec<(PathBuf, Vec<u8>)> {

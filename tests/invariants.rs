@@ -270,13 +270,8 @@ fn housner_step_scales_with_the_frequency_parameter() {
     let c = check_energy(&s, &out.trajectory, &tol);
     assert!(c.value < 1e-12, "{}", c.detail);
     // The fixed step of 1e-4 s alone: the growth the scaling removes.
-    let fixed = Scene {
-        housner: rockbench::scene::HousnerSettings {
-            max_phase_step: 1.0,
-            ..s.housner.clone()
-        },
-        ..s.clone()
-    };
+    let mut fixed = s.clone();
+    fixed.set_setting("housner", "max_phase_step", 1.0);
     let out = e.run(&fixed).unwrap();
     assert_eq!(out.settings["step"].as_f64().unwrap(), 1e-4);
     let c = check_energy(&fixed, &out.trajectory, &tol);

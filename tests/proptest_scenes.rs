@@ -10,9 +10,10 @@
 //! milliseconds.
 
 use proptest::prelude::*;
-use rockbench::engines::{ENGINE_NAMES, EngineError, engine_by_name};
+use rockbench::engines::registry::check_scene_str;
+use rockbench::engines::{EngineError, engine_by_name, registry};
 use rockbench::invariants::{Extra, Tolerances, run_checked};
-use rockbench::scene::{Scene, check_scene_str};
+use rockbench::scene::Scene;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -242,7 +243,9 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
         check: "mirror",
         below: 2e-1,
         applies: |s| {
-            s.native.stepper == rockbench::native::StepperKind::Impact && s.blocks.len() > 1
+            rockbench::native::settings_of(s)
+                .is_ok_and(|n| n.stepper == rockbench::native::StepperKind::Impact)
+                && s.blocks.len() > 1
         },
         reason: "impact-consistent stepper (an option, not drawn by the generator above; measured \
                  with it forced on): the earlier loss of mirror symmetry on stacks (1e-3 to \
@@ -273,7 +276,7 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
         engine: "native",
         check: "energy",
         below: 1e-5,
-        applies: |s| s.native.theta == 0.5,
+        applies: |s| rockbench::native::settings_of(s).is_ok_and(|n| n.theta == 0.5),
         reason: "at theta = 0.5 the scheme has no numerical damping and a closing contact \
                  rebounds with e = (1 - theta)/theta = 1, so a block lifted by associative \
                  friction (a slab sliding at 0.055 m/s is lifted 0.15 mm) bounces for ever and \
@@ -352,7 +355,7 @@ proptest! {
         let tol = Tolerances::default();
         // In-process engines only: the external (Python worker) engines cost a process start
         // per run; their faults are covered by tests/external_engine.rs and the stress map.
-        for name in ENGINE_NAMES.iter().filter(|n| !["mujoco", "pybullet", "siconos"].contains(n)) {
+        for name in registry::names().iter().filter(|n| !["mujoco", "pybullet", "siconos"].contains(n)) {
             let engine = engine_by_name(name).unwrap();
             let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 run_checked(engine.as_ref(), &scene, &tol, Extra { mirror: true, rerun: true })
@@ -382,7 +385,7 @@ proptest! {
                     }
                     let slack = 1e-9 * scene.duration.max(1.0);
                     prop_assert!(
-                        last >= scene.duration - slack && last < scene.duration + scene.native.dt.max(scene.rapier.dt) + slack,
+                        last >= scene.duration - slack && last < scene.duration + rockbench::native::settings_of(&scene).unwrap().dt.max(rockbench::engines::rapier_settings::RapierSettings::of(&scene).unwrap().dt) + slack,
                         "{name}: trajectory ends at {last}, duration {}", scene.duration
                     );
                     let v: Vec<String> = report
@@ -403,7 +406,7 @@ proptest! {
                     prop_assert!(!e.to_string().contains('\n'), "{name}: {e}");
                     if *name == "native" {
                         // Counted with `-- --nocapture`.
-                        eprintln!("native error ({:?} friction): {e}\n<<<\n{text}>>>", scene.native.friction_law);
+                        eprintln!("native error ({:?} friction): {e}\n<<<\n{text}>>>", rockbench::native::settings_of(&scene).map(|n| n.friction_law));
                     }
                 }
                 Err(e) => prop_assert!(false, "{name}: unexpected error kind: {e}\n{text}"),

@@ -4,8 +4,9 @@
 //! Run in release mode (`cargo test --release --test rapier`); each test takes well under a
 //! second of simulation. Every test prints the numbers it measured (`-- --nocapture`).
 
+use rockbench::engines::registry::load_scene_with_overrides;
 use rockbench::engines::{EngineError, engine_by_name};
-use rockbench::scene::{SceneError, load_scene_with_overrides};
+use rockbench::scene::SceneError;
 use std::path::{Path, PathBuf};
 
 fn scene_path(name: &str) -> PathBuf {
@@ -29,7 +30,8 @@ fn rapier_settings_errors_name_the_field() {
     assert!(e.field.starts_with("rapier.friction_rule"), "{e}");
     let ok: Result<_, SceneError> =
         load_scene_with_overrides(&p, &["rapier.stabilization_iterations=2".into()]);
-    assert_eq!(ok.unwrap().rapier.stabilization_iterations, 2);
+    let ok = rockbench::engines::rapier_settings::RapierSettings::of(&ok.unwrap()).unwrap();
+    assert_eq!(ok.stabilization_iterations, 2);
 }
 
 #[cfg(not(feature = "rapier"))]
@@ -162,7 +164,7 @@ mod with_rapier {
     #[test]
     fn rapier_defaults_are_wrong_on_the_square_block() {
         let mut scene = load("housner-square.toml", &[]);
-        scene.rapier = RapierSettings::rapier_defaults();
+        scene.set_table("rapier", &RapierSettings::rapier_defaults());
         let (dt_imp, amp, rms) = against_housner(&scene);
         // Measured with rapier2d-f64 0.36.1 (see docs/engines-rapier.md): first amplitude
         // after impact +91.4 %, RMS 1.67e-3 rad, first impact +1.75 ms. The bands notice a

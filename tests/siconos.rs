@@ -3,7 +3,10 @@
 //! without the interpreter these tests fail with a message naming `make siconos`.
 #![cfg(unix)]
 
-use rockbench::engines::external::{ExternalEngine, SICONOS_DEFAULT_STEP, SICONOS_WORKER};
+use rockbench::engines::external::ExternalEngine;
+use rockbench::engines::siconos::{
+    DEFAULT_STEP as SICONOS_DEFAULT_STEP, WORKER_SCRIPT as SICONOS_WORKER,
+};
 use rockbench::engines::{Engine, EngineError, engine_by_name};
 use rockbench::scene::load_scene_with_overrides;
 use std::path::{Path, PathBuf};

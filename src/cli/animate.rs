@@ -1,9 +1,10 @@
 //! `rockbench animate RUN_DIR... --out FILE.html [--video FILE.mp4|gif]`: the motion of runs
 //! made with `rockbench run`, overlaid (the first run, or `--reference`, solid).
 
+use crate::engines::registry::load_scene;
 use crate::report::PALETTE;
 use crate::report::animate::{Animation, REFERENCE_COLOR, Track, page};
-use crate::scene::{Scene, load_scene};
+use crate::scene::Scene;
 use crate::summary::Summary;
 use crate::trajectory::Trajectory;
 use anyhow::{Result, bail};

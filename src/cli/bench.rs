@@ -11,7 +11,7 @@ pub struct BenchArgs {
     /// Scene file (TOML or JSON).
     scene: PathBuf,
     /// Engines, comma-separated (native runs every solver/stepper variant).
-    #[arg(long, default_value = "native,rapier,mujoco", value_delimiter = ',')]
+    #[arg(long, default_value = "native,rapier,mujoco", value_delimiter = ',', long_help = super::engines_help("Engines, comma-separated (native runs every solver/stepper variant)."))]
     engines: Vec<String>,
     /// Step sizes, s, comma-separated.
     #[arg(long, default_value = "2e-3,1e-3,5e-4", value_delimiter = ',')]

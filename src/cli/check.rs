@@ -1,6 +1,6 @@
 //! `rockbench check SCENE`: validate a scene without running it.
 
-use crate::scene::load_scene_with_overrides;
+use crate::engines::registry::load_scene_with_overrides;
 use anyhow::Result;
 use std::path::PathBuf;
 

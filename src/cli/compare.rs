@@ -1,10 +1,9 @@
 //! `rockbench compare SCENE --engines a,b,c --reference ENGINE|FILE --out DIR`: run every
 //! engine once, compare each with the reference, write the metrics and the report.
 
-use crate::compare::{
-    CompareOptions, ReferenceSpec, compare, default_jobs, summary_paragraphs_for, write_comparison,
-};
-use crate::scene::load_scene_with_overrides;
+use crate::compare::{CompareOptions, ReferenceSpec, compare, default_jobs};
+use crate::engines::registry::load_scene_with_overrides;
+use crate::report::{summary_paragraphs_for, write_comparison};
 use anyhow::{Result, bail};
 use std::path::PathBuf;
 
@@ -17,7 +16,8 @@ pub struct CompareArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "native,rapier,mujoco,pybullet,housner"
+        default_value = "native,rapier,mujoco,pybullet,housner",
+        long_help = super::engines_help("Engines, comma-separated.")
     )]
     engines: Vec<String>,
     /// The reference: an engine name (run too if not in --engines) or a trajectory.csv file.

@@ -10,7 +10,7 @@ pub struct ConvergeArgs {
     /// Scene file (TOML or JSON).
     scene: PathBuf,
     /// Engines, comma-separated (each needs a step size: native, rapier, mujoco, pybullet).
-    #[arg(long, default_value = "native,rapier", value_delimiter = ',')]
+    #[arg(long, default_value = "native,rapier", value_delimiter = ',', long_help = super::engines_help("Engines, comma-separated (each needs a step size, see the registry's step settings)."))]
     engines: Vec<String>,
     /// Step sizes, s, comma-separated.
     #[arg(long, default_value = "2e-3,1e-3,5e-4,2.5e-4", value_delimiter = ',')]

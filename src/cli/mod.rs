@@ -60,6 +60,12 @@ enum Command {
     Spectrum(spectrum::SpectrumArgs),
 }
 
+/// The `--help` text of an engine option: its own line, then every engine of the registry and
+/// whether it runs here.
+pub(crate) fn engines_help(first: &str) -> String {
+    format!("{first}\n\n{}", crate::engines::registry::help())
+}
+
 /// Parse the command line and run it.
 pub fn main() -> Result<()> {
     let cli = Cli::parse();

@@ -1,7 +1,7 @@
 //! `rockbench run SCENE --engine E --out DIR`: one engine, one scene.
 
+use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{engine_by_name, run_timed, write_outputs};
-use crate::scene::load_scene_with_overrides;
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 
@@ -10,7 +10,7 @@ pub struct RunArgs {
     /// Scene file (TOML or JSON).
     scene: PathBuf,
     /// Engine name (see `rockbench run --help`): native, housner, ...
-    #[arg(long, default_value = "native")]
+    #[arg(long, default_value = "native", long_help = super::engines_help("Engine name."))]
     engine: String,
     /// Override a scene field, e.g. --set native.dt=5e-4 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]

@@ -24,7 +24,7 @@ pub struct SpectrumArgs {
     #[arg(long, default_value = "1:10:19", allow_hyphen_values = true)]
     amplitudes: String,
     /// Engines, comma-separated.
-    #[arg(long, default_value = "housner,native", value_delimiter = ',')]
+    #[arg(long, default_value = "housner,native", value_delimiter = ',', long_help = super::engines_help("Engines, comma-separated."))]
     engines: Vec<String>,
     /// Also find the lowest amplitude that overturns without an impact first.
     #[arg(long)]
@@ -111,9 +111,7 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
                     a.target
                 ));
             }
-            let s = crate::scene::load_scene_with_overrides(&path, &a.set)?;
-            s.check()?;
-            s
+            crate::engines::registry::load_scene_with_overrides(&path, &a.set)?
         }
     };
     let similar = match &a.similarity {

@@ -1,9 +1,10 @@
 //! `rockbench stress [--quick] [--engines ...] --out DIR`: the stability map.
 
-use crate::contract::Contracts;
-use crate::engines::ENGINE_NAMES;
+use crate::engines::registry;
 use crate::invariants::Tolerances;
-use crate::stress::{CellResult, Judge, KnownList, csv, grid, html, index_html, run_cell, totals};
+use crate::stress::{
+    CellResult, Contracts, Judge, KnownList, csv, grid, html, index_html, run_cell, totals,
+};
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -13,10 +14,10 @@ pub struct StressArgs {
     /// The small grid for CI (runs in well under a minute in release mode).
     #[arg(long)]
     quick: bool,
-    /// Engines to run, comma-separated (default: every engine built in but siconos, which has
-    /// no measured contract yet). Engines that are not built into this binary are reported as
-    /// skipped.
-    #[arg(long, value_delimiter = ',')]
+    /// Engines to run, comma-separated (default: every engine built in whose contract is
+    /// measured, see the engine list below). Engines that are not built into this binary are
+    /// reported as skipped.
+    #[arg(long, value_delimiter = ',', long_help = engines_help())]
     engines: Vec<String>,
     /// Output directory: stress.csv, <engine>.csv, <engine>.html, stress.json.
     #[arg(long, default_value = "out/stress")]
@@ -36,11 +37,18 @@ pub struct StressArgs {
     contract: Vec<String>,
 }
 
+fn engines_help() -> String {
+    super::engines_help(&format!(
+        "Engines to run, comma-separated (default: {}). Engines that are not built into this \
+         binary are reported as skipped.",
+        registry::stress_defaults().join(",")
+    ))
+}
+
 pub fn stress(a: StressArgs) -> Result<()> {
     let engines: Vec<String> = if a.engines.is_empty() {
-        ENGINE_NAMES
+        registry::stress_defaults()
             .iter()
-            .filter(|s| **s != "siconos")
             .map(|s| s.to_string())
             .collect()
     } else {

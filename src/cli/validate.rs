@@ -2,9 +2,10 @@
 //! engine, evaluate its gates and write `DIR/report.html` (summary matrix, the paper's
 //! two-block case, one section per case) with each comparison's report under `DIR/<case>/`.
 
-use crate::compare::{default_jobs, write_comparison};
+use crate::compare::default_jobs;
 use crate::gates::{junit::junit_xml, load_gates};
 use crate::report::provenance::Provenance;
+use crate::report::write_comparison;
 use crate::validation::report::{PaperClaims, matrix_text, render};
 use crate::validation::{ValidateOptions, load_suite, validate};
 use anyhow::{Result, bail};
@@ -22,7 +23,8 @@ pub struct ValidateArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "native,housner,rapier,mujoco,pybullet"
+        default_value = "native,housner,rapier,mujoco,pybullet",
+        long_help = super::engines_help("Engines to run, comma-separated (gates of other engines are left out; Siconos runs in `make validate-siconos`).")
     )]
     engines: Vec<String>,
     /// Only these cases (repeatable); default all.

@@ -4,7 +4,7 @@
 //! the Housner engine (microseconds per simulated second). Anything else runs on the native
 //! engine. The summary's notes say which engine ran and why.
 
-use super::housner::{HousnerBlock, HousnerEngine};
+use super::housner::{HousnerBlock, HousnerEngine, HousnerSettings};
 use super::native::NativeEngine;
 use super::{Engine, EngineError, RunOutput};
 use crate::excitation::GroundMotion;
@@ -28,7 +28,11 @@ pub fn not_housner(scene: &Scene) -> Option<String> {
         Ok(_) => {}
     }
     let b = &scene.blocks[0];
-    let blk = HousnerBlock::new(b.width, b.height, scene.gravity, scene.housner.restitution);
+    let restitution = match HousnerSettings::of(scene) {
+        Ok(h) => h.restitution,
+        Err(e) => return Some(e.to_string()),
+    };
+    let blk = HousnerBlock::new(b.width, b.height, scene.gravity, restitution);
     let r = blk.restitution;
     let needed = (blk.h / blk.b) * (1.0 - r) / (1.0 + r);
     let mu = scene.friction_below(0);

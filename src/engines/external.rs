@@ -13,15 +13,10 @@
 //! killed. A missing interpreter or package, a crash, a hang past the timeout, a NaN, or a
 //! missing or truncated output file is an [`EngineError::Failed`] with a one-line reason.
 //!
-//! Siconos (Debian's `python3-siconos`, built against numpy 1.x) cannot share the `.venv`
-//! (numpy 2): it runs under its own interpreter, `$ROCKBENCH_SICONOS_PYTHON`, else
-//! `./.siconos-venv/bin/python`, else the `.siconos-venv` of this source tree (made by
-//! `make siconos`). Its worker, `python/rockbench/siconos_worker.py`, is a standalone script
-//! (compiled into this crate and written next to the input) that imports neither `rockbench`
-//! nor its extension, so what needs the Rust side is computed here and written into its input:
-//! the initial layout, the supports, each interface's friction and the ground velocity at every
-//! step boundary (`siconos.step`). Scenes it cannot model (walls placed by absolute `x`) are
-//! [`EngineError::Unsupported`] (skipped by the harness).
+//! What differs between worker engines is a [`WorkerSpec`]: the interpreter's environment
+//! variable and venv, and for a worker that cannot import `rockbench` (Siconos,
+//! [`super::siconos`]) a standalone script, its own input and an exit code for scenes it
+//! cannot model ([`EngineError::Unsupported`], skipped by the harness).
 
 use super::{Engine, EngineError, RunOutput};
 use crate::scene::{Scene, SceneError};
@@ -37,27 +32,80 @@ pub const DEFAULT_TIMEOUT_S: f64 = 600.0;
 /// Environment variable naming the Python interpreter of the workers.
 pub const PYTHON_ENV: &str = "ROCKBENCH_PYTHON";
 
-/// Environment variable naming the interpreter of the Siconos worker.
-pub const SICONOS_PYTHON_ENV: &str = "ROCKBENCH_SICONOS_PYTHON";
+/// A worker's input built from the scene.
+pub type WorkerInput = fn(&Scene) -> Result<serde_json::Value, EngineError>;
+/// A check of the table keys the harness reads.
+pub type TableKeysCheck = fn(&Scene) -> Result<(), SceneError>;
 
-/// The Siconos interpreter's directory (`make siconos`), relative to the working directory or
-/// the source tree.
-pub const SICONOS_VENV: &str = ".siconos-venv";
+/// What distinguishes one worker engine from another.
+#[derive(Debug)]
+pub struct WorkerSpec {
+    pub engine: &'static str,
+    /// Environment variable naming its interpreter.
+    pub python_env: &'static str,
+    /// The venv (`<venv>/bin/python`) looked for in the working directory, then in this
+    /// source tree.
+    pub venv: &'static str,
+    /// The make target that creates the venv (for messages).
+    pub make_target: &'static str,
+    /// A standalone worker script, written next to its input and run as
+    /// `PYTHON SCRIPT --input INPUT --out DIR --source FILE`; `None`: `python -m
+    /// rockbench.worker --engine E --scene SCENE --out DIR --source FILE`.
+    pub script: Option<&'static str>,
+    /// The worker's input; `None`: the scene as JSON ([`Scene::to_json`]).
+    pub input: Option<WorkerInput>,
+    /// Checks of the table keys the harness reads itself (besides `timeout`).
+    pub check: Option<TableKeysCheck>,
+    /// Environment variables set for the worker.
+    pub env: &'static [(&'static str, &'static str)],
+    /// The exit code by which the worker says it cannot model the scene (its stderr says why).
+    pub unsupported_exit: Option<i32>,
+}
 
-/// Default `siconos.step`, s (the worker's `SETTINGS["step"]`; a test compares them).
-pub const SICONOS_DEFAULT_STEP: f64 = 1e-4;
+/// MuJoCo (`python/rockbench/engines/mujoco_engine.py`).
+pub static MUJOCO: WorkerSpec = WorkerSpec::rockbench_worker("mujoco");
+/// PyBullet (`python/rockbench/engines/pybullet_engine.py`).
+pub static PYBULLET: WorkerSpec = WorkerSpec::rockbench_worker("pybullet");
 
-/// The Siconos worker script, written next to its input for every run.
-pub const SICONOS_WORKER: &str = include_str!("../../python/rockbench/siconos_worker.py");
+impl WorkerSpec {
+    /// An engine of `python -m rockbench.worker` in `.venv`.
+    pub const fn rockbench_worker(engine: &'static str) -> WorkerSpec {
+        WorkerSpec {
+            engine,
+            python_env: PYTHON_ENV,
+            venv: ".venv",
+            make_target: ".venv",
+            script: None,
+            input: None,
+            check: None,
+            env: &[],
+            unsupported_exit: None,
+        }
+    }
+}
 
-/// Names of the engines run by a Python worker.
-pub const EXTERNAL_ENGINES: [&str; 3] = ["mujoco", "pybullet", "siconos"];
+/// The table of worker engine `engine`: a table, with the keys the harness reads itself
+/// checked (`timeout`, Siconos' `step`); the worker checks the rest when it runs.
+pub fn check_table(scene: &Scene, engine: &str) -> Result<serde_json::Value, SceneError> {
+    let table: serde_json::Map<String, serde_json::Value> = scene.parse_table(engine)?;
+    let as_scene_error = |e: EngineError| match e {
+        EngineError::Scene(s) => s,
+        other => SceneError::new(&scene.source, engine, other.to_string()),
+    };
+    if let Some(e) = ExternalEngine::new(engine) {
+        e.timeout(scene).map_err(as_scene_error)?;
+        if let Some(check) = e.spec.check {
+            check(scene)?;
+        }
+    }
+    Ok(serde_json::Value::Object(table))
+}
 
 /// An engine run by `python -m rockbench.worker`.
 #[derive(Debug, Clone)]
 pub struct ExternalEngine {
-    /// `mujoco` or `pybullet`.
     pub engine: &'static str,
+    pub spec: &'static WorkerSpec,
     /// Interpreter to use instead of the default search (`$ROCKBENCH_PYTHON`, `.venv`).
     pub python: Option<PathBuf>,
     /// Extra environment variables for the worker.
@@ -65,14 +113,20 @@ pub struct ExternalEngine {
 }
 
 impl ExternalEngine {
-    /// The engine named `name` (`mujoco` or `pybullet`).
+    /// The worker engine named `name` in the registry.
     pub fn new(name: &str) -> Option<ExternalEngine> {
-        let engine = *EXTERNAL_ENGINES.iter().find(|e| **e == name)?;
-        Some(ExternalEngine {
-            engine,
+        let spec = super::registry::find(name)?.worker()?;
+        Some(Self::of(spec))
+    }
+
+    /// The engine of a worker spec.
+    pub fn of(spec: &'static WorkerSpec) -> ExternalEngine {
+        ExternalEngine {
+            engine: spec.engine,
+            spec,
             python: None,
             env: Vec::new(),
-        })
+        }
     }
 
     /// Use this interpreter.
@@ -95,125 +149,44 @@ impl ExternalEngine {
         }
     }
 
-    /// The interpreter that runs the worker.
+    /// The interpreter that runs the worker: the one given, else `$<python_env>`, else
+    /// `./<venv>/bin/python`, else the venv of this source tree.
     pub fn interpreter(&self) -> Result<PathBuf, EngineError> {
         if let Some(p) = &self.python {
             return Ok(p.clone());
         }
-        if self.engine == "siconos" {
-            return self.siconos_interpreter();
-        }
-        if let Some(p) = std::env::var_os(PYTHON_ENV).filter(|p| !p.is_empty()) {
+        let spec = self.spec;
+        if let Some(p) = std::env::var_os(spec.python_env).filter(|p| !p.is_empty()) {
             return Ok(PathBuf::from(p));
         }
-        let here = PathBuf::from(".venv/bin/python");
-        if here.exists() {
-            return Ok(here);
-        }
-        let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python");
-        if tree.exists() {
-            return Ok(tree);
-        }
-        Err(self.failed(format!(
-            "no Python interpreter: neither ./.venv/bin/python nor {} exists: run `make .venv` \
-             (or set {PYTHON_ENV})",
-            tree.display()
-        )))
-    }
-
-    fn siconos_interpreter(&self) -> Result<PathBuf, EngineError> {
-        if let Some(p) = std::env::var_os(SICONOS_PYTHON_ENV).filter(|p| !p.is_empty()) {
-            return Ok(PathBuf::from(p));
-        }
-        let here = Path::new(SICONOS_VENV).join("bin/python");
+        let here = Path::new(spec.venv).join("bin/python");
         if here.exists() {
             return Ok(here);
         }
         let tree = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join(SICONOS_VENV)
+            .join(spec.venv)
             .join("bin/python");
         if tree.exists() {
             return Ok(tree);
         }
         Err(self.failed(format!(
-            "no Siconos interpreter: neither ./{SICONOS_VENV}/bin/python nor {} exists: run \
-             `make siconos` (or set {SICONOS_PYTHON_ENV})",
-            tree.display()
+            "no {}Python interpreter: neither ./{}/bin/python nor {} exists: run `make {}` \
+             (or set {})",
+            if spec.python_env == PYTHON_ENV {
+                String::new()
+            } else {
+                format!("{} ", capitalised(spec.engine))
+            },
+            spec.venv,
+            tree.display(),
+            spec.make_target,
+            spec.python_env
         )))
     }
 
     /// The scene's table of this engine's settings.
     fn table<'a>(&self, scene: &'a Scene) -> Option<&'a serde_json::Value> {
-        match self.engine {
-            "mujoco" => scene.mujoco.as_ref(),
-            "siconos" => scene.siconos.as_ref(),
-            _ => scene.pybullet.as_ref(),
-        }
-    }
-
-    /// `siconos.step`: the step the ground motion is sampled at (the worker checks the rest).
-    pub fn siconos_step(scene: &Scene) -> Result<f64, EngineError> {
-        let Some(v) = scene.siconos.as_ref().and_then(|t| t.get("step")) else {
-            return Ok(SICONOS_DEFAULT_STEP);
-        };
-        match v.as_f64() {
-            Some(s) if s.is_finite() && s > 0.0 => Ok(s),
-            _ => Err(EngineError::Scene(SceneError::new(
-                &scene.source,
-                "siconos.step",
-                format!("must be a positive number (got {v})"),
-            ))),
-        }
-    }
-
-    /// What the Siconos worker reads: the scene and what only this crate computes.
-    fn siconos_input(&self, scene: &Scene) -> Result<serde_json::Value, EngineError> {
-        for b in &scene.blocks {
-            if b.x.is_some() {
-                return Err(EngineError::Unsupported {
-                    engine: "siconos",
-                    scene: scene.name.clone(),
-                    reason: format!(
-                        "block `{}` is placed by absolute `x` (walls): only single blocks and \
-                         stacks are modelled",
-                        b.name
-                    ),
-                });
-            }
-        }
-        let layout = scene.layout();
-        let blocks: Vec<serde_json::Value> = layout
-            .blocks
-            .iter()
-            .map(|b| {
-                serde_json::json!({
-                    "x": b.x, "z": b.z, "phi": b.phi, "vx": b.vx, "vz": b.vz, "omega": b.omega
-                })
-            })
-            .collect();
-        let friction: Vec<f64> = (0..scene.blocks.len())
-            .map(|i| scene.friction_below(i))
-            .collect();
-        let mut input = serde_json::json!({
-            "scene": scene.to_json(),
-            "layout": blocks,
-            "supports": layout.supports,
-            "friction_below": friction,
-        });
-        if scene.has_excitation() {
-            let step = Self::siconos_step(scene)?;
-            let gm =
-                crate::excitation::GroundMotion::from_scene(scene).map_err(EngineError::Scene)?;
-            let n = (scene.duration / step).round().max(1.0) as usize;
-            let (mut vx, mut vz) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
-            for k in 0..=n {
-                let (a, b) = gm.vel(k as f64 * step);
-                vx.push(a);
-                vz.push(b);
-            }
-            input["ground"] = serde_json::json!({ "step": step, "vx": vx, "vz": vz });
-        }
-        Ok(input)
+        scene.engine_table(self.engine)
     }
 
     /// The worker's wall-clock limit from the scene's `<engine>.timeout`.
@@ -233,11 +206,10 @@ impl ExternalEngine {
     }
 
     fn run_in(&self, scene: &Scene, dir: &Path) -> Result<RunOutput, EngineError> {
-        let siconos = self.engine == "siconos";
-        let input = if siconos {
-            Some(self.siconos_input(scene)?)
-        } else {
-            None
+        let spec = self.spec;
+        let input = match spec.input {
+            Some(f) => Some(f(scene)?),
+            None => None,
         };
         let python = self.interpreter()?;
         let timeout = self.timeout(scene)?;
@@ -255,13 +227,11 @@ impl ExternalEngine {
                 .map_err(|e| self.failed(format!("cannot create {}: {e}", dir.display())))
         };
         let mut cmd = Command::new(&python);
-        if siconos {
-            let script = dir.join("siconos_worker.py");
-            std::fs::write(&script, SICONOS_WORKER)
+        if let Some(text) = spec.script {
+            let script = dir.join(format!("{}_worker.py", self.engine));
+            std::fs::write(&script, text)
                 .map_err(|e| self.failed(format!("cannot write {}: {e}", script.display())))?;
-            cmd.arg(&script)
-                .arg("--input")
-                .env("OPENBLAS_NUM_THREADS", "1");
+            cmd.arg(&script).arg("--input");
         } else {
             cmd.args(["-m", "rockbench.worker", "--engine", self.engine, "--scene"]);
         }
@@ -273,18 +243,18 @@ impl ExternalEngine {
             .stdin(Stdio::null())
             .stdout(log("stdout.txt")?)
             .stderr(log("stderr.txt")?);
+        for (k, v) in spec.env {
+            cmd.env(k, v);
+        }
         for (k, v) in &self.env {
             cmd.env(k, v);
         }
         let mut child = cmd.spawn().map_err(|e| {
-            let (make, env) = if siconos {
-                ("siconos", SICONOS_PYTHON_ENV)
-            } else {
-                (".venv", PYTHON_ENV)
-            };
             self.failed(format!(
-                "cannot start the Python worker {}: {e}: run `make {make}` (or set {env})",
-                python.display()
+                "cannot start the Python worker {}: {e}: run `make {}` (or set {})",
+                python.display(),
+                spec.make_target,
+                spec.python_env
             ))
         })?;
         let start = Instant::now();
@@ -306,9 +276,9 @@ impl ExternalEngine {
             }
         };
         let stderr = std::fs::read_to_string(dir.join("stderr.txt")).unwrap_or_default();
-        if siconos && status.code() == Some(5) {
+        if spec.unsupported_exit.is_some() && status.code() == spec.unsupported_exit {
             return Err(EngineError::Unsupported {
-                engine: "siconos",
+                engine: self.engine,
                 scene: scene.name.clone(),
                 reason: one_line(stderr.trim()),
             });
@@ -418,6 +388,13 @@ fn signal_of(status: ExitStatus) -> Option<i32> {
 #[cfg(not(unix))]
 fn signal_of(_: ExitStatus) -> Option<i32> {
     None
+}
+
+fn capitalised(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().collect::<String>() + c.as_str())
+        .unwrap_or_default()
 }
 
 /// At most one line of at most 400 characters.

@@ -9,31 +9,19 @@ pub mod native;
 #[cfg(feature = "rapier")]
 pub mod rapier;
 pub mod rapier_settings;
+pub mod registry;
+pub mod siconos;
 
 use crate::scene::{Scene, SceneError};
 use crate::summary::Summary;
-use crate::trajectory::Trajectory;
 use std::path::Path;
 use std::time::Instant;
 
-/// What an engine returns.
-#[derive(Debug, Clone)]
-pub struct RunOutput {
-    pub trajectory: Trajectory,
-    /// Every setting that changes the answer, as used.
-    pub settings: serde_json::Value,
-    pub engine_version: String,
-    pub steps: u64,
-    pub solver_iterations: Option<u64>,
-    /// Impact times per block located by the engine itself (the Housner engine's exact
-    /// events); `None`: events are taken from the trajectory.
-    pub exact_impacts: Option<Vec<Vec<f64>>>,
-    pub notes: Vec<String>,
-}
+pub use crate::output::RunOutput;
 
 #[derive(Debug, thiserror::Error)]
 pub enum EngineError {
-    #[error("unknown engine `{0}` (known: {known})", known = ENGINE_NAMES.join(", "))]
+    #[error("unknown engine `{0}` (known: {known})", known = registry::names().join(", "))]
     Unknown(String),
     #[error("engine `{engine}` cannot run scene `{scene}`: {reason}")]
     Unsupported {
@@ -65,30 +53,9 @@ pub trait Engine: Send + Sync {
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError>;
 }
 
-#[cfg(feature = "rapier")]
-pub const ENGINE_NAMES: &[&str] = &[
-    "native", "housner", "rapier", "mujoco", "pybullet", "siconos",
-];
-#[cfg(not(feature = "rapier"))]
-pub const ENGINE_NAMES: &[&str] = &["native", "housner", "mujoco", "pybullet", "siconos"];
-
+/// The engine named `name` ([`registry::engine`]).
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
-    match name {
-        "native" => Ok(Box::new(native::NativeEngine)),
-        "housner" => Ok(Box::new(housner::HousnerEngine)),
-        "auto" => Ok(Box::new(auto::AutoEngine)),
-        #[cfg(feature = "rapier")]
-        "rapier" => Ok(Box::new(rapier::RapierEngine)),
-        #[cfg(not(feature = "rapier"))]
-        "rapier" => Err(EngineError::NotBuilt {
-            engine: "rapier",
-            feature: "rapier",
-        }),
-        "mujoco" | "pybullet" | "siconos" => Ok(Box::new(
-            external::ExternalEngine::new(name).expect("an external engine name"),
-        )),
-        other => Err(EngineError::Unknown(other.to_string())),
-    }
+    registry::engine(name)
 }
 
 /// Run an engine, timing it, and build its summary.

@@ -18,7 +18,8 @@ impl Engine for NativeEngine {
 
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
         let (mut stepper, mut state) = stepper_for(scene)?;
-        let dt = scene.native.dt;
+        let ns = stepper.settings.clone();
+        let dt = ns.dt;
         // Whole steps of `dt`; the last one may pass the duration, and then the sample at the
         // duration is interpolated linearly within it (`last_fraction` of the step). A
         // shortened last step would not do: the position-level law closes a gap error delta
@@ -74,8 +75,8 @@ impl Engine for NativeEngine {
             if k % every == 0 || k == n_steps {
                 tr.push(time_of(k), &states);
             }
-            if scene.native.stop_at_rest && state.t > excitation_end {
-                let v = scene.native.rest_velocity;
+            if ns.stop_at_rest && state.t > excitation_end {
+                let v = ns.rest_velocity;
                 let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
                     st[3].abs() < v && st[4].abs() < v && (st[5] * b.width.max(b.height)).abs() < v
                 });
@@ -97,7 +98,7 @@ impl Engine for NativeEngine {
                 }
             }
         }
-        let mut settings = serde_json::to_value(&scene.native).expect("settings serialise");
+        let mut settings = serde_json::to_value(&ns).expect("settings serialise");
         if let Some(o) = settings.as_object_mut() {
             o.insert("solver_backend".into(), stepper.solver_name().into());
             o.insert(
@@ -149,7 +150,7 @@ impl Engine for NativeEngine {
                 if let Some(t) = stopped_at {
                     notes.push(format!(
                         "every block at rest from t = {t:.4} s (speeds below {:e} m/s for {REST_WINDOW} s): the run stopped there and the rest of the trajectory holds that state",
-                        scene.native.rest_velocity
+                        ns.rest_velocity
                     ));
                 }
                 notes

@@ -162,7 +162,7 @@ pub struct RapierSim {
 
 impl RapierSim {
     pub fn new(scene: &Scene) -> Result<RapierSim, EngineError> {
-        let s = &scene.rapier;
+        let s = &RapierSettings::of(scene)?;
         let motion = GroundMotion::from_scene(scene)?;
         let applied_as = scene
             .excitation
@@ -410,7 +410,7 @@ impl Engine for RapierEngine {
     }
 
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
-        let s = &scene.rapier;
+        let s = &RapierSettings::of(scene)?;
         let mut sim = RapierSim::new(scene)?;
         let dt = s.dt;
         let n_steps = (scene.duration / dt - 1e-9).ceil() as u64;

@@ -248,6 +248,14 @@ impl RapierSettings {
         }
     }
 
+    /// The scene's `[rapier]` table, parsed and checked (one-line errors naming
+    /// `rapier.<field>`).
+    pub fn of(scene: &crate::scene::Scene) -> Result<RapierSettings, SceneError> {
+        let s: RapierSettings = scene.parse_table("rapier")?;
+        s.validate(&scene.source)?;
+        Ok(s)
+    }
+
     /// Check every value; errors name `rapier.<field>`.
     pub fn validate(&self, file: &str) -> Result<(), SceneError> {
         let e = |f: &str, m: String| Err(SceneError::new(file, format!("rapier.{f}"), m));

@@ -25,7 +25,7 @@
 //! ```
 //!
 //! Runs are cached under a content hash of the scene as run (its JSON after overrides, with
-//! every engine's settings, and the contents of any record files), the engine name, the
+//! the engine tables as written, and the contents of any record files), the engine name, the
 //! rockbench version and a hash of the rockbench executable (so a rebuilt binary never
 //! reuses an older build's results). A re-run of unchanged gates runs no engine. An external
 //! engine's package version is only known after a run: after upgrading one, clear the cache
@@ -35,8 +35,9 @@ pub mod cache;
 pub mod junit;
 
 use crate::compare::{CompareOptions, EngineRun, ReferenceSpec, Status, compare_with};
+use crate::engines::registry::load_scene_with_overrides;
 use crate::metrics::{self, MetricRow};
-use crate::scene::{Scene, load_scene_with_overrides};
+use crate::scene::Scene;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -17,8 +17,18 @@ pub use stepper::{NativeState, StepError, Stepper};
 use crate::excitation::GroundMotion;
 use crate::scene::{Scene, SceneError};
 
+/// The scene's `[native]` table, parsed and checked: one-line errors naming
+/// `native.<field>`, the time step against the duration included.
+pub fn settings_of(scene: &Scene) -> Result<NativeSettings, SceneError> {
+    let s: NativeSettings = scene.parse_table("native")?;
+    s.validate(&scene.source)?;
+    crate::scene::check_step(scene, "native.dt", s.dt)?;
+    Ok(s)
+}
+
 /// A stepper and its initial state for a scene.
 pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> {
+    let settings = settings_of(scene)?;
     let motion = GroundMotion::from_scene(scene)?;
     let applied_as = scene
         .excitation
@@ -26,7 +36,7 @@ pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> 
         .map(|e| e.applied_as)
         .unwrap_or_default();
     let bodies = assembly::Bodies::of(scene);
-    let solver = solver::solver_for(&scene.native);
+    let solver = solver::solver_for(&settings);
     let layout = scene.layout();
     let q = layout
         .blocks
@@ -47,14 +57,7 @@ pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> 
         ground_w: (0.0, 0.0),
     };
     Ok((
-        Stepper::new(
-            scene.native.clone(),
-            bodies,
-            scene.gravity,
-            motion,
-            applied_as,
-            solver,
-        ),
+        Stepper::new(settings, bodies, scene.gravity, motion, applied_as, solver),
         state,
     ))
 }

@@ -14,7 +14,7 @@
 
 mod convert;
 
-use crate::engines::{ENGINE_NAMES, EngineError, engine_by_name, run_timed};
+use crate::engines::{EngineError, engine_by_name, registry, run_timed};
 use crate::excitation::GroundMotion;
 use crate::scene::{self, Scene as CoreScene};
 use numpy::{PyArray1, PyReadonlyArray1};
@@ -214,7 +214,7 @@ fn scene_from(obj: &Bound<'_, PyAny>, overrides: &[String]) -> PyResult<CoreScen
             .map_err(|e| PyValueError::new_err(format!("<dict>: (file): not JSON data: {e}")))?
             .extract()?;
         let s = scene::parse_scene_str(&json, true, "<dict>", overrides).map_err(err)?;
-        s.check().map_err(err)?;
+        crate::engines::registry::check(&s).map_err(err)?;
         return Ok(s);
     }
     let path: PathBuf = obj.extract().map_err(|_| {
@@ -226,7 +226,7 @@ fn scene_from(obj: &Bound<'_, PyAny>, overrides: &[String]) -> PyResult<CoreScen
                 .unwrap_or_default()
         ))
     })?;
-    scene::load_scene_with_overrides(&path, overrides).map_err(err)
+    crate::engines::registry::load_scene_with_overrides(&path, overrides).map_err(err)
 }
 
 /// Read and check a scene.
@@ -320,7 +320,7 @@ fn compare_rows(
 /// Names of the engines `run` accepts.
 #[pyfunction]
 fn engine_names() -> Vec<&'static str> {
-    ENGINE_NAMES.to_vec()
+    registry::names()
 }
 
 #[pymodule]

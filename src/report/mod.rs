@@ -713,6 +713,24 @@ pub fn animation_tracks(c: &Comparison) -> Vec<animate::Track> {
     tracks
 }
 
+/// Write every file of a comparison into `dir`: the data files
+/// ([`crate::compare::write_run_files`]: metrics, trajectories, summaries), then `report.md`,
+/// `report.html` and the plots under `plots/`.
+pub fn write_comparison(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
+    crate::compare::write_run_files(dir, c, command)?;
+    write_report(dir, c, command)
+}
+
+/// The summary paragraphs of the report, as printed by `rockbench compare`.
+pub fn summary_paragraphs_for(c: &Comparison) -> Vec<String> {
+    let own = c
+        .reference_run
+        .as_ref()
+        .and_then(|r| metrics::compare_runs(&c.scene, r, r, &c.settings).ok())
+        .unwrap_or_default();
+    summary_paragraphs(c, &own)
+}
+
 /// Build the report and write `report.html`, `report.md` and `plots/*.svg` into `dir`.
 pub fn write_report(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
     let prov = Provenance::collect(command);
@@ -1360,7 +1378,7 @@ mod tests {
         let runner = |name: &str, sc: &Scene| -> EngineRun {
             if name == "lossy" {
                 let mut s = sc.clone();
-                s.housner.restitution = Some(0.6);
+                s.set_setting("housner", "restitution", 0.6);
                 let mut r = run_engine("housner", &s);
                 r.engine = "lossy".into();
                 r
@@ -1378,7 +1396,7 @@ mod tests {
     #[test]
     fn the_summary_says_what_agrees_and_what_does_not() {
         let c = comparison();
-        let text = crate::compare::summary_paragraphs_for(&c).join("\n");
+        let text = summary_paragraphs_for(&c).join("\n");
         let lossy = text
             .lines()
             .find(|l| l.starts_with("`lossy` against `housner`"))
@@ -1391,6 +1409,37 @@ mod tests {
         // Rest at 1e-4 rad comes much earlier with restitution 0.6 than 0.79.
         assert!(differs.contains("rest times of block `block`"), "{lossy}");
         assert!(differs.contains("at 1e-4 rad"), "{lossy}");
+    }
+
+    /// A failed engine and an unknown one: the summary names the failure and says that
+    /// nothing is compared.
+    #[test]
+    fn the_summary_names_failures_when_nothing_is_compared() {
+        let scene = parse_scene_str(SLENDER, false, "s.toml", &[]).unwrap();
+        let runner = |name: &str, sc: &Scene| {
+            if name == "broken" {
+                EngineRun {
+                    engine: name.into(),
+                    status: crate::compare::classify(&crate::engines::EngineError::Failed {
+                        engine: "broken",
+                        message: "diverged at step 7".into(),
+                    }),
+                    output: None,
+                    summary: None,
+                    cached: false,
+                }
+            } else {
+                run_engine(name, sc)
+            }
+        };
+        let opts = CompareOptions::new(
+            vec!["broken".into(), "nosuch".into(), "housner".into()],
+            ReferenceSpec::Engine("housner".into()),
+        );
+        let c = compare_with(&scene, &opts, &runner).unwrap();
+        assert!(c.rows.is_empty());
+        let text = summary_paragraphs_for(&c).join(" ");
+        assert!(text.contains("diverged at step 7") && text.contains("nothing is compared"));
     }
 
     #[test]

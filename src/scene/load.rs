@@ -11,6 +11,16 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 /// Read a scene file, apply `key.path=value` overrides (values parsed as TOML: numbers, booleans,
 /// strings), then check it.
 pub fn load_scene_with_overrides(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+    load_scene_checked(path, overrides, None)
+}
+
+/// [`load_scene_with_overrides`], with `tables` checking the engine tables (after the scene's
+/// fields, before the run-size checks): what `crate::engines::registry` supplies.
+pub fn load_scene_checked(
+    path: &Path,
+    overrides: &[String],
+    tables: Option<super::TableCheck>,
+) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "(file)", format!("cannot read: {e}")))?;
@@ -18,7 +28,7 @@ pub fn load_scene_with_overrides(path: &Path, overrides: &[String]) -> Result<Sc
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     let base_dir = path.parent().map(|p| p.to_path_buf()).unwrap_or_default();
-    check_scene_str(&text, is_json, &file, overrides, &base_dir)
+    check_scene_str_checked(&text, is_json, &file, overrides, &base_dir, tables)
 }
 
 /// Parse scene text, apply overrides and run every check, as [`load_scene_with_overrides`]
@@ -30,10 +40,22 @@ pub fn check_scene_str(
     overrides: &[String],
     base_dir: &Path,
 ) -> Result<Scene, SceneError> {
+    check_scene_str_checked(text, is_json, file, overrides, base_dir, None)
+}
+
+/// [`check_scene_str`] with `tables` checking the engine tables (see [`load_scene_checked`]).
+pub fn check_scene_str_checked(
+    text: &str,
+    is_json: bool,
+    file: &str,
+    overrides: &[String],
+    base_dir: &Path,
+    tables: Option<super::TableCheck>,
+) -> Result<Scene, SceneError> {
     let mut scene = parse_scene_str(text, is_json, file, overrides)?;
     scene.base_dir = base_dir.to_path_buf();
     scene.source = file.to_string();
-    super::validate::validate(&scene)?;
+    super::validate::validate(&scene, tables)?;
     Ok(scene)
 }
 
@@ -110,6 +132,7 @@ pub fn parse_scene_str(
         apply_override(&mut value, o).map_err(|m| SceneError::new(file, "--set", m))?;
     }
     output_table(&mut value).map_err(|(field, m)| SceneError::new(file, field, m))?;
+    let engines = engine_tables(&mut value);
     let mut scene: Scene = serde_path_to_error::deserialize(&value).map_err(|e| {
         let path = e.path().to_string();
         let field = if path == "." {
@@ -120,7 +143,22 @@ pub fn parse_scene_str(
         SceneError::new(file, field, clean_serde_message(&e.inner().to_string()))
     })?;
     scene.source = file.to_string();
+    scene.engines = engines;
     Ok(scene)
+}
+
+/// Take the engine tables out of the top level: every table that is not a scene field
+/// ([`super::SCENE_FIELDS`]). Other unknown keys stay, for the "unknown field" error.
+fn engine_tables(value: &mut serde_json::Value) -> super::EngineTables {
+    let obj = value.as_object_mut().expect("checked to be a table");
+    let keys: Vec<String> = obj
+        .iter()
+        .filter(|(k, v)| v.is_object() && !super::SCENE_FIELDS.contains(&k.as_str()))
+        .map(|(k, _)| k.clone())
+        .collect();
+    keys.into_iter()
+        .filter_map(|k| obj.remove(&k).map(|v| (k, v)))
+        .collect()
 }
 
 fn toml_syntax_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
@@ -167,7 +205,7 @@ fn reject_non_finite(v: &toml::Value, path: String, file: &str) -> Result<(), Sc
 
 /// A deserialisation message; a wrong type where a number belongs is said
 /// plainly (scene values are bare numbers in SI units: `duration = 5`, never `"5 s"`).
-fn clean_serde_message(m: &str) -> String {
+pub(super) fn clean_serde_message(m: &str) -> String {
     // Deserialisation runs on a JSON tree, so messages are single lines; a newline can only
     // come from a quoted key or value, which `SceneError::new` escapes.
     let m = m.trim();

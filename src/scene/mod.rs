@@ -4,6 +4,13 @@
 //! and kept as plain data. Every problem is reported as one [`SceneError`] line naming the
 //! file, the field and what is wrong. The format is documented field by field in
 //! `docs/scene-format.md`.
+//!
+//! The scene knows no engine. Each engine's table (`[native]`, `[housner]`, `[rapier]`, ...) is
+//! kept as written (with `--set` overrides applied) in [`Scene::engines`]; the engine parses
+//! and checks its own table ([`Scene::parse_table`] gives its errors the scene's one-line form),
+//! and `crate::engines::registry` checks every table of a scene, and that each names an engine,
+//! when a scene is loaded for running (`crate::engines::registry::load_scene`). The loaders here
+//! ([`load_scene`], [`check_scene_str`]) check the scene's own fields only.
 
 mod layout;
 mod load;
@@ -11,13 +18,13 @@ mod validate;
 
 pub use layout::{BlockState, Layout};
 pub use load::{
-    apply_override, check_scene_str, load_scene, load_scene_with_overrides, parse_scene_str,
+    apply_override, check_scene_str, check_scene_str_checked, load_scene, load_scene_checked,
+    load_scene_with_overrides, parse_scene_str,
 };
 pub(crate) use validate::num;
+pub use validate::{MAX_STEPS, MIN_EVENT_TOLERANCE_REL, check_samples, check_step};
 
-use crate::engines::rapier_settings::RapierSettings;
-use crate::native::NativeSettings;
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Serialize, Serializer};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -70,8 +77,29 @@ fn default_output_interval() -> f64 {
     1e-3
 }
 
+/// A check of a scene's engine tables, supplied by the engine registry to the loaders
+/// ([`load_scene_checked`]); the scene knows no engine. It runs after the scene's field checks
+/// and runs [`check_samples`] itself, so that the first problem reported is the same as
+/// before the tables left the scene.
+pub type TableCheck = fn(&Scene) -> Result<(), SceneError>;
+
+/// Engine settings tables keyed by engine name, each kept as written (a JSON object).
+pub type EngineTables = BTreeMap<String, serde_json::Value>;
+
+/// The scene's own top-level fields; any other top-level table is an engine's settings table.
+pub const SCENE_FIELDS: [&str; 8] = [
+    "name",
+    "duration",
+    "gravity",
+    "output_interval",
+    "blocks",
+    "initial",
+    "contact",
+    "excitation",
+];
+
 /// A scene as written in the file, with defaults filled in.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Scene name, used in reports.
@@ -93,26 +121,11 @@ pub struct Scene {
     /// Ground excitation; absent means free rocking.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub excitation: Option<ExcitationSpec>,
-    /// Settings of the native theta-method engine.
-    #[serde(default)]
-    pub native: NativeSettings,
-    /// Settings of the analytical Housner engine.
-    #[serde(default)]
-    pub housner: HousnerSettings,
-    /// Settings of the rapier2d engine (parsed and checked in every build, also without the
-    /// `rapier` feature).
-    #[serde(default)]
-    pub rapier: RapierSettings,
-    /// Settings read by engines outside this crate's core (MuJoCo, PyBullet): kept as given and
-    /// passed to the engine, which validates them.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mujoco: Option<serde_json::Value>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub pybullet: Option<serde_json::Value>,
-    /// Settings of the Siconos engine (the worker validates them; the harness reads `step` and
-    /// `timeout`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub siconos: Option<serde_json::Value>,
+    /// Engine settings tables keyed by engine name (`native`, `housner`, `rapier`, ...), as
+    /// written: top-level tables that are not scene fields ([`SCENE_FIELDS`]). Serialised back
+    /// at the top level.
+    #[serde(skip)]
+    pub engines: EngineTables,
     /// Directory of the scene file: record paths are relative to it.
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -310,48 +323,35 @@ pub enum RecordFormat {
     At2,
 }
 
-/// Settings of the analytical Housner engine.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct HousnerSettings {
-    /// Factor applied to the angular velocity at each impact; default `1 - 1.5 sin^2 alpha`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub restitution: Option<f64>,
-    /// Largest RK4 step, s.
-    #[serde(default = "default_housner_step")]
-    pub max_step: f64,
-    /// Largest RK4 step as a phase of the block's frequency parameter, `p h` (dimensionless):
-    /// the step is `min(max_step, max_phase_step / p)`, so small (fast) blocks get
-    /// proportionally smaller steps.
-    #[serde(default = "default_housner_phase_step")]
-    pub max_phase_step: f64,
-    /// Impact instants are located to this time tolerance, s.
-    #[serde(default = "default_housner_event_tol")]
-    pub event_tolerance: f64,
-}
-
-fn default_housner_step() -> f64 {
-    1e-4
-}
-/// Chosen by measurement (`rockbench stress`, factor `size`): with `p h <= 3e-4` the energy
-/// of a free-rocking block (H/B = 2.5, H 0.05 .. 20 m, 4 s) grows by at most 3.9e-13 of m g H
-/// between impacts (9.4e-9 at H = 0.05 m with the fixed 1e-4 s step); the validation blocks
-/// (p = 2.3 and 2.9 1/s) keep the 1e-4 s step.
-fn default_housner_phase_step() -> f64 {
-    3e-4
-}
-fn default_housner_event_tol() -> f64 {
-    1e-10
-}
-
-impl Default for HousnerSettings {
-    fn default() -> Self {
-        HousnerSettings {
-            restitution: None,
-            max_step: default_housner_step(),
-            max_phase_step: default_housner_phase_step(),
-            event_tolerance: default_housner_event_tol(),
+/// The scene as written: its fields, then each engine table at the top level.
+impl Serialize for Scene {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Written<'a> {
+            name: &'a str,
+            duration: f64,
+            gravity: f64,
+            output_interval: f64,
+            blocks: &'a [BlockSpec],
+            initial: &'a InitialSpec,
+            contact: &'a ContactSpec,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            excitation: Option<&'a ExcitationSpec>,
+            #[serde(flatten)]
+            engines: &'a EngineTables,
         }
+        Written {
+            name: &self.name,
+            duration: self.duration,
+            gravity: self.gravity,
+            output_interval: self.output_interval,
+            blocks: &self.blocks,
+            initial: &self.initial,
+            contact: &self.contact,
+            excitation: self.excitation.as_ref(),
+            engines: &self.engines,
+        }
+        .serialize(serializer)
     }
 }
 
@@ -376,9 +376,70 @@ impl Scene {
         self.blocks.iter().position(|b| b.name == name)
     }
 
-    /// Check every field (what [`load_scene`] does after parsing): for scenes built in memory.
+    /// Check the scene's own fields (what [`load_scene`] does after parsing): for scenes built
+    /// in memory. The engine tables are checked by `crate::engines::registry::check`.
     pub fn check(&self) -> Result<(), SceneError> {
-        validate::validate(self)
+        validate::validate(self, None)
+    }
+
+    /// [`Scene::check`] with `tables` checking the engine tables (see [`TableCheck`]).
+    pub fn check_with(&self, tables: TableCheck) -> Result<(), SceneError> {
+        validate::validate(self, Some(tables))
+    }
+
+    /// The engine table `name` as written, if the scene has one.
+    pub fn engine_table(&self, name: &str) -> Option<&serde_json::Value> {
+        self.engines.get(name)
+    }
+
+    /// Parse the engine table `name` into its settings type (defaults for an absent table);
+    /// a problem is one [`SceneError`] naming `name.<field>`. Range checks are the engine's.
+    pub fn parse_table<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T, SceneError> {
+        let empty = serde_json::Value::Object(Default::default());
+        let value = self.engines.get(name).unwrap_or(&empty);
+        if !value.is_object() {
+            return Err(SceneError::new(
+                &self.source,
+                name,
+                format!("must be a table of settings (`[{name}]`)"),
+            ));
+        }
+        serde_path_to_error::deserialize(value).map_err(|e| {
+            let path = e.path().to_string();
+            let field = if path == "." {
+                name.to_string()
+            } else {
+                format!("{name}.{path}")
+            };
+            SceneError::new(
+                &self.source,
+                field,
+                load::clean_serde_message(&e.inner().to_string()),
+            )
+        })
+    }
+
+    /// Set `name.key = value` in the engine table `name` (created if absent): for scenes
+    /// changed in memory (`--set name.key=value` does the same on the file's tree).
+    pub fn set_setting(&mut self, name: &str, key: &str, value: impl Serialize) {
+        let v = serde_json::to_value(value).expect("settings serialise");
+        let table = self
+            .engines
+            .entry(name.to_string())
+            .or_insert_with(|| serde_json::Value::Object(Default::default()));
+        if !table.is_object() {
+            *table = serde_json::Value::Object(Default::default());
+        }
+        table
+            .as_object_mut()
+            .expect("made a table above")
+            .insert(key.to_string(), v);
+    }
+
+    /// Replace the engine table `name` with `settings` serialised.
+    pub fn set_table(&mut self, name: &str, settings: &impl Serialize) {
+        let v = serde_json::to_value(settings).expect("settings serialise");
+        self.engines.insert(name.to_string(), v);
     }
 
     /// The initial configuration (positions, velocities, supports).

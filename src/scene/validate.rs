@@ -4,7 +4,10 @@ use super::layout::{Layout, overlap};
 use super::{MotionSpec, Scene, SceneError};
 use std::collections::BTreeSet;
 
-pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
+/// Every check of the scene's own fields, then `tables` (the engine tables' check, from the
+/// engine registry), which also runs [`check_samples`] where it orders it; without `tables`
+/// the sample count is checked last.
+pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Result<(), SceneError> {
     let file = scene.source.as_str();
     let err = |field: String, msg: String| Err(SceneError::new(file, field, msg));
     let positive = |field: &str, v: f64| -> Result<(), SceneError> {
@@ -268,38 +271,9 @@ pub(crate) fn validate(scene: &Scene) -> Result<(), SceneError> {
         crate::excitation::GroundMotion::from_scene(scene)?;
     }
 
-    scene.native.validate(file)?;
-    scene.rapier.validate(file)?;
-    check_run_length(scene)?;
-    positive("housner.max_step", scene.housner.max_step)?;
-    positive("housner.max_phase_step", scene.housner.max_phase_step)?;
-    positive("housner.event_tolerance", scene.housner.event_tolerance)?;
-    let tol_floor = MIN_EVENT_TOLERANCE_REL * scene.duration.max(1.0);
-    if scene.housner.event_tolerance < tol_floor {
-        return err(
-            "housner.event_tolerance".into(),
-            format!(
-                "must be at least {tol_floor:e} s (1e-13 of max(duration, 1 s)); below that time round-off stops the event bisection (got {})",
-                num(scene.housner.event_tolerance)
-            ),
-        );
-    }
-    let housner_steps = scene.duration / scene.housner.max_step;
-    if housner_steps > MAX_STEPS {
-        return err(
-            "housner.max_step".into(),
-            format!(
-                "duration / max_step = {housner_steps:e} steps; at most {MAX_STEPS:e} are allowed (a unit slip?)"
-            ),
-        );
-    }
-    if let Some(r) = scene.housner.restitution
-        && (!r.is_finite() || !(0.0..=1.0).contains(&r))
-    {
-        return err(
-            "housner.restitution".into(),
-            format!("must be in [0, 1] (got {})", num(r)),
-        );
+    match tables {
+        Some(t) => t(scene)?,
+        None => check_samples(scene)?,
     }
     Ok(())
 }
@@ -324,14 +298,14 @@ pub const MAX_SAMPLES: f64 = 1e7;
 /// Smallest Housner event tolerance relative to max(duration, 1 s).
 pub const MIN_EVENT_TOLERANCE_REL: f64 = 1e-13;
 
-/// Time step against duration, and the number of steps and samples.
-fn check_run_length(scene: &Scene) -> Result<(), SceneError> {
+/// A time step (the setting `field`, e.g. `native.dt`) against the duration and the number
+/// of steps: for the engines' checks of their own tables.
+pub fn check_step(scene: &Scene, field: &str, dt: f64) -> Result<(), SceneError> {
     let file = scene.source.as_str();
-    let dt = scene.native.dt;
     if dt > scene.duration {
         return Err(SceneError::new(
             file,
-            "native.dt",
+            field,
             format!(
                 "{} s is larger than the duration ({} s): not a single step fits",
                 num(dt),
@@ -343,16 +317,21 @@ fn check_run_length(scene: &Scene) -> Result<(), SceneError> {
     if steps > MAX_STEPS {
         return Err(SceneError::new(
             file,
-            "native.dt",
+            field,
             format!(
                 "duration / dt = {steps:e} steps; at most {MAX_STEPS:e} are allowed (a unit slip?)"
             ),
         ));
     }
+    Ok(())
+}
+
+/// The number of samples (`duration / output_interval`).
+pub fn check_samples(scene: &Scene) -> Result<(), SceneError> {
     let samples = scene.duration / scene.output_interval;
     if samples > MAX_SAMPLES {
         return Err(SceneError::new(
-            file,
+            &scene.source,
             "output_interval",
             format!(
                 "duration / output_interval = {samples:e} samples; at most {MAX_SAMPLES:e} are allowed"

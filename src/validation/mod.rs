@@ -25,8 +25,9 @@ pub mod references;
 pub mod report;
 
 use crate::compare::{CompareOptions, Comparison, ReferenceSpec, Status, compare_with};
+use crate::engines::registry::load_scene_with_overrides;
 use crate::gates::{self, CacheStats, Gate, GateOptions, GateResult, Outcome};
-use crate::scene::{Scene, load_scene_with_overrides};
+use crate::scene::Scene;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 

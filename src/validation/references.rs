@@ -7,10 +7,11 @@
 //! numbers) and, where the reference is a history, a `trajectory.csv`. The only line that
 //! differs between two generations is the `date:` line of each PROVENANCE.md.
 
+use crate::engines::registry::load_scene;
 use crate::engines::{Engine, housner::HousnerEngine, native::NativeEngine};
 use crate::events;
 use crate::metrics::{MetricSettings, Run, run_events};
-use crate::scene::{Scene, load_scene, parse_scene_str};
+use crate::scene::{Scene, parse_scene_str};
 use crate::trajectory::Trajectory;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -127,7 +128,7 @@ name = \"{name}\"\nduration = {duration}\n\n[[blocks]]\nname = \"block\"\nwidth 
 
 fn scene_from(text: &str, name: &str) -> Result<Scene, String> {
     let s = parse_scene_str(text, false, name, &[]).map_err(|e| e.to_string())?;
-    s.check().map_err(|e| e.to_string())?;
+    crate::engines::registry::check(&s).map_err(|e| e.to_string())?;
     Ok(s)
 }
 
@@ -341,11 +342,12 @@ pub fn generate(root: &Path) -> Result<Tree, String> {
         let out = HousnerEngine.run(&scene).map_err(|e| e.to_string())?;
         let mut r = header(&format!("{case}: exact Housner solution"));
         let b = &scene.blocks[0];
+        let hs = crate::engines::housner::HousnerSettings::of(&scene).map_err(|e| e.to_string())?;
         let (p, alpha) = housner_p_alpha(b.width, b.height, scene.gravity);
         let _ = writeln!(
             r,
             "source = \"housner engine (RK4, max_step {}, impacts located to {} s)\"\np_rad_per_s = {p:.10}\nalpha_rad = {alpha:.10}",
-            scene.housner.max_step, scene.housner.event_tolerance
+            hs.max_step, hs.event_tolerance
         );
         r += &events_toml(
             &scene,
@@ -373,7 +375,7 @@ pub fn generate(root: &Path) -> Result<Tree, String> {
     {
         let case = "two-block-free-rocking";
         let mut scene = load(&format!("{case}.toml"))?;
-        scene.native.dt = CONVERGED_DT;
+        scene.set_setting("native", "dt", CONVERGED_DT);
         let out = NativeEngine.run(&scene).map_err(|e| e.to_string())?;
         let mut r = header("two-block-free-rocking: converged native run and the paper's claims");
         let _ = writeln!(
