@@ -200,7 +200,8 @@ pub static ENGINES: &[EngineInfo] = &[
         }),
         contract: siconos::contract,
         listed: true,
-        stress_default: true,
+        // Its quick map takes about 20 min through Python on 2 cores: `--engines siconos`.
+        stress_default: false,
         build: || Ok(Box::new(external::ExternalEngine::of(&siconos::WORKER))),
         availability: || worker_available(&siconos::WORKER),
     },
