@@ -43,8 +43,9 @@ fn main() -> anyhow::Result<()> {
         .collect();
     let out = PathBuf::from(arg(&args, "--out", "out/bench-dynamic"));
     std::fs::create_dir_all(out.join("scenes"))?;
-    let record = std::fs::canonicalize("validation/records/elcentro-1940.AT2")
-        .map_err(|e| anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)"))?;
+    let record = std::fs::canonicalize("validation/records/elcentro-1940.AT2").map_err(|e| {
+        anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)")
+    })?;
     let mut csv = String::from(
         "blocks,courses,engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks\n",
     );
@@ -55,7 +56,9 @@ fn main() -> anyhow::Result<()> {
         let mut w = WallSpec::running_bond(c, 21);
         w.duration = duration;
         w.record = Some((record.display().to_string(), scale));
-        let path = out.join("scenes").join(format!("wall-{}.toml", w.n_blocks()));
+        let path = out
+            .join("scenes")
+            .join(format!("wall-{}.toml", w.n_blocks()));
         std::fs::write(&path, w.to_toml())?;
         let scene = load_scene(&path)?;
         for e in &engines {
@@ -74,7 +77,8 @@ fn main() -> anyhow::Result<()> {
                 .count();
             let overturned = s.blocks.iter().filter(|b| b.overturned).count();
             let steps = s.steps.max(1) as f64;
-            let per = |x: Option<u64>| x.map_or("-".to_string(), |x| format!("{:.2}", x as f64 / steps));
+            let per =
+                |x: Option<u64>| x.map_or("-".to_string(), |x| format!("{:.2}", x as f64 / steps));
             let fallbacks = count_before(&o.notes, " steps fell back to Clarabel");
             let factorisations = count_before(&o.notes, " factorisations");
             let row = (

@@ -39,9 +39,7 @@ impl WallSpec {
 
     /// Number of blocks: `per_course` per even course, `per_course + 1` per odd one.
     pub fn n_blocks(&self) -> usize {
-        (0..self.courses)
-            .map(|c| self.per_course + c % 2)
-            .sum()
+        (0..self.courses).map(|c| self.per_course + c % 2).sum()
     }
 
     /// `(name, x of the centre, width)` of every block, course by course from the bottom.
@@ -77,7 +75,11 @@ impl WallSpec {
             self.height,
             self.n_blocks()
         );
-        let _ = writeln!(s, "name = \"{}\"\nduration = {}\n", self.name, self.duration);
+        let _ = writeln!(
+            s,
+            "name = \"{}\"\nduration = {}\n",
+            self.name, self.duration
+        );
         for (name, _, x, w) in self.blocks() {
             let _ = writeln!(
                 s,

@@ -256,7 +256,12 @@ impl ContactSolver for Islands {
     }
 
     fn factorisations(&self) -> u64 {
-        self.retired.1 + self.solvers.values().map(|s| s.factorisations()).sum::<u64>()
+        self.retired.1
+            + self
+                .solvers
+                .values()
+                .map(|s| s.factorisations())
+                .sum::<u64>()
     }
 }
 

@@ -54,11 +54,6 @@ pub const CONSISTENCY_TOLERANCE: f64 = 1e-9;
 pub const NEWTON_TOLERANCE: f64 = 1e-12;
 const MAX_NEWTON: usize = 60;
 const MAX_OUTER: usize = 60;
-/// Conjugate gradients on a Newton system with a kept factor: at most this many iterations
-/// (each one solve with the factor) before the matrix is factorised afresh.
-pub const MAX_CG: usize = 12;
-/// Relative decrease of the preconditioned residual norm that ends conjugate gradients.
-pub const CG_TOLERANCE: f64 = 1e-10;
 
 #[derive(Default)]
 pub struct SparseSolver {
@@ -90,17 +85,6 @@ pub struct SparseSolver {
     fresh: bool,
     /// Factorisations computed (for diagnostics and benchmarks).
     pub factorisations: u64,
-    pub diag: [u64; 8],
-    /// Conjugate-gradient work vectors.
-    cg: Vec<Vec<f64>>,
-}
-
-impl Drop for SparseSolver {
-    fn drop(&mut self) {
-        if std::env::var_os("RB_DEBUG_FALLBACK").is_some() {
-            eprintln!("sparse diag: solves {} outer {} newton {} f_none {} f_untrusted {} rho_up {} env_new {} cg {} factorisations {}", self.diag[0], self.diag[1], self.diag[2], self.diag[3], self.diag[4], self.diag[5], self.diag[6], self.diag[7], self.factorisations);
-        }
-    }
 }
 
 impl SparseSolver {
@@ -130,7 +114,6 @@ impl SparseSolver {
         if self.pairs_now != self.pairs || self.envelope.dofs() != 3 * n_blocks {
             std::mem::swap(&mut self.pairs, &mut self.pairs_now);
             self.envelope = Envelope::new(n_blocks, &self.pairs);
-            self.diag[6] += 1;
             self.factored = None;
         }
     }
@@ -238,7 +221,8 @@ impl SparseSolver {
         let mut trusted = true;
         for it in 1..=MAX_NEWTON {
             self.classify();
-            if self.factored.is_none() {
+            let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
+            if self.factored.is_none() || (!exact && !trusted) {
                 self.factorise(p)?;
             }
             let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
@@ -250,15 +234,7 @@ impl SparseSolver {
                     row.axpy(-self.rho[i] * self.y[i], &mut self.du);
                 }
             }
-            if exact || trusted {
-                // Exact, or an inexact step with the factor in hand while those keep
-                // shrinking tenfold.
-                self.envelope.solve(&mut self.du);
-            } else if !self.conjugate_gradients(p) {
-                // The factor in hand is too far from the current Newton matrix.
-                self.factorise(p)?;
-                self.envelope.solve(&mut self.du);
-            }
+            self.envelope.solve(&mut self.du);
             let tau = self.line_search(p, q);
             // Converged when the full Newton step is negligible (a step cut short by the line
             // search says nothing about convergence).
@@ -273,11 +249,10 @@ impl SparseSolver {
                 self.factored = None;
                 return Err(Self::fail("non-finite Newton step".into()));
             }
-            self.diag[2] += 1;
             if step <= NEWTON_TOLERANCE * (1.0 + size) {
                 return Ok(it);
             }
-            if trusted && !exact && step > 0.1 * last_step {
+            if !exact && step > 0.1 * last_step {
                 trusted = false;
             }
             last_step = step;
@@ -286,74 +261,6 @@ impl SparseSolver {
         Err(Self::fail(format!(
             "Newton's iteration did not converge in {MAX_NEWTON} steps"
         )))
-    }
-
-    /// `out = K_A x` with `K_A = P + sum_{i in A} rho_i D_i' D_i` (A: rows with `y < 0`).
-    fn newton_product(&self, p: &[f64], x: &[f64], out: &mut Vec<f64>) {
-        out.clear();
-        out.extend(p.iter().zip(x).map(|(p, x)| p * x));
-        for (i, row) in self.rows.iter().enumerate() {
-            if self.y[i] < 0.0 {
-                row.axpy(self.rho[i] * row.dot(x), out);
-            }
-        }
-    }
-
-    /// Solve `K_A du = rhs` (rhs in `du` on entry) by conjugate gradients preconditioned with
-    /// the factor in hand (built for an earlier active set, earlier rows or penalties). The
-    /// preconditioned matrix is the identity plus a term of the rank of the difference, so a
-    /// few changed rows cost a few iterations. False (and `du` unchanged) when the residual
-    /// has not fallen by `CG_TOLERANCE` within `MAX_CG` iterations.
-    fn conjugate_gradients(&mut self, p: &[f64]) -> bool {
-        let n = p.len();
-        let mut cg = std::mem::take(&mut self.cg);
-        cg.resize(4, Vec::new());
-        let [x, r, z, d] = &mut cg[..] else {
-            unreachable!()
-        };
-        r.clone_from(&self.du);
-        x.clear();
-        x.resize(n, 0.0);
-        z.clone_from(r);
-        self.envelope.solve(z);
-        let mut rz: f64 = r.iter().zip(z.iter()).map(|(a, b)| a * b).sum();
-        let rz0 = rz;
-        d.clone_from(z);
-        let mut kd = Vec::new();
-        let mut ok = rz0 == 0.0;
-        for _ in 0..MAX_CG {
-            if ok {
-                break;
-            }
-            self.newton_product(p, d, &mut kd);
-            let dkd: f64 = d.iter().zip(&kd).map(|(a, b)| a * b).sum();
-            if !(dkd > 0.0) {
-                break;
-            }
-            let alpha = rz / dkd;
-            for j in 0..n {
-                x[j] += alpha * d[j];
-                r[j] -= alpha * kd[j];
-            }
-            z.clone_from(r);
-            self.envelope.solve(z);
-            let rz_new: f64 = r.iter().zip(z.iter()).map(|(a, b)| a * b).sum();
-            self.diag[7] += 1;
-            if rz_new <= CG_TOLERANCE * CG_TOLERANCE * rz0 {
-                ok = true;
-                break;
-            }
-            let beta = rz_new / rz;
-            rz = rz_new;
-            for j in 0..n {
-                d[j] = z[j] + beta * d[j];
-            }
-        }
-        if ok {
-            self.du.clone_from(x);
-        }
-        self.cg = cg;
-        ok
     }
 }
 
@@ -381,7 +288,6 @@ impl SparseSolver {
     fn solve_warm(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let sc = pr.scaled();
         let n = pr.n_dof();
-        self.diag[0] += 1;
         if !n.is_multiple_of(3) {
             return Err(Self::fail(format!("{n} DOFs is not 3 per block")));
         }
@@ -456,7 +362,6 @@ impl SparseSolver {
         let mut last_change = f64::INFINITY;
         for _ in 0..MAX_OUTER {
             newton += self.minimise(&sc.p, &sc.q)?;
-            self.diag[1] += 1;
             let mut change = 0.0f64;
             for (i, row) in self.rows.iter().enumerate() {
                 let c = row.dot(&self.u) + self.r[i];
@@ -481,7 +386,6 @@ impl SparseSolver {
                 for (rho, base) in self.rho.iter_mut().zip(&self.rho_base) {
                     *rho = (*rho * 10.0).min(base * RHO_MAX / RHO);
                 }
-                self.diag[5] += 1;
                 self.factored = None;
             }
             last_change = change;
