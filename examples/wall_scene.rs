@@ -1,7 +1,7 @@
 //! Print a running-bond wall scene (rockbench::walls) on stdout:
 //! `cargo run --release --example wall_scene -- COURSES PER_COURSE WIDTH HEIGHT DURATION
-//! [RECORD SCALE]`. validation/scenes/wall-in-motion.toml is
-//! `wall_scene 5 8 0.3 0.45 6 ../records/elcentro-1940.AT2 2` (tests/walls.rs checks it).
+//! [RECORD SCALE]`. benches/walls/wall-in-motion.toml is
+//! `wall_scene 5 8 0.3 0.45 6 ../../validation/records/elcentro-1940.AT2 2` (tests/walls.rs checks it).
 use rockbench::walls::WallSpec;
 
 fn main() {

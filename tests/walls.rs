@@ -64,11 +64,11 @@ fn the_215_block_wall_matches_the_clarabel_reference_over_200_steps() {
     assert_eq!(a.solver_fallbacks(), 0);
 }
 
-/// The wall-in-motion validation case (42 blocks of 0.3 x 0.45 m under El Centro x2): 200
+/// The wall-in-motion case (42 blocks of 0.3 x 0.45 m under El Centro x2): 200
 /// steps from its state at 3.6 s, when it rocks, with the default back-end and with Clarabel.
 #[test]
 fn the_wall_in_motion_matches_the_clarabel_reference_over_200_steps() {
-    let path = common::root().join("validation/scenes/wall-in-motion.toml");
+    let path = common::root().join("benches/walls/wall-in-motion.toml");
     let fast = rockbench::scene::load_scene(&path).unwrap();
     let set = vec![
         "native.solver=\"clarabel\"".to_string(),
@@ -102,15 +102,15 @@ fn the_wall_in_motion_matches_the_clarabel_reference_over_200_steps() {
     );
 }
 
-/// validation/scenes/wall-in-motion.toml is the generator's output (see examples/wall_scene.rs).
+/// benches/walls/wall-in-motion.toml is the generator's output (see examples/wall_scene.rs).
 #[test]
 fn the_wall_in_motion_scene_is_generated() {
     let mut w = WallSpec::running_bond(5, 8);
     w.width = 0.3;
     w.height = 0.45;
     w.duration = 6.0;
-    w.record = Some(("../records/elcentro-1940.AT2".into(), 2.0));
-    let path = common::root().join("validation/scenes/wall-in-motion.toml");
+    w.record = Some(("../../validation/records/elcentro-1940.AT2".into(), 2.0));
+    let path = common::root().join("benches/walls/wall-in-motion.toml");
     assert_eq!(std::fs::read_to_string(path).unwrap(), w.to_toml());
     assert_eq!(w.n_blocks(), 42);
 }
