@@ -63,7 +63,16 @@ fn main() -> anyhow::Result<()> {
         let scene = load_scene(&path)?;
         for e in &engines {
             let engine = engine_by_name(e)?;
-            let (o, s) = run_timed(engine.as_ref(), &scene)?;
+            let (o, s) = match run_timed(engine.as_ref(), &scene) {
+                Ok(r) => r,
+                Err(err) => {
+                    // A failed run stays in the table with its reason.
+                    let _ = writeln!(csv, "{},{c},{e},,,,,,,,failed: {err}", w.n_blocks());
+                    let _ = writeln!(md, "| {} | {e} | failed: {err} |||||||", w.n_blocks());
+                    println!("{} blocks, {e}: failed: {err}", w.n_blocks());
+                    continue;
+                }
+            };
             let moving = o
                 .trajectory
                 .blocks
