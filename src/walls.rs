@@ -42,7 +42,7 @@ impl WallSpec {
         (0..self.courses).map(|c| self.per_course + c % 2).sum()
     }
 
-    /// `(name, x of the centre, width)` of every block, course by course from the bottom.
+    /// `(name, course, x of the centre, width)` of every block, course by course from the bottom.
     pub fn blocks(&self) -> Vec<(String, usize, f64, f64)> {
         let (w, n) = (self.width, self.per_course);
         let mut out = Vec::with_capacity(self.n_blocks());

@@ -68,11 +68,11 @@ impl Rigid {
     }
 }
 
-/// Horizontal overlap length of two intervals.
 /// Horizontal overlaps below this fraction of the narrower block are round-off: the blocks
 /// stand side by side.
 pub const SIDE_BY_SIDE: f64 = 1e-9;
 
+/// Horizontal overlap length of two intervals.
 pub(crate) fn overlap(a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.1.min(b.1) - a.0.max(b.0)).max(0.0)
 }
