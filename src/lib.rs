@@ -52,3 +52,4 @@ pub mod stress;
 pub mod summary;
 pub mod trajectory;
 pub mod validation;
+pub mod walls;

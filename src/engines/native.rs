@@ -123,12 +123,13 @@ impl Engine for NativeEngine {
             exact_impacts: None,
             notes: {
                 let mut notes = vec![format!(
-                    "{} steps, {} split at a located impact, {} position projections after impacts; {} solutions polished on their active set; {} steps fell back to Clarabel",
+                    "{} steps, {} split at a located impact, {} position projections after impacts; {} solutions polished on their active set; {} steps fell back to Clarabel; {} factorisations",
                     computed,
                     stepper.split_steps,
                     stepper.projections,
                     stepper.polished_steps,
-                    stepper.solver_fallbacks()
+                    stepper.solver_fallbacks(),
+                    stepper.solver_factorisations()
                 )];
                 if stepper.gradient_solves > 0 {
                     notes.push(format!(

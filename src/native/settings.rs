@@ -144,6 +144,12 @@ pub struct NativeSettings {
     /// from the solver tolerance to round-off. See `native::solver::polish`.
     #[serde(default = "d_true")]
     pub polish: bool,
+    /// Solve the independent islands of touching blocks as separate problems, each with its
+    /// own back-end (default true; see `native::islands`). The step problem is separable over
+    /// islands, so this changes nothing but which back-end `auto` picks for each part (small
+    /// islands go to the dense one) and the back-ends' round-off.
+    #[serde(default = "d_true")]
+    pub islands: bool,
 }
 
 fn d_rest_velocity() -> f64 {
@@ -169,6 +175,7 @@ impl Default for NativeSettings {
             accept_almost_solved: false,
             contact_reach: d_reach(),
             polish: true,
+            islands: true,
             stop_at_rest: false,
             rest_velocity: d_rest_velocity(),
         }

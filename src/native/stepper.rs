@@ -260,6 +260,11 @@ impl Stepper {
         self.solver.fallbacks()
     }
 
+    /// Newton-matrix factorisations of the back-end (sparse).
+    pub fn solver_factorisations(&self) -> u64 {
+        self.solver.factorisations()
+    }
+
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
     /// theta, or 1/2 with midpoint kinematics.
     fn kinematic_weight(&self) -> f64 {

@@ -68,6 +68,10 @@ impl Rigid {
     }
 }
 
+/// Horizontal overlaps below this fraction of the narrower block are round-off: the blocks
+/// stand side by side.
+pub const SIDE_BY_SIDE: f64 = 1e-9;
+
 /// Horizontal overlap length of two intervals.
 pub(crate) fn overlap(a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.1.min(b.1) - a.0.max(b.0)).max(0.0)
@@ -92,7 +96,10 @@ impl Layout {
                     for (j, &(xj, zj)) in upright.iter().enumerate().take(i) {
                         let bj = &scene.blocks[j];
                         let ov = overlap(span, (xj - bj.width / 2.0, xj + bj.width / 2.0));
-                        if ov <= 0.0 {
+                        // Side by side: blocks placed edge to edge overlap by round-off (a
+                        // block at x = 8.7 of width 0.6 starts at 8.399999999999999), which
+                        // must not stack one on the other.
+                        if ov <= SIDE_BY_SIDE * b.width.min(bj.width) {
                             continue;
                         }
                         let top = zj + bj.height / 2.0;

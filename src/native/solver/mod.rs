@@ -31,6 +31,10 @@ pub trait ContactSolver: Send {
     fn fallbacks(&self) -> u64 {
         0
     }
+    /// Factorisations of a Newton matrix (the sparse back-end; for diagnostics and benchmarks).
+    fn factorisations(&self) -> u64 {
+        0
+    }
 }
 
 /// A fast back-end with Clarabel behind it: a step the primary cannot solve is solved by
@@ -65,6 +69,9 @@ impl ContactSolver for WithFallback {
     fn fallbacks(&self) -> u64 {
         self.fallbacks + self.primary.fallbacks()
     }
+    fn factorisations(&self) -> u64 {
+        self.primary.factorisations()
+    }
 }
 
 /// Largest problem (in DOFs, 3 per block) the dense active-set back-end takes under `auto`;
@@ -95,10 +102,28 @@ impl ContactSolver for Auto {
     fn fallbacks(&self) -> u64 {
         self.dense.fallbacks() + self.sparse.fallbacks()
     }
+    fn factorisations(&self) -> u64 {
+        self.sparse.factorisations()
+    }
 }
 
-/// The back-end a scene's settings ask for.
+/// The back-end a scene's settings ask for: with `native.islands` (the default), each island
+/// of touching blocks gets its own (see [`crate::native::islands`]).
 pub fn solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
+    if s.islands {
+        let whole = whole_solver_for(s);
+        let name = whole.name();
+        let settings = s.clone();
+        return Box::new(crate::native::islands::Islands::new(
+            name,
+            Box::new(move || whole_solver_for(&settings)),
+        ));
+    }
+    whole_solver_for(s)
+}
+
+/// The back-end for a whole problem (no split into islands).
+pub fn whole_solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
     match s.solver {
         SolverKind::Clarabel => Box::new(ClarabelSolver::new(s)),
         SolverKind::ActiveSet => Box::new(WithFallback::new(Box::new(ActiveSetSolver::new()), s)),

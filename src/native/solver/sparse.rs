@@ -268,6 +268,9 @@ impl ContactSolver for SparseSolver {
     fn name(&self) -> &'static str {
         "sparse"
     }
+    fn factorisations(&self) -> u64 {
+        self.factorisations
+    }
 
     fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let result = self.solve_warm(pr);

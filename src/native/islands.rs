@@ -1,0 +1,346 @@
+//! Independent islands of touching blocks, solved as separate problems.
+//!
+//! The one-step problem (see [`super::problem`]) couples two blocks only through a contact
+//! point between them: `Mbar` is diagonal and a ground point's rows hold one block's DOFs. Its
+//! objective and constraints are therefore sums over the connected components of the graph
+//! whose nodes are the blocks and whose edges are the block-block points (ground points do not
+//! connect), and the QP splits exactly into one QP per component (an *island*). [`Islands`]
+//! splits a [`StepProblem`] (whatever stepper built it), solves each island with its own
+//! back-end (kept from step to step, so that its warm start and factor stay its own), and
+//! reassembles the solution; a block without any contact point moves freely,
+//! `dq = dt v0 + theta dt^2 f/m` (the unconstrained minimiser of the primal).
+//!
+//! Islands are solved in parallel (rayon) when there are at least two with `PARALLEL_DOFS`
+//! DOFs or more; smaller ones are not worth a thread.
+//!
+//! An island's back-end is keyed by the island's lowest block index; when islands merge or
+//! split, each part keeps the back-end of its lowest block (multipliers are matched by contact
+//! key, so the warm start survives a change of membership).
+
+use super::problem::{ContactRows, StepProblem, StepSolution};
+use super::solver::{ContactSolver, SolveFailure};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Islands of at least this many DOFs are worth solving on a thread of their own.
+pub const PARALLEL_DOFS: usize = 150;
+
+/// The connected components of the blocks through block-block contact points: for each block
+/// its island (numbered by increasing lowest block), or `None` for a block without contacts.
+pub fn components(n_blocks: usize, contacts: &[ContactRows]) -> Vec<Option<usize>> {
+    let mut parent: Vec<usize> = (0..n_blocks).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut touched = vec![false; n_blocks];
+    for c in contacts {
+        let first = c.nrow.first().map(|e| e.0 / 3);
+        let last = c.nrow.last().map(|e| e.0 / 3);
+        if let (Some(a), Some(b)) = (first, last) {
+            touched[a] = true;
+            touched[b] = true;
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            if ra != rb {
+                // The lower index becomes the root, so that roots are lowest blocks.
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+    let mut number = vec![usize::MAX; n_blocks];
+    let mut next = 0;
+    let mut out = vec![None; n_blocks];
+    for b in 0..n_blocks {
+        if !touched[b] {
+            continue;
+        }
+        let r = root(&mut parent, b);
+        if number[r] == usize::MAX {
+            number[r] = next;
+            next += 1;
+        }
+        out[b] = Some(number[r]);
+    }
+    out
+}
+
+/// One island's sub-problem and where its parts go in the whole.
+struct Part {
+    /// Lowest block index (the key of its back-end).
+    key: usize,
+    /// Global block indices, increasing.
+    blocks: Vec<usize>,
+    /// Global contact indices, increasing.
+    contacts: Vec<usize>,
+    problem: StepProblem,
+}
+
+/// A back-end that solves each island of a problem with its own instance of another.
+pub struct Islands {
+    make: Box<dyn Fn() -> Box<dyn ContactSolver> + Send>,
+    name: &'static str,
+    solvers: HashMap<usize, Box<dyn ContactSolver>>,
+    /// Fallbacks and factorisations of back-ends already dropped.
+    retired: (u64, u64),
+    /// Islands solved in all (for diagnostics).
+    pub islands_solved: u64,
+}
+
+impl Islands {
+    pub fn new(name: &'static str, make: Box<dyn Fn() -> Box<dyn ContactSolver> + Send>) -> Self {
+        Islands {
+            make,
+            name,
+            solvers: HashMap::new(),
+            retired: (0, 0),
+            islands_solved: 0,
+        }
+    }
+
+    /// Split a problem into its islands (and the blocks without contacts).
+    fn split(pr: &StepProblem) -> (Vec<Part>, Vec<usize>) {
+        let n_blocks = pr.n_dof() / 3;
+        let island = components(n_blocks, &pr.contacts);
+        let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
+        let mut blocks = vec![Vec::new(); n_islands];
+        let mut free = Vec::new();
+        for (b, i) in island.iter().enumerate() {
+            match i {
+                Some(i) => blocks[*i].push(b),
+                None => free.push(b),
+            }
+        }
+        let mut contacts = vec![Vec::new(); n_islands];
+        for (k, c) in pr.contacts.iter().enumerate() {
+            if let Some(&(dof, _)) = c.nrow.first()
+                && let Some(i) = island[dof / 3]
+            {
+                contacts[i].push(k);
+            }
+        }
+        let mut local = vec![usize::MAX; n_blocks];
+        let parts = blocks
+            .into_iter()
+            .zip(contacts)
+            .map(|(blocks, contacts)| {
+                for (l, &b) in blocks.iter().enumerate() {
+                    local[b] = l;
+                }
+                let dofs = |v: &[f64]| -> Vec<f64> {
+                    blocks
+                        .iter()
+                        .flat_map(|&b| v[3 * b..3 * b + 3].iter().copied())
+                        .collect()
+                };
+                let remap = |row: &[(usize, f64)]| -> Vec<(usize, f64)> {
+                    row.iter()
+                        .map(|&(i, c)| (3 * local[i / 3] + i % 3, c))
+                        .collect()
+                };
+                let problem = StepProblem {
+                    theta: pr.theta,
+                    dt: pr.dt,
+                    mass: dofs(&pr.mass),
+                    force: dofs(&pr.force),
+                    v0: dofs(&pr.v0),
+                    contacts: contacts
+                        .iter()
+                        .map(|&k| {
+                            let c = &pr.contacts[k];
+                            ContactRows {
+                                key: c.key,
+                                mu: c.mu,
+                                g_n: c.g_n,
+                                g_t: c.g_t,
+                                nrow: remap(&c.nrow),
+                                trow: remap(&c.trow),
+                            }
+                        })
+                        .collect(),
+                };
+                Part {
+                    key: blocks[0],
+                    blocks,
+                    contacts,
+                    problem,
+                }
+            })
+            .collect();
+        (parts, free)
+    }
+}
+
+impl ContactSolver for Islands {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let (parts, free) = Self::split(pr);
+        // Back-ends of islands that no longer exist are retired (their counts kept).
+        let keys: Vec<usize> = parts.iter().map(|p| p.key).collect();
+        let gone: Vec<usize> = self
+            .solvers
+            .keys()
+            .copied()
+            .filter(|k| !keys.contains(k))
+            .collect();
+        for k in gone {
+            if let Some(s) = self.solvers.remove(&k) {
+                self.retired.0 += s.fallbacks();
+                self.retired.1 += s.factorisations();
+            }
+        }
+        let mut work: Vec<(Part, Box<dyn ContactSolver>)> = parts
+            .into_iter()
+            .map(|p| {
+                let s = self.solvers.remove(&p.key).unwrap_or_else(|| (self.make)());
+                (p, s)
+            })
+            .collect();
+        let large = work
+            .iter()
+            .filter(|(p, _)| p.problem.n_dof() >= PARALLEL_DOFS)
+            .count();
+        let results: Vec<Result<StepSolution, SolveFailure>> = if large >= 2 {
+            work.par_iter_mut()
+                .map(|(p, s)| s.solve(&p.problem))
+                .collect()
+        } else {
+            work.iter_mut().map(|(p, s)| s.solve(&p.problem)).collect()
+        };
+        self.islands_solved += work.len() as u64;
+        let n = pr.n_dof();
+        let mut out = StepSolution {
+            dq: vec![0.0; n],
+            normal: vec![0.0; pr.contacts.len()],
+            tangential: vec![0.0; pr.contacts.len()],
+            iterations: 0,
+            polished: false,
+        };
+        let mut failure = None;
+        for ((p, s), r) in work.into_iter().zip(results) {
+            self.solvers.insert(p.key, s);
+            match r {
+                Ok(sol) => {
+                    for (l, &b) in p.blocks.iter().enumerate() {
+                        out.dq[3 * b..3 * b + 3].copy_from_slice(&sol.dq[3 * l..3 * l + 3]);
+                    }
+                    for (l, &k) in p.contacts.iter().enumerate() {
+                        out.normal[k] = sol.normal[l];
+                        out.tangential[k] = sol.tangential[l];
+                    }
+                    out.iterations += sol.iterations;
+                    out.polished |= sol.polished;
+                }
+                Err(e) => failure = failure.or(Some(e)),
+            }
+        }
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        // Free blocks: the unconstrained minimiser, Mbar dq = fbar0.
+        for b in free {
+            for i in 3 * b..3 * b + 3 {
+                out.dq[i] = pr.dt * (pr.v0[i] + pr.theta * pr.dt * pr.force[i] / pr.mass[i]);
+            }
+        }
+        Ok(out)
+    }
+
+    fn fallbacks(&self) -> u64 {
+        self.retired.0 + self.solvers.values().map(|s| s.fallbacks()).sum::<u64>()
+    }
+
+    fn factorisations(&self) -> u64 {
+        self.retired.1
+            + self
+                .solvers
+                .values()
+                .map(|s| s.factorisations())
+                .sum::<u64>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::native::solver::SparseSolver;
+
+    fn point(key: u64, a: Option<usize>, b: usize) -> ContactRows {
+        let mut nrow = Vec::new();
+        if let Some(a) = a {
+            nrow.extend([(3 * a, 0.0), (3 * a + 1, -1.0), (3 * a + 2, 0.1)]);
+        }
+        nrow.extend([(3 * b, 0.0), (3 * b + 1, 1.0), (3 * b + 2, -0.1)]);
+        let trow = nrow.iter().map(|&(i, c)| (i, 1.0 - c)).collect();
+        ContactRows {
+            key,
+            mu: 0.5,
+            g_n: 0.0,
+            g_t: 0.0,
+            nrow,
+            trow,
+        }
+    }
+
+    #[test]
+    fn blocks_join_islands_through_block_points_only() {
+        // 0-1 touch, 1 and 3 on the ground, 2 free, 3-4 touch, 5 on the ground alone.
+        let contacts = vec![
+            point(1, Some(0), 1),
+            point(2, None, 1),
+            point(3, None, 3),
+            point(4, Some(4), 3),
+            point(5, None, 5),
+        ];
+        let c = components(6, &contacts);
+        assert_eq!(c, vec![Some(0), Some(0), None, Some(1), Some(1), Some(2)]);
+    }
+
+    /// A problem with two islands and a free block: the split solution equals the whole one
+    /// solved by the same back-end, forces on the right contacts.
+    #[test]
+    fn the_split_solution_is_the_whole_solution() {
+        let n = 6;
+        let mass: Vec<f64> = (0..3 * n).map(|i| 1.0 + (i % 3) as f64 * 0.1).collect();
+        let force: Vec<f64> = (0..3 * n)
+            .map(|i| if i % 3 == 1 { -9.81 } else { 0.3 })
+            .collect();
+        let v0: Vec<f64> = (0..3 * n).map(|i| 0.01 * (i as f64).sin()).collect();
+        let pr = StepProblem {
+            theta: 0.7,
+            dt: 1e-3,
+            mass,
+            force,
+            v0,
+            contacts: vec![
+                point(1, Some(0), 1),
+                point(2, None, 0),
+                point(3, None, 3),
+                point(4, Some(3), 4),
+                point(5, None, 5),
+            ],
+        };
+        let whole = SparseSolver::new().solve(&pr).unwrap();
+        let mut split = Islands::new("sparse", Box::new(|| Box::new(SparseSolver::new())));
+        let parts = split.solve(&pr).unwrap();
+        for i in 0..3 * n {
+            assert!(
+                (whole.dq[i] - parts.dq[i]).abs() <= 1e-15 + 1e-9 * whole.dq[i].abs(),
+                "dof {i}: {} vs {}",
+                whole.dq[i],
+                parts.dq[i]
+            );
+        }
+        for k in 0..pr.contacts.len() {
+            let scale = 1.0 + whole.normal[k].abs();
+            assert!((whole.normal[k] - parts.normal[k]).abs() <= 1e-9 * scale);
+            assert!((whole.tangential[k] - parts.tangential[k]).abs() <= 1e-9 * scale);
+        }
+        assert!(whole.normal.iter().any(|&n| n > 0.0));
+    }
+}

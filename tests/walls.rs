@@ -1,0 +1,146 @@
+//! Walls in motion: the sparse back-end and the split into islands against references.
+//! The El Centro record comes from `make records`.
+
+mod common;
+
+use rockbench::native::stepper_for;
+use rockbench::scene::{Scene, parse_scene_str};
+use rockbench::walls::WallSpec;
+
+fn record() -> String {
+    common::root()
+        .join("validation/records/elcentro-1940.AT2")
+        .display()
+        .to_string()
+}
+
+fn scene(text: &str, set: &[&str]) -> Scene {
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    parse_scene_str(text, false, "walls-test", &set).unwrap()
+}
+
+/// Positions after `steps` steps.
+fn positions(s: &Scene, steps: usize) -> Vec<f64> {
+    let (mut stepper, mut state) = stepper_for(s).unwrap();
+    for _ in 0..steps {
+        stepper.step(&mut state).unwrap();
+    }
+    state.q
+}
+
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The 215-block running-bond wall under El Centro x2: the default back-end (sparse, split
+/// into islands) and the dense interior-point reference (Clarabel, polished, one problem) give
+/// the same positions over the first 200 steps, with no fallback. (This squat wall, 0.6 x 0.25
+/// m blocks, friction 0.7, does not move under the record: PGA 0.63 g is below the friction
+/// coefficient and far below the blocks' rocking threshold, tan(alpha) = 2.4.)
+#[test]
+fn the_215_block_wall_matches_the_clarabel_reference_over_200_steps() {
+    let mut w = WallSpec::running_bond(10, 21);
+    w.record = Some((record(), 2.0));
+    let text = w.to_toml();
+    let fast = scene(&text, &[]);
+    let reference = scene(
+        &text,
+        &["native.solver=\"clarabel\"", "native.islands=false"],
+    );
+    let (mut a, mut sa) = stepper_for(&fast).unwrap();
+    let (mut b, mut sb) = stepper_for(&reference).unwrap();
+    for _ in 0..200 {
+        a.step(&mut sa).unwrap();
+        b.step(&mut sb).unwrap();
+    }
+    let d = largest_difference(&sa.q, &sb.q);
+    assert!(
+        d < 1e-9,
+        "first 200 steps: largest position difference {d:.3e} m"
+    );
+    assert_eq!(a.solver_fallbacks(), 0);
+}
+
+/// The wall-in-motion case (42 blocks of 0.3 x 0.45 m under El Centro x2): 200
+/// steps from its state at 3.6 s, when it rocks, with the default back-end and with Clarabel.
+#[test]
+fn the_wall_in_motion_matches_the_clarabel_reference_over_200_steps() {
+    let path = common::root().join("benches/walls/wall-in-motion.toml");
+    let fast = rockbench::scene::load_scene(&path).unwrap();
+    let set = vec![
+        "native.solver=\"clarabel\"".to_string(),
+        "native.islands=false".to_string(),
+    ];
+    let reference = rockbench::scene::load_scene_with_overrides(&path, &set).unwrap();
+    let (mut a, mut sa) = stepper_for(&fast).unwrap();
+    let (mut b, _) = stepper_for(&reference).unwrap();
+    while sa.step < 3600 {
+        a.step(&mut sa).unwrap();
+    }
+    let speed = sa.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(
+        speed > 0.01,
+        "the wall is not in motion at 3.6 s ({speed:.3e})"
+    );
+    let mut sb = sa.clone();
+    let start = sa.q.clone();
+    for _ in 0..200 {
+        a.step(&mut sa).unwrap();
+        b.step(&mut sb).unwrap();
+    }
+    let moved = largest_difference(&sa.q, &start);
+    assert!(moved > 1e-3, "the wall did not move ({moved:.3e} m)");
+    let d = largest_difference(&sa.q, &sb.q);
+    // Measured: 1.05e-8 m for 3.2e-2 m of motion (3.3e-7 of it): the back-ends' tolerances
+    // (rows to 1e-11, Clarabel polished) grown by the rocking.
+    assert!(
+        d < 1e-6 * moved,
+        "200 steps in motion: largest position difference {d:.3e} m (moved {moved:.3e} m)"
+    );
+}
+
+/// benches/walls/wall-in-motion.toml is the generator's output (see examples/wall_scene.rs).
+#[test]
+fn the_wall_in_motion_scene_is_generated() {
+    let mut w = WallSpec::running_bond(5, 8);
+    w.width = 0.3;
+    w.height = 0.45;
+    w.duration = 6.0;
+    w.record = Some(("../../validation/records/elcentro-1940.AT2".into(), 2.0));
+    let path = common::root().join("benches/walls/wall-in-motion.toml");
+    assert_eq!(std::fs::read_to_string(path).unwrap(), w.to_toml());
+    assert_eq!(w.n_blocks(), 42);
+}
+
+/// Two columns far apart and a lone block: solving the islands separately gives the
+/// same motion as one problem (same back-end), to round-off.
+#[test]
+fn islands_give_the_answer_of_the_whole_problem() {
+    let mut text = String::from("name = \"islands\"\nduration = 1.0\n");
+    for (col, x) in [(0, 0.0), (1, 5.0)] {
+        for i in 0..6 {
+            text +=
+                &format!("[[blocks]]\nname = \"k{col}b{i}\"\nwidth = 0.2\nheight = 0.6\nx = {x}\n");
+        }
+    }
+    text += "[[blocks]]\nname = \"lone\"\nwidth = 0.3\nheight = 0.9\nx = 10.0\n";
+    text += "[contact]\nfriction = 0.7\n[excitation.horizontal]\nkind = \"half-sine\"\namplitude = 4.0\nduration = 0.4\n";
+    for solver in ["sparse", "active-set"] {
+        let set = format!("native.solver=\"{solver}\"");
+        let split = positions(&scene(&text, &[&set]), 700);
+        let whole = positions(&scene(&text, &[&set, "native.islands=false"]), 700);
+        let start = positions(&scene(&text, &[&set]), 0);
+        assert!(
+            largest_difference(&split, &start) > 1e-3,
+            "{solver}: nothing moved"
+        );
+        let d = largest_difference(&split, &whole);
+        assert!(
+            d < 1e-9,
+            "{solver}: islands differ from the whole by {d:.3e}"
+        );
+    }
+}
