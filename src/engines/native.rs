@@ -129,12 +129,12 @@ impl Engine for NativeEngine {
                     stepper.polished_steps,
                     stepper.solver_fallbacks()
                 )];
-                if stepper.coulomb_problems > 0 {
+                if stepper.coulomb.problems > 0 {
                     notes.push(format!(
                         "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem)",
-                        stepper.coulomb_problems,
-                        stepper.coulomb_iterations,
-                        stepper.coulomb_iterations as f64 / stepper.coulomb_problems as f64
+                        stepper.coulomb.problems,
+                        stepper.coulomb.iterations,
+                        stepper.coulomb.iterations as f64 / stepper.coulomb.problems as f64
                     ));
                 }
                 if let Some(t) = stopped_at {

@@ -4,6 +4,7 @@
 //! [`settings`] for the `[native]` table.
 
 pub mod assembly;
+pub mod coulomb;
 pub mod problem;
 pub mod settings;
 pub mod solver;
