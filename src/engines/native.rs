@@ -131,10 +131,12 @@ impl Engine for NativeEngine {
                 )];
                 if stepper.coulomb.problems > 0 {
                     notes.push(format!(
-                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem)",
+                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem), {} solved by Lemke's method ({} pivots)",
                         stepper.coulomb.problems,
                         stepper.coulomb.iterations,
-                        stepper.coulomb.iterations as f64 / stepper.coulomb.problems as f64
+                        stepper.coulomb.iterations as f64 / stepper.coulomb.problems as f64,
+                        stepper.coulomb.lemke_solves,
+                        stepper.coulomb.lemke_pivots
                     ));
                 }
                 if let Some(t) = stopped_at {
