@@ -202,7 +202,8 @@ pub const LEMKE_MAX_UNKNOWNS: usize = 2000;
 /// Tie tolerances of Lemke's ratio test, tried in turn until an answer passes the check (see
 /// [`lemke`]; measured on the two-block case: 1e-11 and 1e-12 end on a false secondary ray
 /// near rest where 1e-10 to 1e-7 solve it, and 1e-9 takes a wrong row at 0.95 s where 1e-12 to
-/// 1e-10 are right).
+/// 1e-10 are right). Lemke's pivot tolerance is 1e-9 of the entering column (1e-11 pivoted on
+/// a round-off entry in a step of the random stack of tests/coulomb.rs).
 pub const LEMKE_TIES: [f64; 3] = [1e-11, 1e-9, 1e-7];
 
 /// Relative accuracy asked of Lemke's answer when checking it against the law.

@@ -57,7 +57,7 @@ pub struct LemkeSolution {
 }
 
 /// Pivot entries below this fraction of the entering column's largest are not pivoted on.
-const PIVOT_TOLERANCE: f64 = 1e-11;
+const PIVOT_TOLERANCE: f64 = 1e-9;
 
 /// Solve the LCP `(q, M)`, `M` dense row-major `n x n`, in at most `max_pivots` pivots.
 ///
