@@ -56,19 +56,19 @@ pub struct LemkeSolution {
     pub pivots: usize,
 }
 
-/// Pivot entries below this fraction of the entering column's largest are not pivoted on.
-const PIVOT_TOLERANCE: f64 = 1e-9;
-
 /// Solve the LCP `(q, M)`, `M` dense row-major `n x n`, in at most `max_pivots` pivots.
 ///
 /// Ratios (and lexicographic entries) within `tie` (relative) of the smallest count as tied,
 /// and the artificial variable leaves on a tie: the dependent rows of a (nearly) flat
 /// interface make the basis ill-conditioned, so that ratios equal in exact arithmetic come out
-/// up to ~1e-10 apart, while too wide a tie takes a wrong row. Callers try several.
+/// up to ~1e-10 apart, while too wide a tie takes a wrong row. Entries of the entering column
+/// below `pivot` times its largest are not pivoted on (round-off entries of dependent rows).
+/// Which pair works depends on the problem: callers try several and check the answer.
 pub fn lemke(
     m: &[f64],
     q: &[f64],
     max_pivots: usize,
+    pivot: f64,
     tie: f64,
 ) -> Result<LemkeSolution, LemkeFailure> {
     let n = q.len();
@@ -124,7 +124,7 @@ pub fn lemke(
     };
     let mut a = vec![0.0; n];
     let mut d = vec![0.0; n];
-    let pivot = |r: usize, d: &[f64], x: &mut [f64], binv: &mut [f64]| {
+    let do_pivot = |r: usize, d: &[f64], x: &mut [f64], binv: &mut [f64]| {
         let dr = d[r];
         x[r] /= dr;
         for k in 0..n {
@@ -143,7 +143,7 @@ pub fn lemke(
     // First pivot: z0 enters, the row of the most negative q leaves.
     column(z0, &mut a);
     d.copy_from_slice(&a); // B = I
-    pivot(r0, &d, &mut x, &mut binv);
+    do_pivot(r0, &d, &mut x, &mut binv);
     let mut entering = complement(basis[r0]);
     basis[r0] = z0;
     let mut pivots = 1;
@@ -160,7 +160,7 @@ pub fn lemke(
         if !dmax.is_finite() {
             return Err(LemkeFailure::NonFinite { pivots });
         }
-        let tol = PIVOT_TOLERANCE * dmax;
+        let tol = pivot * dmax;
         // Minimum ratio, then lexicographic ties.
         let mut best = f64::INFINITY;
         for i in 0..n {
@@ -191,7 +191,7 @@ pub fn lemke(
             }
             ties[0]
         };
-        pivot(r, &d, &mut x, &mut binv);
+        do_pivot(r, &d, &mut x, &mut binv);
         pivots += 1;
         let leaving = basis[r];
         basis[r] = entering;
@@ -247,7 +247,7 @@ mod tests {
 
     #[test]
     fn a_positive_q_needs_no_pivot() {
-        let s = lemke(&[2.0, 1.0, 1.0, 2.0], &[1.0, 0.5], 10, 1e-11).unwrap();
+        let s = lemke(&[2.0, 1.0, 1.0, 2.0], &[1.0, 0.5], 10, 1e-9, 1e-11).unwrap();
         assert_eq!(s.pivots, 0);
         assert_eq!(s.z, vec![0.0, 0.0]);
     }
@@ -257,12 +257,12 @@ mod tests {
     #[test]
     fn solves_a_positive_definite_problem_and_its_degenerate_variant() {
         let m = [2.0, 1.0, 1.0, 2.0];
-        let s = lemke(&m, &[-5.0, -6.0], 10, 1e-11).unwrap();
+        let s = lemke(&m, &[-5.0, -6.0], 10, 1e-9, 1e-11).unwrap();
         assert!((s.z[0] - 4.0 / 3.0).abs() < 1e-14 && (s.z[1] - 7.0 / 3.0).abs() < 1e-14);
         check(&m, &[-5.0, -6.0], &s.z);
         // Degenerate: two equal rows of q (ties in the ratio test).
         let q = [-1.0, -1.0];
-        let s = lemke(&m, &q, 10, 1e-11).unwrap();
+        let s = lemke(&m, &q, 10, 1e-9, 1e-11).unwrap();
         check(&m, &q, &s.z);
         assert!((s.z[0] - 1.0 / 3.0).abs() < 1e-14);
     }
@@ -273,7 +273,7 @@ mod tests {
     fn terminates_on_a_singular_degenerate_problem() {
         let m = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
         let q = [-1.0, -1.0, -1.0];
-        let s = lemke(&m, &q, 50, 1e-11).unwrap();
+        let s = lemke(&m, &q, 50, 1e-9, 1e-11).unwrap();
         check(&m, &q, &s.z);
         assert!((s.z.iter().sum::<f64>() - 1.0).abs() < 1e-14);
     }
@@ -284,7 +284,7 @@ mod tests {
         let m = [-1.0, 0.0, 0.0, 1.0];
         let q = [-1.0, 1.0];
         assert!(matches!(
-            lemke(&m, &q, 10, 1e-11),
+            lemke(&m, &q, 10, 1e-9, 1e-11),
             Err(LemkeFailure::Ray { .. })
         ));
     }
