@@ -203,15 +203,19 @@ pub const LEMKE_MAX_UNKNOWNS: usize = 2000;
 /// passes the check. Measured on steps of the two-block case and of random stacks, each solved
 /// in exact rational arithmetic for reference: a tie of 1e-11 ended on a false secondary ray
 /// near rest where 1e-10 to 1e-7 solve it; a tie of 1e-9 took a wrong row where 1e-12 to 1e-10
-/// are right; a pivot tolerance of 1e-11 pivoted on a round-off entry where 1e-9 is right, and
-/// 1e-9 on one where only 1e-7 is. No single pair solved all four.
-pub const LEMKE_TRIES: [(f64, f64); 9] = [
+/// are right; a pivot tolerance of 1e-11 pivoted on a round-off entry where 1e-9 is right,
+/// 1e-9 on one where only 1e-7 is, and 1e-7 on one (a random stack at theta 0.5) where only
+/// 1e-5 is. No single pair solved all five.
+pub const LEMKE_TRIES: [(f64, f64); 12] = [
     (1e-9, 1e-11),
     (1e-9, 1e-9),
     (1e-9, 1e-7),
     (1e-7, 1e-11),
     (1e-7, 1e-9),
     (1e-7, 1e-7),
+    (1e-5, 1e-11),
+    (1e-5, 1e-9),
+    (1e-5, 1e-7),
     (1e-11, 1e-11),
     (1e-11, 1e-9),
     (1e-11, 1e-7),
