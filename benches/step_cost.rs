@@ -5,6 +5,9 @@
 //! of 21 blocks per course and 2 to 40 courses (42 to 840 blocks), whose cost per step should
 //! grow linearly with the number of courses (and of contacts).
 //!
+//! A third group, `friction_law`, compares Coulomb friction with the associative law on the
+//! two-block case and the 210-block wall (`cargo bench --bench step_cost -- friction_law`).
+//!
 //! `cargo bench --bench step_cost` (or `make bench-steps`). The dense active-set back-end is
 //! not run on the 210-block wall (see below).
 
@@ -113,5 +116,26 @@ fn wall_at_rest(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, step_cost, wall_at_rest);
+/// Non-associative Coulomb friction against the paper's associative law (default `auto`
+/// back-end, position stepper): the two-block case rocking and the 210-block wall at rest.
+fn coulomb(c: &mut Criterion) {
+    let mut g = c.benchmark_group("friction_law");
+    g.measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500))
+        .sample_size(20);
+    for (name, n) in [("two-block", 2usize), ("wall-210", 210)] {
+        for law in ["associative", "coulomb"] {
+            let mut scene = if n == 210 { wall(10) } else { stack(n) };
+            scene.native.friction_law = serde_json::from_value(serde_json::json!(law)).unwrap();
+            let (mut stepper, mut state) = stepper_for(&scene).unwrap();
+            for _ in 0..100 {
+                stepper.step(&mut state).unwrap();
+            }
+            bench_step(&mut g, BenchmarkId::new(law, name), &mut stepper, &state);
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, step_cost, wall_at_rest, coulomb);
 criterion_main!(benches);

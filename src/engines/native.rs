@@ -140,12 +140,14 @@ impl Engine for NativeEngine {
                         stepper.start_impacts
                     ));
                 }
-                if stepper.coulomb_problems > 0 {
+                if stepper.coulomb.problems > 0 {
                     notes.push(format!(
-                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem)",
-                        stepper.coulomb_problems,
-                        stepper.coulomb_iterations,
-                        stepper.coulomb_iterations as f64 / stepper.coulomb_problems as f64
+                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem), {} solved by Lemke's method ({} pivots)",
+                        stepper.coulomb.problems,
+                        stepper.coulomb.iterations,
+                        stepper.coulomb.iterations as f64 / stepper.coulomb.problems as f64,
+                        stepper.coulomb.lemke_solves,
+                        stepper.coulomb.lemke_pivots
                     ));
                 }
                 if let Some(t) = stopped_at {

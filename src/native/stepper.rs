@@ -51,6 +51,7 @@
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
 use super::assembly::{Bodies, contact_rows, poses};
+use super::coulomb::Coulomb;
 use super::material::MaterialContact;
 use super::problem::{SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
@@ -74,14 +75,6 @@ pub const LOCATED_PER_STEP: usize = 8;
 /// Impact stepper: most solves of one step for its discrete-gradient rows.
 pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 
-/// Largest number of solves per problem for non-associative friction (see `solve_coulomb`).
-pub const COULOMB_ITERATIONS: usize = 100;
-/// Non-associative friction: the slip offsets have settled when no one changes by more than
-/// this (m, relative to `COULOMB_SCALE` for large slips).
-pub const COULOMB_TOLERANCE: f64 = 1e-13;
-pub const COULOMB_SCALE: f64 = 1e-4;
-/// Plain fixed-point iterations before secant steps may be taken (see `solve_coulomb`).
-pub const COULOMB_PLAIN: usize = 3;
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
 use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
@@ -197,12 +190,8 @@ pub struct Stepper {
     /// Sorted keys of the points that carried a normal force at the end of the last step
     /// (impact location: a point that did is not a new impact).
     loaded: Vec<u64>,
-    /// Non-associative friction: slip offsets `s_k` of the last solution, sorted by contact key
-    /// (the warm start of the next problem).
-    slide: Vec<(u64, f64)>,
-    /// Non-associative friction: back-end solves in all, and problems solved.
-    pub coulomb_iterations: u64,
-    pub coulomb_problems: u64,
+    /// Non-associative friction (warm start and counters).
+    pub coulomb: Coulomb,
 }
 
 /// A step that could not be taken.
@@ -245,9 +234,7 @@ impl Stepper {
             settled_velocities: 0,
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
-            slide: Vec::new(),
-            coulomb_iterations: 0,
-            coulomb_problems: 0,
+            coulomb: Coulomb::default(),
         }
     }
 
@@ -869,109 +856,8 @@ impl Stepper {
     fn solve_law(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         match self.settings.friction_law {
             FrictionLaw::Associative => self.solver.solve(pr),
-            FrictionLaw::Coulomb => self.solve_coulomb(pr),
+            FrictionLaw::Coulomb => self.coulomb.solve(self.solver.as_mut(), pr),
         }
-    }
-
-    /// Non-associative (Coulomb) friction through De Saxce's modified gap: the associative
-    /// rows `g_n + s_k + (nrow ± mu trow) dq >= 0` with `s_k = mu_k |g_t + trow dq|` (the
-    /// dilatancy of the associative law, given back). At the fixed point the row of the
-    /// sliding edge reads `g_n + nrow dq >= 0` (no lift), its force lies on the cone edge that
-    /// opposes the slip, and a sticking point (`s = 0`) keeps both rows: exactly Coulomb's law.
-    /// `s` starts from the previous solution's (by contact key) and is iterated until it
-    /// settles to `COULOMB_TOLERANCE`; each iteration is one solve of the back-end in use,
-    /// warm-started by the previous one. See docs/method.md.
-    fn solve_coulomb(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if pr.contacts.is_empty() {
-            return self.solver.solve(pr);
-        }
-        self.coulomb_problems += 1;
-        let mut shifted = pr.clone();
-        let mut s: Vec<f64> = pr
-            .contacts
-            .iter()
-            .map(|c| {
-                self.slide
-                    .binary_search_by_key(&c.key, |e| e.0)
-                    .map_or(0.0, |i| self.slide[i].1)
-            })
-            .collect();
-        let mut iterations = 0;
-        let mut last_change = f64::INFINITY;
-        // The map's value at the current offsets, and the previous input and value (for the
-        // secant step below).
-        let mut g = vec![0.0; s.len()];
-        let mut previous: Option<(Vec<f64>, Vec<f64>)> = None;
-        for k in 0..COULOMB_ITERATIONS {
-            for (r, (c, sk)) in shifted.contacts.iter_mut().zip(pr.contacts.iter().zip(&s)) {
-                r.g_n = c.g_n + sk;
-            }
-            let mut sol = self.solver.solve(&shifted)?;
-            iterations += sol.iterations;
-            let mut change = 0.0f64;
-            let mut size = 0.0f64;
-            for (((c, sk), gk), n) in pr
-                .contacts
-                .iter()
-                .zip(&s)
-                .zip(g.iter_mut())
-                .zip(&sol.normal)
-            {
-                // Slips at round-off level count as none: a shift of the gaps by ~1e-17 m
-                // makes the force-free rows of a wall at rest flip in the dense back-end.
-                let new = c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs();
-                let new = if new <= COULOMB_TOLERANCE { 0.0 } else { new };
-                // A loaded point needs its exact offset (else it lifts or sinks by the
-                // difference); an unloaded one only must not penetrate, whatever its offset.
-                let error = if *n > 0.0 {
-                    (new - sk).abs()
-                } else {
-                    (-(c.g_n + row_dot(&c.nrow, &sol.dq))).max(0.0)
-                };
-                change = change.max(error);
-                size = size.max(new);
-                *gk = new;
-            }
-            self.coulomb_iterations += 1;
-            if change <= COULOMB_TOLERANCE * (1.0 + size / COULOMB_SCALE) {
-                self.slide.clear();
-                self.slide
-                    .extend(pr.contacts.iter().map(|c| c.key).zip(s.iter().copied()));
-                self.slide.sort_unstable_by_key(|e| e.0);
-                sol.iterations = iterations;
-                return Ok(sol);
-            }
-            // Next offsets: the plain iterate `g`, or, when it converges slowly or cycles
-            // (change not below a tenth of the previous one, after the first few), a secant
-            // (Anderson, depth one) step from the last two iterates, kept non-negative.
-            let mut next = g.clone();
-            if let Some((xp, gp)) = &previous
-                && k >= COULOMB_PLAIN
-                && change > 0.1 * last_change
-            {
-                let (mut num, mut den) = (0.0, 0.0);
-                for i in 0..s.len() {
-                    let dr = (g[i] - s[i]) - (gp[i] - xp[i]);
-                    num += (g[i] - s[i]) * dr;
-                    den += dr * dr;
-                }
-                let gamma = num / den;
-                if gamma.is_finite() {
-                    for i in 0..s.len() {
-                        next[i] = (g[i] - gamma * (g[i] - gp[i])).max(0.0);
-                    }
-                }
-            }
-            previous = Some((std::mem::replace(&mut s, next), g.clone()));
-            last_change = change;
-        }
-        self.slide.clear();
-        Err(SolveFailure {
-            solver: self.solver.name(),
-            status: format!(
-                "Coulomb friction: the slip offsets did not settle in {COULOMB_ITERATIONS} solves (last change {last_change:.3e} m)"
-            ),
-        })
     }
 
     /// Block states relative to the ground: (x, z, phi, vx, vz, omega) per block.

@@ -3,6 +3,7 @@
 mod active_set;
 mod clarabel_qp;
 pub mod envelope;
+pub mod lemke;
 pub mod polish;
 mod rows;
 mod sparse;
