@@ -126,7 +126,7 @@ fn coulomb(c: &mut Criterion) {
     for (name, n) in [("two-block", 2usize), ("wall-210", 210)] {
         for law in ["associative", "coulomb"] {
             let mut scene = if n == 210 { wall(10) } else { stack(n) };
-            scene.native.friction_law = serde_json::from_value(serde_json::json!(law)).unwrap();
+            scene.set_setting("native", "friction_law", law);
             let (mut stepper, mut state) = stepper_for(&scene).unwrap();
             for _ in 0..100 {
                 stepper.step(&mut state).unwrap();

@@ -24,7 +24,8 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let n = ((scene.duration / scene.native.dt).ceil() as u64).max(1);
+    let dt = rockbench::native::settings_of(&scene).unwrap().dt;
+    let n = ((scene.duration / dt).ceil() as u64).max(1);
     let mut runs = Vec::new();
     for method in [CoulombMethod::FixedPointThenLemke, CoulombMethod::Lemke] {
         let (mut st, mut s) = stepper_for(&scene).unwrap();

@@ -290,8 +290,9 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
         check: "energy",
         below: 1e-4,
         applies: |s| {
-            s.native.theta == 0.5
-                && s.native.friction_law == rockbench::native::FrictionLaw::Coulomb
+            rockbench::native::settings_of(s).is_ok_and(|n| {
+                n.theta == 0.5 && n.friction_law == rockbench::native::FrictionLaw::Coulomb
+            })
         },
         reason: "Coulomb friction at theta = 0.5 (no numerical damping): a block rotating on a \
                  sliding corner penetrates by O((omega dt)^2 r) (the linearised rows, defect \
