@@ -78,11 +78,15 @@ def toml_str(s: str) -> str:
 
 
 def pgv(acc_g: np.ndarray, dt: float) -> float:
-    """Peak |velocity| (m/s) of the piecewise-linear acceleration from rest (trapezoids, as
-    rockbench integrates a record)."""
+    """Peak |velocity| (m/s) of the piecewise-linear acceleration from rest, as rockbench
+    integrates a record: trapezoids, plus the extremum inside a segment where a changes sign."""
     a = acc_g * G
     v = np.concatenate([[0.0], np.cumsum(0.5 * dt * (a[1:] + a[:-1]))])
-    return float(np.max(np.abs(v)))
+    a0, a1 = a[:-1], a[1:]
+    cross = a0 * a1 < 0
+    f = np.where(cross, a0 / np.where(cross, a0 - a1, 1.0), 0.0)
+    inner = np.abs(v[:-1] + 0.5 * a0 * f * dt)[cross]
+    return float(max(np.max(np.abs(v)), np.max(inner, initial=0.0)))
 
 
 def write_set(h5path: pathlib.Path, key: str, title: str, out: pathlib.Path) -> int:
