@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps \
-	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum
+	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum fragility
 
 all: build
 
@@ -23,8 +23,15 @@ build:
 # The main job: the paper's two-block case on every engine, compared with the native engine;
 # writes out/demo/report.html (the verdict first, then the motion animated; also report.md,
 # metrics.csv, each engine's trajectory) and out/demo/animation.mp4.
-demo: build .venv ffmpeg siconos
+demo: build .venv ffmpeg siconos records
+	$(BIN) fragility validation/studies/statue-demo.toml --out out/demo/fragility --quiet
 	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet,siconos --reference native --video --out out/demo
+
+# The fragility study of the two-block statue on the FEMA P695 far-field set (44 components x
+# 20 PGA stripes, native engine; docs/fragility.md): out/fragility/statue-farfield/report.html.
+# Runs are cached in .cache/rockbench/fragility: an unchanged study reruns in about a second.
+fragility: build records
+	$(BIN) fragility validation/studies/statue-farfield.toml --out out/fragility/statue-farfield
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.

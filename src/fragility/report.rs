@@ -171,7 +171,7 @@ pub fn json(study: &Study, res: &Results, command: &str) -> serde_json::Value {
 /// One SVG: every engine (colour) and limit state (dash) of a scene and method: the fitted
 /// curves, their 95 % bands (shaded), and the stripe fractions (points).
 pub fn svg(study: &Study, res: &Results, scene: &str, m: Method) -> String {
-    let (w, h, l, r, t, b) = (900.0, 420.0, 70.0, 230.0, 30.0, 50.0);
+    let (w, h, l, r, t, b) = (960.0, 420.0, 70.0, 290.0, 30.0, 50.0);
     let grid = &res.grid;
     let (x0, x1) = (grid[0].ln(), grid[grid.len() - 1].ln());
     let px = |x: f64| l + (x.ln() - x0) / (x1 - x0) * (w - l - r);
