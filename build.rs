@@ -33,7 +33,9 @@ fn source_hash() {
     let mut files = Vec::new();
     let mut stack = vec![std::path::PathBuf::from("src")];
     while let Some(d) = stack.pop() {
-        let Ok(rd) = std::fs::read_dir(&d) else { continue };
+        let Ok(rd) = std::fs::read_dir(&d) else {
+            continue;
+        };
         for e in rd.flatten() {
             let p = e.path();
             if p.is_dir() {

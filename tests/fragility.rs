@@ -73,7 +73,10 @@ fn fails_with(study: &Path, out: &Path, needles: &[&str]) {
     }
     assert!(!lines[0].contains("panicked"), "{err}");
     assert!(!out.exists(), "wrote {}", out.display());
-    assert!(!study.parent().unwrap().join("cache").exists(), "ran something");
+    assert!(
+        !study.parent().unwrap().join("cache").exists(),
+        "ran something"
+    );
 }
 
 #[test]
@@ -94,16 +97,28 @@ fn bad_studies_stop_before_running_with_one_line() {
         text.clone() + "\n[[limit_state]]\nname = \"x\"\nkind = \"toppling\"\n",
     )
     .unwrap();
-    fails_with(&study, &out, &["limit_state[0].kind", "unknown variant `toppling`"]);
+    fails_with(
+        &study,
+        &out,
+        &["limit_state[0].kind", "unknown variant `toppling`"],
+    );
 
-    std::fs::write(&study, text.replace("engines = [\"native\"]", "engines = [\"nope\"]")).unwrap();
+    std::fs::write(
+        &study,
+        text.replace("engines = [\"native\"]", "engines = [\"nope\"]"),
+    )
+    .unwrap();
     fails_with(&study, &out, &["engines[0]", "unknown engine `nope`"]);
 
     // A manifest naming a missing file.
     std::fs::write(&study, &text).unwrap();
     let manifest = std::fs::read_to_string(d.join("suite.toml")).unwrap();
     std::fs::write(d.join("suite.toml"), manifest.replace("r3.AT2", "gone.AT2")).unwrap();
-    fails_with(&study, &out, &["suite", "suite.toml", "record[3].file", "gone.AT2"]);
+    fails_with(
+        &study,
+        &out,
+        &["suite", "suite.toml", "record[3].file", "gone.AT2"],
+    );
 
     // A broken record: truncated data.
     std::fs::write(d.join("suite.toml"), &manifest).unwrap();
@@ -126,7 +141,11 @@ fn bad_studies_stop_before_running_with_one_line() {
     )
     .unwrap();
     fails_with(&study, &out, &["record[1].pga", "0.9 g"]);
-    std::fs::write(d.join("suite.toml"), manifest.replace("id = \"r1\"", "id = \"r0\"")).unwrap();
+    std::fs::write(
+        d.join("suite.toml"),
+        manifest.replace("id = \"r1\"", "id = \"r0\""),
+    )
+    .unwrap();
     fails_with(&study, &out, &["record[1].id", "twice"]);
     std::fs::write(d.join("suite.toml"), &manifest).unwrap();
 
@@ -148,9 +167,19 @@ fn bad_studies_stop_before_running_with_one_line() {
 #[test]
 fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
     let d = tmp("rb-fragility", "run");
-    let study = fixture(&d, "\"auto\", \"native\"", "[ida]\nfactor = 1.5\ntolerance = 0.05\nfill = 2\n");
+    let study = fixture(
+        &d,
+        "\"auto\", \"native\"",
+        "[ida]\nfactor = 1.5\ntolerance = 0.05\nfill = 2\n",
+    );
     let out = d.join("out");
-    run_ok(bin().args(["fragility", "--quiet"]).arg(&study).arg("--out").arg(&out));
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
     for f in [
         "outcomes.csv",
         "capacities.csv",
@@ -171,7 +200,10 @@ fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
     let cached = j["counts"]["cached"].as_u64().unwrap() as usize;
     let ida_at_stripes = rows
         .iter()
-        .filter(|r| r["method"] == "ida" && [1.2, 1.6, 2.2, 3.0, 4.0, 5.5].contains(&r["level"].as_f64().unwrap()))
+        .filter(|r| {
+            r["method"] == "ida"
+                && [1.2, 1.6, 2.2, 3.0, 4.0, 5.5].contains(&r["level"].as_f64().unwrap())
+        })
         .count();
     assert_eq!(cached, ida_at_stripes);
     // The auto engine ran Housner for the single block.
@@ -193,14 +225,24 @@ fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
         assert!(ci[0].as_f64().unwrap() <= f["fit"]["theta"].as_f64().unwrap());
     }
     let diffs = j["differences"].as_array().unwrap();
-    assert!(diffs.iter().any(|x| x["engine"] == "native" && x["reference"] == "auto"));
+    assert!(
+        diffs
+            .iter()
+            .any(|x| x["engine"] == "native" && x["reference"] == "auto")
+    );
     // IDA capacities: one per engine x record x limit state.
     assert_eq!(j["capacities"].as_array().unwrap().len(), 2 * 6 * 3);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("native") && html.contains("auto"));
 
     // Second run: every run from the cache, the same fits.
-    run_ok(bin().args(["fragility", "--quiet"]).arg(&study).arg("--out").arg(&out));
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
     let j2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
             .unwrap();
@@ -217,9 +259,25 @@ fn early_stops_change_no_outcome() {
     let text = std::fs::read_to_string(&study).unwrap();
     let out1 = d.join("out1");
     let out2 = d.join("out2");
-    run_ok(bin().args(["fragility", "--quiet"]).arg(&study).arg("--out").arg(&out1));
-    std::fs::write(&study, text.replace("tail = 3.0", "tail = 3.0\nearly_stop = false")).unwrap();
-    run_ok(bin().args(["fragility", "--quiet"]).arg(&study).arg("--out").arg(&out2));
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out1),
+    );
+    std::fs::write(
+        &study,
+        text.replace("tail = 3.0", "tail = 3.0\nearly_stop = false"),
+    )
+    .unwrap();
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out2),
+    );
     let read = |p: &Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(p.join("fragility.json")).unwrap()).unwrap()
     };
@@ -242,5 +300,9 @@ fn early_stops_change_no_outcome() {
             assert!((p - q).abs() <= 1e-6 + 0.02 * q, "{p} vs {q}");
         }
     }
-    assert!(early > ra.len() / 2, "only {early} of {} stopped early", ra.len());
+    assert!(
+        early > ra.len() / 2,
+        "only {early} of {} stopped early",
+        ra.len()
+    );
 }

@@ -212,7 +212,12 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
         {
             return Err(err(
                 "dt",
-                format!("{} s, but {} has DT = {} s", num(d), fpath.display(), num(dt)),
+                format!(
+                    "{} s, but {} has DT = {} s",
+                    num(d),
+                    fpath.display(),
+                    num(dt)
+                ),
             ));
         }
         let close = |a: f64, b: f64| (a - b).abs() <= METADATA_TOLERANCE * b.abs();

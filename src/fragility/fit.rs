@@ -84,7 +84,10 @@ pub fn probit(stripes: &[(f64, f64, f64)]) -> Result<Lognormal, String> {
         if !(det.is_finite() && det > 0.0) {
             return Err("the probit fit is singular (one level?)".into());
         }
-        let nb = ((swxx * swz - swx * swxz) / det, (sw * swxz - swx * swz) / det);
+        let nb = (
+            (swxx * swz - swx * swxz) / det,
+            (sw * swxz - swx * swz) / det,
+        );
         let change = (nb.0 - b.0).abs() + (nb.1 - b.1).abs();
         b = nb;
         for (e, s) in eta.iter_mut().zip(&sorted) {
@@ -148,9 +151,6 @@ pub fn censored_lognormal(c: &[(f64, bool)]) -> Result<Lognormal, String> {
             theta: mean.exp(),
             beta: var.sqrt(),
         });
-    }
-    if unc.len() < 2 && var <= 0.0 && cen.iter().all(|&y| y <= unc[0]) {
-        // Still identifiable through the censored ones only if they lie above; else degenerate.
     }
     // Log-likelihood in (mu, s = ln sigma) and its gradient.
     let ll = |mu: f64, s: f64| -> f64 {
@@ -227,7 +227,7 @@ pub fn censored_lognormal(c: &[(f64, bool)]) -> Result<Lognormal, String> {
         if dm == 0.0 && ds == 0.0 {
             break;
         }
-        if !(s.is_finite() && mu.is_finite()) || s < -30.0 || s > 10.0 {
+        if !(s.is_finite() && mu.is_finite() && (-30.0..=10.0).contains(&s)) {
             return Err("the censored fit diverges".into());
         }
     }
@@ -313,7 +313,13 @@ mod tests {
     /// Censoring raises the median: the censored records would have needed more.
     #[test]
     fn censoring_raises_the_median_and_the_gradient_vanishes() {
-        let c = [(1.0, false), (2.0, false), (4.0, false), (4.0, true), (4.0, true)];
+        let c = [
+            (1.0, false),
+            (2.0, false),
+            (4.0, false),
+            (4.0, true),
+            (4.0, true),
+        ];
         let f = censored_lognormal(&c).unwrap();
         assert!(f.theta > 2.0, "{f:?}");
         // Gradient of the log-likelihood at the estimate, by differences.

@@ -51,9 +51,19 @@ pub fn scale_for(study: &Study, scene: &Scene, rec: &SuiteRecord, level: f64) ->
 }
 
 /// The run of `scene` under `rec` times `scale` on `engine`.
-pub fn spec_for(study: &Study, scene: &Scene, engine: &str, rec: &SuiteRecord, scale: f64) -> RunSpec {
+pub fn spec_for(
+    study: &Study,
+    scene: &Scene,
+    engine: &str,
+    rec: &SuiteRecord,
+    scale: f64,
+) -> RunSpec {
     let mut s = scene.clone();
-    let applied_as = s.excitation.as_ref().map(|e| e.applied_as).unwrap_or_default();
+    let applied_as = s
+        .excitation
+        .as_ref()
+        .map(|e| e.applied_as)
+        .unwrap_or_default();
     s.excitation = Some(ExcitationSpec {
         applied_as,
         horizontal: Some(MotionSpec::Record {
@@ -88,7 +98,11 @@ pub fn exceeded(ls: &LimitState, scene: &Scene, o: &RunOutcome) -> bool {
         LimitKind::Overturn => false,
         LimitKind::Rotation => o.rotation.iter().any(|&r| r >= t),
         LimitKind::RelativeRotation => {
-            let i = ls.block.as_deref().and_then(|b| scene.index_of(b)).unwrap_or(0);
+            let i = ls
+                .block
+                .as_deref()
+                .and_then(|b| scene.index_of(b))
+                .unwrap_or(0);
             o.rotation[i] >= t
         }
         LimitKind::Sliding => o.sliding.iter().any(|s| s.is_none_or(|s| s >= t)),
@@ -318,7 +332,17 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
                 let scale = scale_for(study, scene, r, l);
                 let spec = spec_for(study, scene, e, r, scale);
                 let (o, cached) = runner.get(&spec)?;
-                Ok(row(study, scene, e, r, l, scale, Method::Stripes, o, cached))
+                Ok(row(
+                    study,
+                    scene,
+                    e,
+                    r,
+                    l,
+                    scale,
+                    Method::Stripes,
+                    o,
+                    cached,
+                ))
             })
             .collect();
         rows.extend(out?);
@@ -327,7 +351,10 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
     if let Some(ida) = &f.ida {
         let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = levels.iter().copied().fold(0.0, f64::max);
-        let (start_l, max_l) = (ida.start.unwrap_or(lo), ida.max.unwrap_or(hi).max(ida.start.unwrap_or(lo)));
+        let (start_l, max_l) = (
+            ida.start.unwrap_or(lo),
+            ida.max.unwrap_or(hi).max(ida.start.unwrap_or(lo)),
+        );
         let jobs: Vec<(usize, &String, &SuiteRecord)> = (0..study.scenes.len())
             .flat_map(|si| {
                 f.engines
@@ -335,7 +362,7 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
                     .flat_map(move |e| recs.iter().map(move |r| (si, e, r)))
             })
             .collect();
-        let out: Result<Vec<(Vec<Row>, Vec<Capacity>)>, String> = jobs
+        let out: Result<Vec<IdaRecord>, String> = jobs
             .par_iter()
             .map(|&(si, e, r)| {
                 let scene = &study.scenes[si];
@@ -388,7 +415,8 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
                         // Fill below the bracket: levels between the start and lo.
                         let bottom = start_l.min(lo_l);
                         for j in 1..=ida.fill {
-                            let fl = bottom * (lo_l / bottom).powf(j as f64 / (ida.fill + 1) as f64);
+                            let fl =
+                                bottom * (lo_l / bottom).powf(j as f64 / (ida.fill + 1) as f64);
                             at(fl, &mut memo)?;
                         }
                     }
@@ -500,7 +528,9 @@ fn stripes_of(rows: &[&Row], k: usize, weight: &BTreeMap<&str, f64>) -> Vec<(f64
         if w == 0.0 {
             continue;
         }
-        let e = by.entry(r.level.to_bits()).or_insert((r.level.ln(), 0.0, 0.0));
+        let e = by
+            .entry(r.level.to_bits())
+            .or_insert((r.level.ln(), 0.0, 0.0));
         e.1 += w;
         if r.exceeded[k] {
             e.2 += w;
@@ -509,13 +539,21 @@ fn stripes_of(rows: &[&Row], k: usize, weight: &BTreeMap<&str, f64>) -> Vec<(f64
     by.into_values().collect()
 }
 
+/// The IDA runs and capacities of one record.
+type IdaRecord = (Vec<Row>, Vec<Capacity>);
+
 type FitOut = (Vec<Fit>, Vec<Difference>, Vec<f64>);
 
 /// Every fit (scene x engine x limit state x method) with bootstrap intervals, and the paired
 /// differences of medians against the first engine.
 fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
     let f = &study.file;
-    let lo = f.intensity.levels.iter().copied().fold(f64::INFINITY, f64::min);
+    let lo = f
+        .intensity
+        .levels
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
     let hi = f.intensity.levels.iter().copied().fold(0.0, f64::max);
     let (glo, ghi) = (lo / 2.0, hi * 1.5);
     let grid: Vec<f64> = (0..60)
@@ -524,7 +562,10 @@ fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
     // Record pairs and the resamples (the same for every engine: paired).
     let mut pairs: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
     for r in &study.suite.records {
-        pairs.entry(r.pair.as_str()).or_default().push(r.id.as_str());
+        pairs
+            .entry(r.pair.as_str())
+            .or_default()
+            .push(r.id.as_str());
     }
     let pair_list: Vec<&Vec<&str>> = pairs.values().collect();
     let mut rng = Rng::new(f.fit.seed);
@@ -539,7 +580,12 @@ fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
             w
         })
         .collect();
-    let all: BTreeMap<&str, f64> = study.suite.records.iter().map(|r| (r.id.as_str(), 1.0)).collect();
+    let all: BTreeMap<&str, f64> = study
+        .suite
+        .records
+        .iter()
+        .map(|r| (r.id.as_str(), 1.0))
+        .collect();
     let mut fits = Vec::new();
     for scene in &study.scenes {
         for e in &f.engines {
@@ -561,9 +607,12 @@ fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
                             Method::Ida => {
                                 let mut c = Vec::new();
                                 for x in caps.iter().filter(|x| {
-                                    x.scene == scene.name && &x.engine == e && x.limit_state == ls.name
+                                    x.scene == scene.name
+                                        && &x.engine == e
+                                        && x.limit_state == ls.name
                                 }) {
-                                    let n = w.get(x.record.as_str()).copied().unwrap_or(0.0) as usize;
+                                    let n =
+                                        w.get(x.record.as_str()).copied().unwrap_or(0.0) as usize;
                                     for _ in 0..n {
                                         c.push((x.capacity, x.censored));
                                     }
@@ -580,10 +629,8 @@ fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
                         continue;
                     }
                     let point = fit_with(&all);
-                    let boot: Vec<Option<Lognormal>> = resamples
-                        .par_iter()
-                        .map(|w| fit_with(w).ok())
-                        .collect();
+                    let boot: Vec<Option<Lognormal>> =
+                        resamples.par_iter().map(|w| fit_with(w).ok()).collect();
                     let ok: Vec<Lognormal> = boot.iter().flatten().copied().collect();
                     let ci = |v: Vec<f64>| -> Option<(f64, f64)> {
                         Some((fit::quantile(&v, 0.025)?, fit::quantile(&v, 0.975)?))
@@ -612,8 +659,16 @@ fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
                         method,
                         fit: point.as_ref().ok().copied(),
                         problem: point.err(),
-                        theta_ci: if ok.len() >= 2 { ci(ok.iter().map(|l| l.theta).collect()) } else { None },
-                        beta_ci: if ok.len() >= 2 { ci(ok.iter().map(|l| l.beta).collect()) } else { None },
+                        theta_ci: if ok.len() >= 2 {
+                            ci(ok.iter().map(|l| l.theta).collect())
+                        } else {
+                            None
+                        },
+                        beta_ci: if ok.len() >= 2 {
+                            ci(ok.iter().map(|l| l.beta).collect())
+                        } else {
+                            None
+                        },
                         resamples: ok.len(),
                         band,
                         boot_theta: boot.iter().map(|b| b.map(|l| l.theta)).collect(),

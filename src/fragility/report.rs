@@ -11,7 +11,9 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-const COLORS: [&str; 6] = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"];
+const COLORS: [&str; 6] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
+];
 const DASHES: [&str; 5] = ["", "6,3", "2,3", "8,3,2,3", "1,2"];
 
 fn opt(x: Option<f64>) -> String {
@@ -48,7 +50,10 @@ pub fn outcomes_csv(study: &Study, res: &Results) -> String {
         let slide = if o.any_overturned() {
             String::new()
         } else {
-            format!("{:.6e}", o.sliding.iter().flatten().copied().fold(0.0, f64::max))
+            format!(
+                "{:.6e}",
+                o.sliding.iter().flatten().copied().fold(0.0, f64::max)
+            )
         };
         let _ = write!(
             s,
@@ -78,7 +83,8 @@ pub fn outcomes_csv(study: &Study, res: &Results) -> String {
 }
 
 pub fn capacities_csv(res: &Results) -> String {
-    let mut s = String::from("scene,engine,record,pair,limit_state,capacity,censored,resurrection,runs\n");
+    let mut s =
+        String::from("scene,engine,record,pair,limit_state,capacity,censored,resurrection,runs\n");
     for c in &res.capacities {
         let _ = writeln!(
             s,
@@ -231,11 +237,9 @@ pub fn svg(study: &Study, res: &Results, scene: &str, m: Method) -> String {
         let col = COLORS[ei % COLORS.len()];
         for (k, ls) in study.limit_states.iter().enumerate() {
             let dash = DASHES[k % DASHES.len()];
-            let Some(f) = res
-                .fits
-                .iter()
-                .find(|f| f.scene == scene && &f.engine == e && f.limit_state == ls.name && f.method == m)
-            else {
+            let Some(f) = res.fits.iter().find(|f| {
+                f.scene == scene && &f.engine == e && f.limit_state == ls.name && f.method == m
+            }) else {
                 continue;
             };
             if let Some((lo, hi)) = &f.band {
@@ -270,11 +274,9 @@ pub fn svg(study: &Study, res: &Results, scene: &str, m: Method) -> String {
             // Stripe fractions.
             if m == Method::Stripes {
                 let mut by: BTreeMap<u64, (f64, usize, usize)> = BTreeMap::new();
-                for rw in res
-                    .rows
-                    .iter()
-                    .filter(|rw| rw.method == Method::Stripes && rw.scene == scene && &rw.engine == e)
-                {
+                for rw in res.rows.iter().filter(|rw| {
+                    rw.method == Method::Stripes && rw.scene == scene && &rw.engine == e
+                }) {
                     let x = by.entry(rw.level.to_bits()).or_insert((rw.level, 0, 0));
                     x.1 += 1;
                     x.2 += usize::from(rw.exceeded[k]);
@@ -291,7 +293,10 @@ pub fn svg(study: &Study, res: &Results, scene: &str, m: Method) -> String {
             }
             let ly = t + 8.0 + 16.0 * legend as f64;
             let label = match f.fit {
-                Some(fit) => format!("{e} {}: theta {:.3}, beta {:.2}", ls.name, fit.theta, fit.beta),
+                Some(fit) => format!(
+                    "{e} {}: theta {:.3}, beta {:.2}",
+                    ls.name, fit.theta, fit.beta
+                ),
                 None => format!("{e} {}: no fit", ls.name),
             };
             let _ = writeln!(
@@ -311,7 +316,10 @@ pub fn svg(study: &Study, res: &Results, scene: &str, m: Method) -> String {
 }
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 pub fn html(study: &Study, res: &Results, command: &str) -> String {
@@ -338,7 +346,11 @@ pub fn html(study: &Study, res: &Results, command: &str) -> String {
     s += "<p>Curves: P = Phi(ln(IM/theta)/beta) fitted by maximum likelihood (probit on ln IM for stripes, censored lognormal for IDA capacities); shaded: pointwise 95 % bootstrap band over record pairs; points: fraction of records exceeding at each stripe. An overturn exceeds every limit state.</p>\n";
     for scene in &study.scenes {
         for m in [Method::Stripes, Method::Ida] {
-            if !res.fits.iter().any(|f| f.scene == scene.name && f.method == m) {
+            if !res
+                .fits
+                .iter()
+                .any(|f| f.scene == scene.name && f.method == m)
+            {
                 continue;
             }
             let _ = writeln!(s, "<h2>{} - {}</h2>", esc(&scene.name), method(m));
@@ -381,9 +393,9 @@ pub fn html(study: &Study, res: &Results, command: &str) -> String {
         }
         s += "</table>\n";
     }
-    let _ = write!(
+    let _ = writeln!(
         s,
-        "<h2>Settings and versions</h2><pre>{}</pre><p>Versions: {}</p><p>Command: <code>{}</code></p><p>Data: <a href=\"outcomes.csv\">outcomes.csv</a>, <a href=\"capacities.csv\">capacities.csv</a>, <a href=\"fits.csv\">fits.csv</a>, <a href=\"differences.csv\">differences.csv</a>, <a href=\"fragility.json\">fragility.json</a>.</p></body></html>\n",
+        "<h2>Settings and versions</h2><pre>{}</pre><p>Versions: {}</p><p>Command: <code>{}</code></p><p>Data: <a href=\"outcomes.csv\">outcomes.csv</a>, <a href=\"capacities.csv\">capacities.csv</a>, <a href=\"fits.csv\">fits.csv</a>, <a href=\"differences.csv\">differences.csv</a>, <a href=\"fragility.json\">fragility.json</a>.</p></body></html>",
         esc(&toml::to_string(&study.file).unwrap_or_default()),
         esc(&res
             .engine_versions
@@ -398,12 +410,19 @@ pub fn html(study: &Study, res: &Results, command: &str) -> String {
 
 /// Write every output into `out` (a temporary folder renamed at the end: an interrupted or
 /// failed write leaves the old folder or none).
-pub fn write_all(out: &Path, study: &Study, res: &Results, command: &str, paper: bool) -> Result<(), String> {
+pub fn write_all(
+    out: &Path,
+    study: &Study,
+    res: &Results,
+    command: &str,
+    paper: bool,
+) -> Result<(), String> {
     let tmp = out.with_extension("partial");
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
     let w = |name: &str, text: String| {
-        std::fs::write(tmp.join(name), text).map_err(|e| format!("{}: {e}", tmp.join(name).display()))
+        std::fs::write(tmp.join(name), text)
+            .map_err(|e| format!("{}: {e}", tmp.join(name).display()))
     };
     w("outcomes.csv", outcomes_csv(study, res))?;
     w("capacities.csv", capacities_csv(res))?;
@@ -425,10 +444,18 @@ pub fn write_all(out: &Path, study: &Study, res: &Results, command: &str, paper:
 /// and limit state (every engine's curve, the stripe fractions as markers).
 fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Result<(), String> {
     let mut p = PaperDir::new(dir);
-    let header: Vec<String> = ["Scene", "Engine", "Limit state", "Method", "$\\theta$", "95\\,\\%", "$\\beta$"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let header: Vec<String> = [
+        "Scene",
+        "Engine",
+        "Limit state",
+        "Method",
+        "$\\theta$",
+        "95\\,\\%",
+        "$\\beta$",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     let rows: Vec<Vec<String>> = res
         .fits
         .iter()
@@ -446,11 +473,22 @@ fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Resul
             ]
         })
         .collect();
-    p.table("fits", booktabs("lllllll", &header, &rows), "fitted medians and dispersions with 95 % bootstrap intervals");
-    let header: Vec<String> = ["Scene", "Limit state", "Method", "Engine", "$\\theta/\\theta_{\\mathrm{ref}}$", "95\\,\\%"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    p.table(
+        "fits",
+        booktabs("lllllll", &header, &rows),
+        "fitted medians and dispersions with 95 % bootstrap intervals",
+    );
+    let header: Vec<String> = [
+        "Scene",
+        "Limit state",
+        "Method",
+        "Engine",
+        "$\\theta/\\theta_{\\mathrm{ref}}$",
+        "95\\,\\%",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     let rows: Vec<Vec<String>> = res
         .differences
         .iter()
@@ -467,7 +505,11 @@ fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Resul
             ]
         })
         .collect();
-    p.table("differences", booktabs("llllll", &header, &rows), "medians of each engine over the reference engine's, paired bootstrap 95 % intervals");
+    p.table(
+        "differences",
+        booktabs("llllll", &header, &rows),
+        "medians of each engine over the reference engine's, paired bootstrap 95 % intervals",
+    );
     for scene in &study.scenes {
         for m in [Method::Stripes, Method::Ida] {
             for (k, ls) in study.limit_states.iter().enumerate() {
@@ -480,7 +522,10 @@ fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Resul
                 for (ei, e) in study.file.engines.iter().enumerate() {
                     let col = COLORS[ei % COLORS.len()].to_string();
                     let Some(f) = res.fits.iter().find(|f| {
-                        f.scene == scene.name && &f.engine == e && f.limit_state == ls.name && f.method == m
+                        f.scene == scene.name
+                            && &f.engine == e
+                            && f.limit_state == ls.name
+                            && f.method == m
                     }) else {
                         continue;
                     };
@@ -496,7 +541,9 @@ fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Resul
                     if m == Method::Stripes {
                         let mut by: BTreeMap<u64, (f64, usize, usize)> = BTreeMap::new();
                         for rw in res.rows.iter().filter(|rw| {
-                            rw.method == Method::Stripes && rw.scene == scene.name && &rw.engine == e
+                            rw.method == Method::Stripes
+                                && rw.scene == scene.name
+                                && &rw.engine == e
                         }) {
                             let x = by.entry(rw.level.to_bits()).or_insert((rw.level, 0, 0));
                             x.1 += 1;
@@ -515,8 +562,21 @@ fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Resul
                 if plot.curves.is_empty() {
                     continue;
                 }
-                let name = format!("fragility-{}-{}-{}", slug(&scene.name), method(m), slug(&ls.name));
-                p.figure(&name, &plot, &format!("fragility curves of every engine, {} ({})", ls.name, method(m)));
+                let name = format!(
+                    "fragility-{}-{}-{}",
+                    slug(&scene.name),
+                    method(m),
+                    slug(&ls.name)
+                );
+                p.figure(
+                    &name,
+                    &plot,
+                    &format!(
+                        "fragility curves of every engine, {} ({})",
+                        ls.name,
+                        method(m)
+                    ),
+                );
             }
         }
     }
@@ -530,6 +590,12 @@ fn write_paper(dir: &Path, study: &Study, res: &Results, command: &str) -> Resul
 
 fn slug(s: &str) -> String {
     s.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect()
 }

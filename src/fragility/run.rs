@@ -6,11 +6,12 @@
 //! only place where a study meets an engine.
 //!
 //! **Early stop** (`early_stop = true`, native and Housner engines; the stop is recorded):
-//! a native run stops as soon as a block lies on its side (|phi| relative to its support
-//! >= pi/2 - [`events::ON_SIDE_TOLERANCE`]): it has overturned, and an overturn exceeds every
-//! limit state (collapse counts for all of them). After the record has ended a native run also
-//! stops when every block has been still for [`REST_WINDOW`] (at rest: nothing moves again),
-//! and a single block when it is beyond its critical angle turning outwards (overturned), or
+//! a native run stops as soon as a block lies on its side (its rotation relative to its
+//! support within [`events::ON_SIDE_TOLERANCE`] of pi/2): it has overturned, and an overturn
+//! exceeds every limit state (collapse counts for all of them). It stops at rest when every
+//! block is upright and still for [`REST_WINDOW`] and the rest of the record stays below the
+//! [`static_threshold`] of the resting stack (nothing can start to move again). After the
+//! record a single block also stops beyond its critical angle turning outwards (overturned), or
 //! inside it with less than [`SAFE_ENERGY_FRACTION`] of its tipping energy (free rocking only
 //! loses energy: it cannot overturn, and its largest later rotation is bounded by the angle
 //! where that energy is all potential, which is added to the maximum rotation). The Housner
@@ -169,7 +170,12 @@ pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulat
             let b = tr.blocks[0].clone();
             let k = b.phi.len() - 1;
             let s = [b.x[k], b.z[k], b.phi[k], b.vx[k], b.vz[k], b.omega[k]];
-            reachable_angle(&s, &scene.blocks[0], scene.gravity, 0.5 * scene.blocks[0].height)
+            reachable_angle(
+                &s,
+                &scene.blocks[0],
+                scene.gravity,
+                0.5 * scene.blocks[0].height,
+            )
         });
         return Ok(Simulated {
             trajectory: tr,
@@ -209,7 +215,10 @@ pub fn static_threshold(scene: &Scene, xs: &[f64]) -> Option<f64> {
     let n = scene.blocks.len();
     let column = (0..n).all(|i| layout.supports[i] == i.checked_sub(1))
         && scene.blocks.iter().all(|b| b.x.is_none());
-    let vertical = scene.excitation.as_ref().is_some_and(|e| e.vertical.is_some());
+    let vertical = scene
+        .excitation
+        .as_ref()
+        .is_some_and(|e| e.vertical.is_some());
     if !column || vertical {
         return None;
     }
@@ -354,7 +363,11 @@ fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
             }
         }
         if stop.is_none() && state.t > record_end {
-            if single && rel[0].0.abs() > crit[0] && rel[0].0 * rel[0].1 > 0.0 && rel[0].0.abs() > prev[0] {
+            if single
+                && rel[0].0.abs() > crit[0]
+                && rel[0].0 * rel[0].1 > 0.0
+                && rel[0].0.abs() > prev[0]
+            {
                 stop = Some((Stop::Overturned, None));
             }
             if stop.is_none() && single && rel[0].0.abs() < crit[0] {

@@ -246,7 +246,10 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
             return Err(err(&format!("engines[{k}]"), why));
         }
         if f.engines[..k].contains(e) {
-            return Err(err(&format!("engines[{k}]"), format!("`{e}` is listed twice")));
+            return Err(err(
+                &format!("engines[{k}]"),
+                format!("`{e}` is listed twice"),
+            ));
         }
     }
     if f.intensity.levels.is_empty() {
@@ -271,7 +274,10 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
     }
     if let Some(ida) = &f.ida {
         if !(ida.factor.is_finite() && ida.factor > 1.0) {
-            return Err(err("ida.factor", format!("must be > 1 (got {})", num(ida.factor))));
+            return Err(err(
+                "ida.factor",
+                format!("must be > 1 (got {})", num(ida.factor)),
+            ));
         }
         if !(ida.tolerance.is_finite() && ida.tolerance > 0.0) {
             return Err(err(
@@ -288,7 +294,10 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
         }
     }
     if f.fit.bootstrap == 1 {
-        return Err(err("fit.bootstrap", "one resample gives no interval: use 0 or >= 2".into()));
+        return Err(err(
+            "fit.bootstrap",
+            "one resample gives no interval: use 0 or >= 2".into(),
+        ));
     }
     let mut scenes = Vec::new();
     for (k, s) in f.scenes.iter().enumerate() {
@@ -301,12 +310,8 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
         })?;
         scenes.push(sc);
     }
-    let suite = load_suite(&base.join(&f.suite)).map_err(|e| {
-        err(
-            "suite",
-            format!("{}: {}: {}", e.file, e.field, e.message),
-        )
-    })?;
+    let suite = load_suite(&base.join(&f.suite))
+        .map_err(|e| err("suite", format!("{}: {}: {}", e.file, e.field, e.message)))?;
     if f.intensity.measure == Measure::P695
         && let Some(r) = suite.records.iter().find(|r| r.p695_factor.is_none())
     {
@@ -337,22 +342,34 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
             return Err(err(&field("name"), "must not be empty".into()));
         }
         if limit_states[..k].iter().any(|o| o.name == ls.name) {
-            return Err(err(&field("name"), format!("`{}` is listed twice", ls.name)));
+            return Err(err(
+                &field("name"),
+                format!("`{}` is listed twice", ls.name),
+            ));
         }
         let needs_threshold = ls.kind != LimitKind::Overturn;
         match (needs_threshold, ls.threshold) {
             (true, None) => return Err(err(&field("threshold"), "missing".into())),
             (true, Some(t)) if !(t.is_finite() && t > 0.0) => {
-                return Err(err(&field("threshold"), format!("must be > 0 (got {})", num(t))));
+                return Err(err(
+                    &field("threshold"),
+                    format!("must be > 0 (got {})", num(t)),
+                ));
             }
             (false, Some(_)) => {
-                return Err(err(&field("threshold"), "overturn takes no threshold".into()));
+                return Err(err(
+                    &field("threshold"),
+                    "overturn takes no threshold".into(),
+                ));
             }
             _ => {}
         }
         match (ls.kind, &ls.block) {
             (LimitKind::RelativeRotation, None) => {
-                return Err(err(&field("block"), "missing: which block (e.g. \"statue\")".into()));
+                return Err(err(
+                    &field("block"),
+                    "missing: which block (e.g. \"statue\")".into(),
+                ));
             }
             (LimitKind::RelativeRotation, Some(b)) => {
                 for s in &scenes {
@@ -377,7 +394,10 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                 }
             }
             (_, Some(_)) => {
-                return Err(err(&field("block"), "only relative-rotation names a block".into()));
+                return Err(err(
+                    &field("block"),
+                    "only relative-rotation names a block".into(),
+                ));
             }
             _ => {}
         }
