@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps \
-	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum fragility
+	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum fragility fragility-rapier
 
 all: build
 
@@ -32,6 +32,11 @@ demo: build .venv ffmpeg siconos records
 # Runs are cached in .cache/rockbench/fragility: an unchanged study reruns in about a second.
 fragility: build records
 	$(BIN) fragility validation/studies/statue-farfield.toml --out out/fragility/statue-farfield
+
+# The same study on native and rapier, their medians compared (rapier runs every record to its
+# end: about 15 min of CPU on this machine).
+fragility-rapier: build records
+	$(BIN) fragility validation/studies/statue-farfield-rapier.toml --out out/fragility/statue-farfield-rapier
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.

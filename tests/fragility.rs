@@ -235,14 +235,23 @@ fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("native") && html.contains("auto"));
 
-    // Second run: every run from the cache, the same fits.
+    // Second run: every run from the cache, the same fits; with the paper outputs.
     run_ok(
         bin()
-            .args(["fragility", "--quiet"])
+            .args(["fragility", "--quiet", "--paper"])
             .arg(&study)
             .arg("--out")
             .arg(&out),
     );
+    let paper = out.join("paper");
+    let tex = std::fs::read_to_string(paper.join("fits.tex")).unwrap();
+    assert!(
+        tex.contains("\\toprule") && tex.contains("overturn"),
+        "{tex}"
+    );
+    assert!(paper.join("differences.tex").is_file());
+    assert!(paper.join("fragility-block-stripes-overturn.pdf").is_file());
+    assert!(paper.join("README.md").is_file());
     let j2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
             .unwrap();
@@ -305,4 +314,121 @@ fn early_stops_change_no_outcome() {
         "only {early} of {} stopped early",
         ra.len()
     );
+}
+
+/// The FEMA P695 sets written by `make records`: 44 far-field components in 22 pairs, 28 + 28
+/// near-field ones, each read and checked by the suite loader (`--check` of a study on each),
+/// the normalisation factor shared by both components of a record.
+#[test]
+fn the_p695_suites_load_and_check() {
+    let root = common::root();
+    let dir = root.join("validation/records/p695");
+    assert!(
+        dir.join("farfield.toml").is_file(),
+        "run `make records` first (writes validation/records/p695/)"
+    );
+    for (set, n) in [
+        ("farfield", 44),
+        ("nearfield-pulse", 28),
+        ("nearfield-no-pulse", 28),
+    ] {
+        let d = tmp("rb-fragility", set);
+        let study = d.join("study.toml");
+        std::fs::write(
+            &study,
+            format!(
+                "name = \"p\"\nscenes = [\"{}\"]\nsuite = \"{}\"\nengines = [\"native\"]\n\n[intensity]\nmeasure = \"p695\"\nlevels = [1.0]\n",
+                root.join("validation/scenes/two-block-free-rocking.toml").display(),
+                dir.join(format!("{set}.toml")).display()
+            ),
+        )
+        .unwrap();
+        let o = run_ok(bin().args(["fragility", "--check"]).arg(&study));
+        assert!(o.contains(&format!("({n} records)")), "{o}");
+        let text = std::fs::read_to_string(dir.join(format!("{set}.toml"))).unwrap();
+        let m: toml::Value = toml::from_str(&text).unwrap();
+        let recs = m["record"].as_array().unwrap();
+        assert_eq!(recs.len(), n);
+        let mut factor = std::collections::BTreeMap::new();
+        for r in recs {
+            let f = r["p695_factor"].as_float().unwrap();
+            let old = factor.insert(r["pair"].as_str().unwrap().to_string(), f);
+            assert!(old.is_none_or(|o| o == f), "{r}");
+            assert!(r["pga"].as_float().unwrap() > 0.0 && r["npts"].as_integer().unwrap() > 100);
+        }
+        assert_eq!(factor.len(), n / 2);
+    }
+}
+
+/// Ctrl-C in the middle of a study: every cache entry left is whole (parses), no output folder
+/// is written, and the rerun resumes from the entries.
+#[test]
+fn an_interrupted_study_leaves_whole_entries_and_resumes() {
+    let d = tmp("rb-fragility", "interrupt");
+    let study = fixture(&d, "\"native\"", "");
+    let text = std::fs::read_to_string(&study).unwrap();
+    // Full-length runs, so that the study is still running when interrupted.
+    std::fs::write(
+        &study,
+        text.replace("tail = 3.0", "tail = 20.0\nearly_stop = false"),
+    )
+    .unwrap();
+    let out = d.join("out");
+    let mut child = bin()
+        .args(["fragility", "--quiet", "--jobs", "1"])
+        .arg(&study)
+        .arg("--out")
+        .arg(&out)
+        .spawn()
+        .unwrap();
+    let cache = d.join("cache");
+    let entries = |dir: &Path| -> Vec<std::path::PathBuf> {
+        let mut v = Vec::new();
+        for sub in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            for f in std::fs::read_dir(sub.path())
+                .into_iter()
+                .flatten()
+                .flatten()
+            {
+                v.push(f.path());
+            }
+        }
+        v
+    };
+    let t0 = std::time::Instant::now();
+    while entries(&cache)
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .count()
+        < 3
+    {
+        assert!(t0.elapsed().as_secs() < 120, "no cache entries after 120 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the study finished before the interrupt");
+    assert!(!out.exists(), "an output folder was written");
+    let json: Vec<_> = entries(&cache)
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    for p in &json {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).expect("a whole entry");
+        assert!(v["rotation"].is_array());
+    }
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    assert!(j["counts"]["cached"].as_u64().unwrap() >= json.len() as u64);
 }

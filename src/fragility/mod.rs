@@ -88,6 +88,22 @@ pub fn spec_for(
     }
 }
 
+/// The stripes' runs of a study, in the order [`run_study`] makes them (scene, engine, record,
+/// level): the units of work a distributed runner hands out.
+pub fn stripe_specs(study: &Study) -> Vec<RunSpec> {
+    let mut out = Vec::new();
+    for scene in &study.scenes {
+        for e in &study.file.engines {
+            for r in &study.suite.records {
+                for &l in &study.file.intensity.levels {
+                    out.push(spec_for(study, scene, e, r, scale_for(study, scene, r, l)));
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Whether a run exceeds a limit state (an overturn exceeds every one).
 pub fn exceeded(ls: &LimitState, scene: &Scene, o: &RunOutcome) -> bool {
     if o.any_overturned() {

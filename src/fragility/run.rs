@@ -446,3 +446,65 @@ pub fn outcome(scene: &Scene, sim: &Simulated) -> RunOutcome {
         ran: sim.ran.clone(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    fn statue(offset: f64, record: Option<(&str, f64)>) -> Scene {
+        let exc = record
+            .map(|(f, s)| {
+                format!(
+                    "\n[excitation.horizontal]\nkind = \"record\"\nfile = \"{f}\"\nscale = {s}\n"
+                )
+            })
+            .unwrap_or_default();
+        let text = format!(
+            "name = \"s\"\nduration = 3.0\n[[blocks]]\nname = \"pedestal\"\nwidth = 1.25\nheight = 1.25\n[[blocks]]\nname = \"statue\"\nwidth = 1.0\nheight = 2.5\noffset = {offset}\n[contact]\nfriction = 0.7\n[native]\ntheta = 0.7\ndt = 1e-3\n{exc}"
+        );
+        parse_scene_str(&text, false, "statue", &[]).unwrap()
+    }
+
+    /// The threshold of the paper's stack is the whole stack rocking on the ground: its
+    /// centre of mass is 0.625 m from the pedestal's edge at height
+    /// (m_p 0.625 + m_s 2.5) / (m_p + m_s); the statue alone needs B/H = 0.4, sliding 0.7.
+    #[test]
+    fn static_threshold_of_the_statue_stack() {
+        let s = statue(0.0, None);
+        let (mp, ms) = (1.25 * 1.25, 2.5);
+        let zc = (mp * 0.625 + ms * 2.5) / (mp + ms);
+        let thr = static_threshold(&s, &[0.0, 0.0]).unwrap();
+        assert!((thr - 0.625 / zc).abs() < 1e-12, "{thr}");
+        // The statue 0.3 m right of centre spans [-0.2, 0.8] on the pedestal's [-0.625,
+        // 0.625]: its contact region is [-0.2, 0.625], 0.325 m from its centre on the right.
+        let thr = static_threshold(&s, &[0.0, 0.3]).unwrap();
+        let x_c = ms * 0.3 / (mp + ms);
+        let expect = (0.325 / 1.25f64).min((0.625 - x_c) / zc).min(0.7);
+        assert!((thr - expect).abs() < 1e-12, "{thr} vs {expect}");
+    }
+
+    /// Exactness of the skip on the native engine: the stack under a record whose peak is 1 %
+    /// below the threshold does not move at all; 5 % above it, it rocks.
+    #[test]
+    fn below_the_static_threshold_the_native_stack_does_not_move() {
+        let dir = std::env::temp_dir().join(format!("rb-threshold-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("burst.csv");
+        let mut csv = String::from("t,a\n");
+        for k in 0..=200 {
+            let t = k as f64 * 0.01;
+            csv += &format!("{t},{}\n", (std::f64::consts::PI * t).sin());
+        }
+        std::fs::write(&f, csv).unwrap();
+        let thr = static_threshold(&statue(0.0, None), &[0.0, 0.0]).unwrap() * 9.81;
+        let max_rot = |scale: f64| {
+            let s = statue(0.0, Some((f.to_str().unwrap(), scale)));
+            let sim = simulate("native", &s, false).unwrap();
+            let o = outcome(&s, &sim);
+            o.rotation.iter().copied().fold(0.0, f64::max)
+        };
+        assert!(max_rot(0.99 * thr) < 1e-9, "{}", max_rot(0.99 * thr));
+        assert!(max_rot(1.05 * thr) > 1e-4, "{}", max_rot(1.05 * thr));
+    }
+}

@@ -117,3 +117,34 @@ def test_ida_matches_scipy_censored_lognormal(study: dict, ls: str) -> None:  # 
 def test_the_study_censors_some_records(study: dict) -> None:  # type: ignore[type-arg]
     caps = [c for c in study["capacities"] if c["limit_state"] == "overturn"]
     assert any(c["censored"] for c in caps) and not all(c["censored"] for c in caps)
+
+
+def test_bindings_run_the_same_unit_of_work(tmp_path: Path, study: dict) -> None:  # type: ignore[type-arg]
+    """`fragility_run_specs` lists the stripes' runs as JSON specs with their cache keys and
+    `fragility_run` runs one: the outcome is the CLI's for the same record and level."""
+    import rockbench
+
+    path = Path(study["study_file"])
+    specs = rockbench.fragility_run_specs(path)
+    levels = study["study"]["intensity"]["levels"]
+    assert len(specs) == 10 * len(levels)
+    keys = {k for k, _ in specs}
+    assert len(keys) == len(specs)
+    key, spec = specs[7]
+    s = json.loads(spec)
+    out = json.loads(rockbench.fragility_run(spec))
+    (row,) = [
+        r
+        for r in study["rows"]
+        if r["method"] == "stripes" and r["record"] == s["record_id"] and r["scale"] == s["scale"]
+    ]
+    for f in ["rotation", "overturned", "sliding", "stop", "ran"]:
+        assert out[f] == row["outcome"][f], f
+    j = rockbench.fragility_study(path, out=tmp_path / "o")
+    assert j["counts"]["cached"] == j["counts"]["runs"]
+    assert j["fits"] == study["fits"]
+    with pytest.raises(ValueError, match="intensity.levels"):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(path.read_text().replace("levels = [1.1,", "levels = [0,"))
+        (tmp_path / "block.toml").write_text((path.parent / "block.toml").read_text())
+        rockbench.fragility_study(bad)
