@@ -82,7 +82,9 @@ pub fn probit(stripes: &[(f64, f64, f64)]) -> Result<Lognormal, String> {
         }
         let det = sw * swxx - swx * swx;
         if !(det.is_finite() && det > 0.0) {
-            return Err("the probit fit is singular (one level?)".into());
+            return Err(
+                "the probit fit is singular (fewer than two levels with 0 < fraction < 1)".into(),
+            );
         }
         let nb = (
             (swxx * swz - swx * swxz) / det,
