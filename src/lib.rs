@@ -36,6 +36,7 @@ pub mod converge;
 pub mod engines;
 pub mod events;
 pub mod excitation;
+pub mod fragility;
 pub mod gates;
 pub mod geometry;
 pub mod invariants;

@@ -5,7 +5,28 @@ public names. ``rockbench.engines`` holds the MuJoCo and PyBullet engines, run b
 harness as worker processes (``python -m rockbench.worker``).
 """
 
-from rockbench._native import Run, Scene, __version__, engine_names, load_scene, run
+from rockbench._native import (
+    Run,
+    Scene,
+    __version__,
+    engine_names,
+    fragility_run,
+    fragility_run_specs,
+    fragility_study,
+    load_scene,
+    run,
+)
 from rockbench.compare import compare
 
-__all__ = ["Run", "Scene", "__version__", "compare", "engine_names", "load_scene", "run"]
+__all__ = [
+    "Run",
+    "Scene",
+    "__version__",
+    "compare",
+    "engine_names",
+    "fragility_run",
+    "fragility_run_specs",
+    "fragility_study",
+    "load_scene",
+    "run",
+]

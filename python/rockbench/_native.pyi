@@ -7,7 +7,18 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
-__all__ = ["__version__", "Scene", "Run", "load_scene", "run", "engine_names", "compare_rows"]
+__all__ = [
+    "__version__",
+    "Scene",
+    "Run",
+    "load_scene",
+    "run",
+    "engine_names",
+    "compare_rows",
+    "fragility_study",
+    "fragility_run_specs",
+    "fragility_run",
+]
 
 @final
 class Scene:
@@ -60,3 +71,8 @@ def compare_rows(
     reference: str = "native",
     overrides: Sequence[str] = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, str]]: ...
+def fragility_study(
+    study: str | os.PathLike[str], out: str | os.PathLike[str] | None = None, quiet: bool = True
+) -> dict[str, Any]: ...
+def fragility_run_specs(study: str | os.PathLike[str]) -> list[tuple[str, str]]: ...
+def fragility_run(spec: str) -> str: ...

@@ -5,6 +5,7 @@ mod bench;
 mod check;
 mod compare;
 mod converge;
+mod fragility;
 mod gate;
 mod references;
 mod run;
@@ -58,6 +59,10 @@ enum Command {
     /// amplitude per frequency ratio and the overturn/safe map, every engine; writes
     /// DIR/minimum.csv, map.csv, spectrum-<pulse>.svg and spectrum.json.
     Spectrum(spectrum::SpectrumArgs),
+    /// Fragility study (STUDY.toml): scenes x record suite x intensity levels x engines, by
+    /// stripes and IDA, fitted curves with bootstrap intervals; writes DIR/report.html,
+    /// outcomes.csv, fits.csv, differences.csv, capacities.csv and fragility.json.
+    Fragility(fragility::FragilityArgs),
 }
 
 /// The `--help` text of an engine option: its own line, then every engine of the registry and
@@ -81,5 +86,6 @@ pub fn main() -> Result<()> {
         Command::Stress(a) => stress::stress(a),
         Command::Animate(a) => animate::animate(a),
         Command::Spectrum(a) => spectrum::run(a),
+        Command::Fragility(a) => fragility::run(a),
     }
 }

@@ -9,6 +9,7 @@
 //! Records are piecewise linear in acceleration (or in displacement), zero outside their span.
 
 pub mod records;
+pub mod suite;
 
 use crate::scene::{MotionSpec, RecordFormat, Scene, SceneError};
 use std::f64::consts::PI;

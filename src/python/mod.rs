@@ -317,6 +317,55 @@ fn compare_rows(
     ))
 }
 
+/// A fragility study (`rockbench fragility`): read and check STUDY.toml, run it (GIL
+/// released; cached runs reused) and return fragility.json as a dict; with `out`, also write
+/// the outputs there.
+#[pyfunction]
+#[pyo3(signature = (study, out = None, quiet = true))]
+fn fragility_study(
+    py: Python<'_>,
+    study: std::path::PathBuf,
+    out: Option<std::path::PathBuf>,
+    quiet: bool,
+) -> PyResult<Py<PyAny>> {
+    let st = crate::fragility::study::load_study(&study)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let res = py
+        .detach(|| crate::fragility::run_study(&st, quiet))
+        .map_err(PyRuntimeError::new_err)?;
+    let command = format!("rockbench._native.fragility_study({})", study.display());
+    if let Some(dir) = out {
+        crate::fragility::report::write_all(&dir, &st, &res, &command, false)
+            .map_err(PyRuntimeError::new_err)?;
+    }
+    let j = crate::fragility::report::json(&st, &res, &command);
+    Ok(convert::json_to_py(py, &j)?.unbind())
+}
+
+/// The stripes' runs of a study as JSON strings (the serialisable unit of work) with their
+/// cache keys: `[(key, spec_json), ...]`.
+#[pyfunction]
+fn fragility_run_specs(study: std::path::PathBuf) -> PyResult<Vec<(String, String)>> {
+    let st = crate::fragility::study::load_study(&study)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(crate::fragility::stripe_specs(&st)
+        .iter()
+        .map(|s| (s.key(), serde_json::to_string(s).expect("specs serialise")))
+        .collect())
+}
+
+/// One run of a study from its JSON spec (see `fragility_run_specs`): the outcome as JSON.
+/// GIL released.
+#[pyfunction]
+fn fragility_run(py: Python<'_>, spec: &str) -> PyResult<String> {
+    let spec: crate::fragility::run::RunSpec =
+        serde_json::from_str(spec).map_err(|e| PyValueError::new_err(format!("spec: {e}")))?;
+    let o = py
+        .detach(|| crate::fragility::run::run_one(&spec))
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(serde_json::to_string(&o).expect("outcomes serialise"))
+}
+
 /// Names of the engines `run` accepts.
 #[pyfunction]
 fn engine_names() -> Vec<&'static str> {
@@ -333,5 +382,8 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(engine_names, m)?)?;
     m.add_function(wrap_pyfunction!(compare_rows, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_study, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_run_specs, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_run, m)?)?;
     Ok(())
 }

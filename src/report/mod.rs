@@ -718,7 +718,21 @@ pub fn animation_tracks(c: &Comparison) -> Vec<animate::Track> {
 /// `report.html` and the plots under `plots/`.
 pub fn write_comparison(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
     crate::compare::write_run_files(dir, c, command)?;
-    write_report(dir, c, command)
+    write_report(dir, c, command)?;
+    link_fragility(dir)
+}
+
+/// A fragility study written beside the comparison (`DIR/fragility/report.html`, as `make demo`
+/// does) is linked at the top of the report.
+fn link_fragility(dir: &Path) -> Result<(), String> {
+    if !dir.join("fragility").join("report.html").is_file() {
+        return Ok(());
+    }
+    let p = dir.join("report.html");
+    let html = std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+    let link = "<p><b>Vulnerability:</b> how likely is the statue to rock, slide or overturn under the FEMA P695 far-field records? See the <a href=\"fragility/report.html\">fragility study</a> (fragility curves per limit state, with 95 % intervals).</p>\n";
+    let html = html.replacen("<body>\n", &format!("<body>\n{link}"), 1);
+    std::fs::write(&p, html).map_err(|e| format!("{}: {e}", p.display()))
 }
 
 /// The summary paragraphs of the report, as printed by `rockbench compare`.

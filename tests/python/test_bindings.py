@@ -20,7 +20,18 @@ FIELDS = ("x", "z", "phi", "vx", "vz", "omega")
 
 
 def test_public_names_come_from_the_native_module() -> None:
-    assert set(rockbench.__all__) == {"Run", "Scene", "__version__", "compare", "engine_names", "load_scene", "run"}
+    assert set(rockbench.__all__) == {
+        "Run",
+        "Scene",
+        "__version__",
+        "compare",
+        "engine_names",
+        "fragility_run",
+        "fragility_run_specs",
+        "fragility_study",
+        "load_scene",
+        "run",
+    }
     for name in set(rockbench.__all__) - {"compare"}:
         assert getattr(rockbench, name) is getattr(rockbench._native, name)
     # `compare` wraps the native `compare_rows` in a pandas DataFrame.

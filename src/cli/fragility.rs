@@ -1,0 +1,71 @@
+//! `rockbench fragility STUDY.toml --out DIR`: a fragility study (see `crate::fragility` and
+//! docs/fragility.md). Writes DIR/outcomes.csv, capacities.csv, fits.csv, differences.csv,
+//! fragility.json and report.html (and DIR/paper/ with `--paper`).
+
+use crate::fragility::{self, report, study};
+use anyhow::{Result, anyhow};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct FragilityArgs {
+    /// The study file (TOML).
+    study: PathBuf,
+    #[arg(long, default_value = "out/fragility")]
+    out: PathBuf,
+    /// Parallel runs (default: every core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Also write DIR/paper/ (LaTeX tables, figures as SVG, PDF and CSV).
+    #[arg(long)]
+    paper: bool,
+    /// Check the study, its scenes, suite and records, and stop (nothing runs).
+    #[arg(long)]
+    check: bool,
+    /// No progress line.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub fn run(a: FragilityArgs) -> Result<()> {
+    let st = study::load_study(&a.study).map_err(|e| anyhow!("{e}"))?;
+    if a.check {
+        println!(
+            "{}: {} scene(s), suite {} ({} records), {} level(s), engines {}, {} limit state(s): ok",
+            a.study.display(),
+            st.scenes.len(),
+            st.suite.header.name,
+            st.suite.records.len(),
+            st.file.intensity.levels.len(),
+            st.file.engines.join(","),
+            st.limit_states.len()
+        );
+        return Ok(());
+    }
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.jobs.unwrap_or(0))
+        .build()
+        .map_err(|e| anyhow!("--jobs: {e}"))?;
+    let res = pool
+        .install(|| fragility::run_study(&st, a.quiet))
+        .map_err(|e| anyhow!("{}: {e}", a.study.display()))?;
+    report::write_all(&a.out, &st, &res, &command, a.paper).map_err(|e| anyhow!(e))?;
+    for f in &res.fits {
+        if let Some(x) = f.fit {
+            println!(
+                "{} {} {} {:?}: theta {:.4} [{}], beta {:.3}",
+                f.scene,
+                f.engine,
+                f.limit_state,
+                f.method,
+                x.theta,
+                f.theta_ci
+                    .map(|(a, b)| format!("{a:.4} - {b:.4}"))
+                    .unwrap_or_else(|| "-".into()),
+                x.beta
+            );
+        }
+    }
+    println!("wrote {}", a.out.display());
+    Ok(())
+}

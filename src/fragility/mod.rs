@@ -1,0 +1,737 @@
+//! Fragility studies (`rockbench fragility STUDY.toml`): scenes x record suite x intensity
+//! levels x engines, by multiple stripes and by IDA (hunt and fill), with fitted lognormal
+//! fragility curves per engine and limit state. See docs/fragility.md.
+//!
+//! - [`study`]: the study file and its checks (everything is read before anything runs).
+//! - [`run`]: one run as data ([`run::RunSpec`]) -> [`run::RunOutcome`]; the one place where
+//!   an engine is called.
+//! - this module: scaling records to levels, the run cache, parallel runs, hunt and fill, the
+//!   outcome matrix and the fits with bootstrap intervals.
+//! - [`fit`]: probit and censored lognormal maximum likelihood.
+//! - [`report`]: CSV, JSON, the HTML report and `--paper`.
+
+pub mod fit;
+pub mod report;
+pub mod run;
+pub mod study;
+
+use crate::excitation::suite::SuiteRecord;
+use crate::scene::{ExcitationSpec, InitialSpec, MotionSpec, Scene};
+use fit::{Lognormal, Rng};
+use rayon::prelude::*;
+use run::{RunOutcome, RunSpec, Stop};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+use study::{Initial, LimitKind, LimitState, Measure, Study};
+
+/// `p` and `alpha` of the block that makes the dimensionless measures: `p = sqrt(3 g / (4 R))`.
+pub fn p_alpha(scene: &Scene, block: Option<&str>) -> (f64, f64) {
+    let i = block.and_then(|b| scene.index_of(b)).unwrap_or(0);
+    let b = &scene.blocks[i];
+    let r = 0.5 * b.width.hypot(b.height);
+    ((0.75 * scene.gravity / r).sqrt(), b.critical_angle())
+}
+
+/// The factor that scales a record to intensity `level`.
+pub fn scale_for(study: &Study, scene: &Scene, rec: &SuiteRecord, level: f64) -> f64 {
+    let (p, alpha) = p_alpha(scene, study.file.intensity.block.as_deref());
+    let g_over = crate::excitation::records::STANDARD_GRAVITY / scene.gravity;
+    match study.file.intensity.measure {
+        Measure::Pga => level / rec.pga,
+        Measure::Pgv => level / rec.pgv,
+        // PGA in g: PGA / (g tan alpha) with the scene's g.
+        Measure::PgaRatio => level * alpha.tan() / (rec.pga * g_over),
+        Measure::PgvRatio => level * scene.gravity * alpha.tan() / (p * rec.pgv),
+        Measure::P695 => level * rec.p695_factor.unwrap_or(1.0),
+    }
+}
+
+/// The run of `scene` under `rec` times `scale` on `engine`.
+pub fn spec_for(
+    study: &Study,
+    scene: &Scene,
+    engine: &str,
+    rec: &SuiteRecord,
+    scale: f64,
+) -> RunSpec {
+    let mut s = scene.clone();
+    let applied_as = s
+        .excitation
+        .as_ref()
+        .map(|e| e.applied_as)
+        .unwrap_or_default();
+    s.excitation = Some(ExcitationSpec {
+        applied_as,
+        horizontal: Some(MotionSpec::Record {
+            file: rec.file.display().to_string(),
+            scale,
+            format: Some(rec.format),
+        }),
+        vertical: None,
+    });
+    if study.file.initial == Initial::AtRest {
+        s.initial = InitialSpec::default();
+    }
+    s.duration = rec.duration + study.file.tail;
+    s.name = format!("{} {} x{scale}", scene.name, rec.id);
+    RunSpec {
+        engine: engine.to_string(),
+        scene: s,
+        record_id: rec.id.clone(),
+        record_sha256: rec.sha256.clone(),
+        scale,
+        early_stop: study.file.early_stop,
+    }
+}
+
+/// The stripes' runs of a study, in the order [`run_study`] makes them (scene, engine, record,
+/// level): the units of work a distributed runner hands out.
+pub fn stripe_specs(study: &Study) -> Vec<RunSpec> {
+    let mut out = Vec::new();
+    for scene in &study.scenes {
+        for e in &study.file.engines {
+            for r in &study.suite.records {
+                for &l in &study.file.intensity.levels {
+                    out.push(spec_for(study, scene, e, r, scale_for(study, scene, r, l)));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Whether a run exceeds a limit state (an overturn exceeds every one).
+pub fn exceeded(ls: &LimitState, scene: &Scene, o: &RunOutcome) -> bool {
+    if o.any_overturned() {
+        return true;
+    }
+    let t = ls.threshold.unwrap_or(f64::INFINITY);
+    match ls.kind {
+        LimitKind::Overturn => false,
+        LimitKind::Rotation => o.rotation.iter().any(|&r| r >= t),
+        LimitKind::RelativeRotation => {
+            let i = ls
+                .block
+                .as_deref()
+                .and_then(|b| scene.index_of(b))
+                .unwrap_or(0);
+            o.rotation[i] >= t
+        }
+        LimitKind::Sliding => o.sliding.iter().any(|s| s.is_none_or(|s| s >= t)),
+    }
+}
+
+/// Which analysis a run belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    Stripes,
+    Ida,
+}
+
+/// One cell of the outcome matrix.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    pub scene: String,
+    pub engine: String,
+    pub record: String,
+    pub pair: String,
+    pub level: f64,
+    pub scale: f64,
+    pub method: Method,
+    pub outcome: RunOutcome,
+    /// Per limit state (study order).
+    pub exceeded: Vec<bool>,
+    pub cached: bool,
+}
+
+/// An IDA capacity of one record.
+#[derive(Debug, Clone, Serialize)]
+pub struct Capacity {
+    pub scene: String,
+    pub engine: String,
+    pub record: String,
+    pub pair: String,
+    pub limit_state: String,
+    /// Lowest level found to exceed (or the highest level tried, when censored).
+    pub capacity: f64,
+    pub censored: bool,
+    /// A level above an exceeding one that does not exceed.
+    pub resurrection: bool,
+    pub runs: usize,
+}
+
+/// A fit with its bootstrap interval.
+#[derive(Debug, Clone, Serialize)]
+pub struct Fit {
+    pub scene: String,
+    pub engine: String,
+    pub limit_state: String,
+    pub method: Method,
+    pub fit: Option<Lognormal>,
+    /// Why there is no fit.
+    pub problem: Option<String>,
+    pub theta_ci: Option<(f64, f64)>,
+    pub beta_ci: Option<(f64, f64)>,
+    /// Resamples whose fit succeeded.
+    pub resamples: usize,
+    /// Pointwise 95 % band of the curve on [`Results::grid`].
+    #[serde(skip)]
+    pub band: Option<(Vec<f64>, Vec<f64>)>,
+    /// The median of every resample (None where it failed), for paired differences.
+    #[serde(skip)]
+    pub boot_theta: Vec<Option<f64>>,
+}
+
+/// An engine's median against the reference engine's (the first of the study), paired over
+/// the same bootstrap resamples.
+#[derive(Debug, Clone, Serialize)]
+pub struct Difference {
+    pub scene: String,
+    pub limit_state: String,
+    pub method: Method,
+    pub engine: String,
+    pub reference: String,
+    /// theta_engine - theta_reference, in the measure's unit.
+    pub difference: f64,
+    pub difference_ci: Option<(f64, f64)>,
+    /// theta_engine / theta_reference.
+    pub ratio: f64,
+    pub ratio_ci: Option<(f64, f64)>,
+    pub resamples: usize,
+}
+
+/// Counters of a study run.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Counts {
+    pub runs: usize,
+    pub cached: usize,
+    pub early_stopped: usize,
+    pub wall_s: f64,
+    /// Summed wall time of the runs made (not cached), s.
+    pub run_wall_s: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Results {
+    pub rows: Vec<Row>,
+    pub capacities: Vec<Capacity>,
+    pub fits: Vec<Fit>,
+    pub differences: Vec<Difference>,
+    /// The intensity grid of the curves and bands.
+    pub grid: Vec<f64>,
+    pub counts: Counts,
+    /// Engine -> version as run.
+    pub engine_versions: BTreeMap<String, String>,
+}
+
+/// The run cache and the progress line.
+pub struct Runner {
+    dir: PathBuf,
+    pub done: AtomicUsize,
+    pub cached: AtomicUsize,
+    pub early: AtomicUsize,
+    run_wall: Mutex<f64>,
+    pub expected: AtomicUsize,
+    start: Instant,
+    last: Mutex<Instant>,
+    quiet: bool,
+}
+
+impl Runner {
+    pub fn new(dir: PathBuf, quiet: bool) -> Runner {
+        Runner {
+            dir,
+            done: AtomicUsize::new(0),
+            cached: AtomicUsize::new(0),
+            early: AtomicUsize::new(0),
+            run_wall: Mutex::new(0.0),
+            expected: AtomicUsize::new(0),
+            start: Instant::now(),
+            last: Mutex::new(Instant::now()),
+            quiet,
+        }
+    }
+
+    /// The outcome of a run: from the cache, or run and stored (written to a temporary file
+    /// and renamed: an interrupted study leaves whole entries only).
+    pub fn get(&self, spec: &RunSpec) -> Result<(RunOutcome, bool), String> {
+        let key = spec.key();
+        let path = self.dir.join(&key[..2]).join(format!("{key}.json"));
+        if let Ok(text) = std::fs::read_to_string(&path)
+            && let Ok(o) = serde_json::from_str::<RunOutcome>(&text)
+        {
+            self.cached.fetch_add(1, Ordering::Relaxed);
+            self.tick(o.stop);
+            return Ok((o, true));
+        }
+        let o = run::run_one(spec).map_err(|e| {
+            format!(
+                "{}: record {} x{}: {e}",
+                spec.engine, spec.record_id, spec.scale
+            )
+        })?;
+        *self.run_wall.lock().expect("not poisoned") += o.wall_s;
+        if let Some(parent) = path.parent() {
+            let _ = std::fs::create_dir_all(parent);
+            let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+            let text = serde_json::to_string(&o).expect("outcomes serialise");
+            if std::fs::write(&tmp, text).is_ok() {
+                let _ = std::fs::rename(&tmp, &path);
+            }
+        }
+        self.tick(o.stop);
+        Ok((o, false))
+    }
+
+    fn tick(&self, stop: Stop) {
+        if stop != Stop::End {
+            self.early.fetch_add(1, Ordering::Relaxed);
+        }
+        let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if self.quiet {
+            return;
+        }
+        let mut last = self.last.lock().expect("not poisoned");
+        if last.elapsed().as_secs_f64() < 1.0 {
+            return;
+        }
+        *last = Instant::now();
+        let el = self.start.elapsed().as_secs_f64();
+        let exp = self.expected.load(Ordering::Relaxed).max(done);
+        let left = el / done as f64 * (exp - done) as f64;
+        eprintln!(
+            "fragility: {done}/{exp} runs ({} from the cache, {} stopped early), {el:.0} s, about {left:.0} s left",
+            self.cached.load(Ordering::Relaxed),
+            self.early.load(Ordering::Relaxed)
+        );
+    }
+}
+
+/// Run a study: the stripes, then IDA, then the fits.
+pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
+    let start = Instant::now();
+    let runner = Runner::new(study.cache_dir.clone(), quiet);
+    let f = &study.file;
+    let levels = &f.intensity.levels;
+    let recs = &study.suite.records;
+    let n_ls = study.limit_states.len();
+    let mut expected = 0;
+    if f.stripes {
+        expected += study.scenes.len() * f.engines.len() * recs.len() * levels.len();
+    }
+    if f.ida.is_some() {
+        expected += study.scenes.len() * f.engines.len() * recs.len() * n_ls * 8;
+    }
+    runner.expected.store(expected, Ordering::Relaxed);
+    let mut rows = Vec::new();
+    if f.stripes {
+        let jobs: Vec<(usize, &String, &SuiteRecord, f64)> = study
+            .scenes
+            .iter()
+            .enumerate()
+            .flat_map(|(si, _)| {
+                f.engines.iter().flat_map(move |e| {
+                    recs.iter()
+                        .flat_map(move |r| levels.iter().map(move |&l| (si, e, r, l)))
+                })
+            })
+            .collect();
+        let out: Result<Vec<Row>, String> = jobs
+            .par_iter()
+            .map(|&(si, e, r, l)| {
+                let scene = &study.scenes[si];
+                let scale = scale_for(study, scene, r, l);
+                let spec = spec_for(study, scene, e, r, scale);
+                let (o, cached) = runner.get(&spec)?;
+                Ok(row(
+                    study,
+                    scene,
+                    e,
+                    r,
+                    l,
+                    scale,
+                    Method::Stripes,
+                    o,
+                    cached,
+                ))
+            })
+            .collect();
+        rows.extend(out?);
+    }
+    let mut capacities = Vec::new();
+    if let Some(ida) = &f.ida {
+        let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = levels.iter().copied().fold(0.0, f64::max);
+        let (start_l, max_l) = (
+            ida.start.unwrap_or(lo),
+            ida.max.unwrap_or(hi).max(ida.start.unwrap_or(lo)),
+        );
+        let jobs: Vec<(usize, &String, &SuiteRecord)> = (0..study.scenes.len())
+            .flat_map(|si| {
+                f.engines
+                    .iter()
+                    .flat_map(move |e| recs.iter().map(move |r| (si, e, r)))
+            })
+            .collect();
+        let out: Result<Vec<IdaRecord>, String> = jobs
+            .par_iter()
+            .map(|&(si, e, r)| {
+                let scene = &study.scenes[si];
+                let mut memo: Vec<Row> = Vec::new();
+                let mut caps = Vec::new();
+                for (k, ls) in study.limit_states.iter().enumerate() {
+                    let mut runs = 0;
+                    let mut at = |l: f64, memo: &mut Vec<Row>| -> Result<bool, String> {
+                        if let Some(row) = memo.iter().find(|x| x.level == l) {
+                            return Ok(row.exceeded[k]);
+                        }
+                        runs += 1;
+                        let scale = scale_for(study, scene, r, l);
+                        let spec = spec_for(study, scene, e, r, scale);
+                        let (o, cached) = runner.get(&spec)?;
+                        let rw = row(study, scene, e, r, l, scale, Method::Ida, o, cached);
+                        let x = rw.exceeded[k];
+                        memo.push(rw);
+                        Ok(x)
+                    };
+                    // Hunt: step up until exceeded.
+                    let mut safe = None;
+                    let mut l = start_l;
+                    let mut hit = None;
+                    loop {
+                        if at(l, &mut memo)? {
+                            hit = Some(l);
+                            break;
+                        }
+                        safe = Some(l);
+                        if l >= max_l {
+                            break;
+                        }
+                        l = (l * ida.factor).min(max_l);
+                    }
+                    let Some(mut hi_l) = hit else {
+                        caps.push(capacity(scene, e, r, ls, max_l, true, false, runs));
+                        continue;
+                    };
+                    // Bisect the bracket (geometric mid-points).
+                    if let Some(mut lo_l) = safe {
+                        while hi_l / lo_l - 1.0 > ida.tolerance {
+                            let mid = (lo_l * hi_l).sqrt();
+                            if at(mid, &mut memo)? {
+                                hi_l = mid;
+                            } else {
+                                lo_l = mid;
+                            }
+                        }
+                        // Fill below the bracket: levels between the start and lo.
+                        let bottom = start_l.min(lo_l);
+                        for j in 1..=ida.fill {
+                            let fl =
+                                bottom * (lo_l / bottom).powf(j as f64 / (ida.fill + 1) as f64);
+                            at(fl, &mut memo)?;
+                        }
+                    }
+                    let mut lv: Vec<(f64, bool)> =
+                        memo.iter().map(|x| (x.level, x.exceeded[k])).collect();
+                    lv.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let first = lv.iter().find(|x| x.1).map(|x| x.0).unwrap_or(hi_l);
+                    let resurrection = lv.iter().any(|x| x.0 > first && !x.1);
+                    caps.push(capacity(scene, e, r, ls, first, false, resurrection, runs));
+                }
+                Ok((memo, caps))
+            })
+            .collect();
+        for (r, c) in out? {
+            rows.extend(r);
+            capacities.extend(c);
+        }
+    }
+    let mut engine_versions = BTreeMap::new();
+    for r in &rows {
+        engine_versions
+            .entry(r.engine.clone())
+            .or_insert_with(|| r.outcome.engine_version.clone());
+    }
+    let (fits, differences, grid) = fits(study, &rows, &capacities);
+    let counts = Counts {
+        runs: rows.len(),
+        cached: runner.cached.load(Ordering::Relaxed),
+        early_stopped: runner.early.load(Ordering::Relaxed),
+        wall_s: start.elapsed().as_secs_f64(),
+        run_wall_s: *runner.run_wall.lock().expect("not poisoned"),
+    };
+    if !quiet {
+        eprintln!(
+            "fragility: {} runs ({} from the cache, {} stopped early) in {:.1} s",
+            counts.runs, counts.cached, counts.early_stopped, counts.wall_s
+        );
+    }
+    Ok(Results {
+        rows,
+        capacities,
+        fits,
+        differences,
+        grid,
+        counts,
+        engine_versions,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn row(
+    study: &Study,
+    scene: &Scene,
+    e: &str,
+    r: &SuiteRecord,
+    level: f64,
+    scale: f64,
+    method: Method,
+    o: RunOutcome,
+    cached: bool,
+) -> Row {
+    Row {
+        scene: scene.name.clone(),
+        engine: e.to_string(),
+        record: r.id.clone(),
+        pair: r.pair.clone(),
+        level,
+        scale,
+        method,
+        exceeded: study
+            .limit_states
+            .iter()
+            .map(|ls| exceeded(ls, scene, &o))
+            .collect(),
+        outcome: o,
+        cached,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn capacity(
+    scene: &Scene,
+    e: &str,
+    r: &SuiteRecord,
+    ls: &LimitState,
+    c: f64,
+    censored: bool,
+    resurrection: bool,
+    runs: usize,
+) -> Capacity {
+    Capacity {
+        scene: scene.name.clone(),
+        engine: e.to_string(),
+        record: r.id.clone(),
+        pair: r.pair.clone(),
+        limit_state: ls.name.clone(),
+        capacity: c,
+        censored,
+        resurrection,
+        runs,
+    }
+}
+
+/// Stripes of the records in `sample` (record ids, repeated as drawn): (ln level, n, hits).
+fn stripes_of(rows: &[&Row], k: usize, weight: &BTreeMap<&str, f64>) -> Vec<(f64, f64, f64)> {
+    let mut by: BTreeMap<u64, (f64, f64, f64)> = BTreeMap::new();
+    for r in rows {
+        let w = weight.get(r.record.as_str()).copied().unwrap_or(0.0);
+        if w == 0.0 {
+            continue;
+        }
+        let e = by
+            .entry(r.level.to_bits())
+            .or_insert((r.level.ln(), 0.0, 0.0));
+        e.1 += w;
+        if r.exceeded[k] {
+            e.2 += w;
+        }
+    }
+    by.into_values().collect()
+}
+
+/// The IDA runs and capacities of one record.
+type IdaRecord = (Vec<Row>, Vec<Capacity>);
+
+type FitOut = (Vec<Fit>, Vec<Difference>, Vec<f64>);
+
+/// Every fit (scene x engine x limit state x method) with bootstrap intervals, and the paired
+/// differences of medians against the first engine.
+fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
+    let f = &study.file;
+    let lo = f
+        .intensity
+        .levels
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let hi = f.intensity.levels.iter().copied().fold(0.0, f64::max);
+    let (glo, ghi) = (lo / 2.0, hi * 1.5);
+    let grid: Vec<f64> = (0..60)
+        .map(|k| glo * (ghi / glo).powf(k as f64 / 59.0))
+        .collect();
+    // Record pairs and the resamples (the same for every engine: paired).
+    let mut pairs: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for r in &study.suite.records {
+        pairs
+            .entry(r.pair.as_str())
+            .or_default()
+            .push(r.id.as_str());
+    }
+    let pair_list: Vec<&Vec<&str>> = pairs.values().collect();
+    let mut rng = Rng::new(f.fit.seed);
+    let resamples: Vec<BTreeMap<&str, f64>> = (0..f.fit.bootstrap)
+        .map(|_| {
+            let mut w: BTreeMap<&str, f64> = BTreeMap::new();
+            for _ in 0..pair_list.len() {
+                for id in pair_list[rng.below(pair_list.len())] {
+                    *w.entry(id).or_insert(0.0) += 1.0;
+                }
+            }
+            w
+        })
+        .collect();
+    let all: BTreeMap<&str, f64> = study
+        .suite
+        .records
+        .iter()
+        .map(|r| (r.id.as_str(), 1.0))
+        .collect();
+    let mut fits = Vec::new();
+    for scene in &study.scenes {
+        for e in &f.engines {
+            for (k, ls) in study.limit_states.iter().enumerate() {
+                for method in [Method::Stripes, Method::Ida] {
+                    let fit_with = |w: &BTreeMap<&str, f64>| -> Result<Lognormal, String> {
+                        match method {
+                            Method::Stripes => {
+                                let rs: Vec<&Row> = rows
+                                    .iter()
+                                    .filter(|r| {
+                                        r.method == Method::Stripes
+                                            && r.scene == scene.name
+                                            && &r.engine == e
+                                    })
+                                    .collect();
+                                fit::probit(&stripes_of(&rs, k, w))
+                            }
+                            Method::Ida => {
+                                let mut c = Vec::new();
+                                for x in caps.iter().filter(|x| {
+                                    x.scene == scene.name
+                                        && &x.engine == e
+                                        && x.limit_state == ls.name
+                                }) {
+                                    let n =
+                                        w.get(x.record.as_str()).copied().unwrap_or(0.0) as usize;
+                                    for _ in 0..n {
+                                        c.push((x.capacity, x.censored));
+                                    }
+                                }
+                                fit::censored_lognormal(&c)
+                            }
+                        }
+                    };
+                    let has = match method {
+                        Method::Stripes => f.stripes,
+                        Method::Ida => f.ida.is_some(),
+                    };
+                    if !has {
+                        continue;
+                    }
+                    let point = fit_with(&all);
+                    let boot: Vec<Option<Lognormal>> =
+                        resamples.par_iter().map(|w| fit_with(w).ok()).collect();
+                    let ok: Vec<Lognormal> = boot.iter().flatten().copied().collect();
+                    let ci = |v: Vec<f64>| -> Option<(f64, f64)> {
+                        Some((fit::quantile(&v, 0.025)?, fit::quantile(&v, 0.975)?))
+                    };
+                    let band = (ok.len() >= 2).then(|| {
+                        let lo: Vec<f64> = grid
+                            .iter()
+                            .map(|&x| {
+                                fit::quantile(&ok.iter().map(|l| l.p(x)).collect::<Vec<_>>(), 0.025)
+                                    .unwrap_or(0.0)
+                            })
+                            .collect();
+                        let hi: Vec<f64> = grid
+                            .iter()
+                            .map(|&x| {
+                                fit::quantile(&ok.iter().map(|l| l.p(x)).collect::<Vec<_>>(), 0.975)
+                                    .unwrap_or(1.0)
+                            })
+                            .collect();
+                        (lo, hi)
+                    });
+                    fits.push(Fit {
+                        scene: scene.name.clone(),
+                        engine: e.clone(),
+                        limit_state: ls.name.clone(),
+                        method,
+                        fit: point.as_ref().ok().copied(),
+                        problem: point.err(),
+                        theta_ci: if ok.len() >= 2 {
+                            ci(ok.iter().map(|l| l.theta).collect())
+                        } else {
+                            None
+                        },
+                        beta_ci: if ok.len() >= 2 {
+                            ci(ok.iter().map(|l| l.beta).collect())
+                        } else {
+                            None
+                        },
+                        resamples: ok.len(),
+                        band,
+                        boot_theta: boot.iter().map(|b| b.map(|l| l.theta)).collect(),
+                    });
+                }
+            }
+        }
+    }
+    let mut diffs = Vec::new();
+    let reference = &f.engines[0];
+    for a in fits.iter().filter(|x| &x.engine != reference) {
+        let Some(b) = fits.iter().find(|x| {
+            &x.engine == reference
+                && x.scene == a.scene
+                && x.limit_state == a.limit_state
+                && x.method == a.method
+        }) else {
+            continue;
+        };
+        let (Some(fa), Some(fb)) = (a.fit, b.fit) else {
+            continue;
+        };
+        let (mut d, mut r) = (Vec::new(), Vec::new());
+        for (x, y) in a.boot_theta.iter().zip(&b.boot_theta) {
+            if let (Some(x), Some(y)) = (x, y) {
+                d.push(x - y);
+                r.push(x / y);
+            }
+        }
+        let ci = |v: &[f64]| -> Option<(f64, f64)> {
+            if v.len() < 2 {
+                return None;
+            }
+            Some((fit::quantile(v, 0.025)?, fit::quantile(v, 0.975)?))
+        };
+        diffs.push(Difference {
+            scene: a.scene.clone(),
+            limit_state: a.limit_state.clone(),
+            method: a.method,
+            engine: a.engine.clone(),
+            reference: reference.clone(),
+            difference: fa.theta - fb.theta,
+            difference_ci: ci(&d),
+            ratio: fa.theta / fb.theta,
+            ratio_ci: ci(&r),
+            resamples: d.len(),
+        });
+    }
+    (fits, diffs, grid)
+}

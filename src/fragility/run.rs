@@ -1,0 +1,511 @@
+//! The unit of work of a study: one run, scene x record x scale x engine -> [`RunOutcome`].
+//!
+//! [`RunSpec`] is plain, serialisable data (the scene with the scaled record as its
+//! excitation, the engine's name, the early-stop switch); [`run_one`] turns it into an
+//! outcome, and [`RunSpec::key`] is its content hash (the run cache's key). [`simulate`] is the
+//! only place where a study meets an engine.
+//!
+//! **Early stop** (`early_stop = true`, native and Housner engines; the stop is recorded):
+//! a native run stops as soon as a block lies on its side (its rotation relative to its
+//! support within [`events::ON_SIDE_TOLERANCE`] of pi/2): it has overturned, and an overturn
+//! exceeds every limit state (collapse counts for all of them). It stops at rest when every
+//! block is upright and still for [`REST_WINDOW`] and the rest of the record stays below the
+//! [`static_threshold`] of the resting stack (nothing can start to move again). After the
+//! record a single block also stops beyond its critical angle turning outwards (overturned), or
+//! inside it with less than [`SAFE_ENERGY_FRACTION`] of its tipping energy (free rocking only
+//! loses energy: it cannot overturn, and its largest later rotation is bounded by the angle
+//! where that energy is all potential, which is added to the maximum rotation). The Housner
+//! engine (single blocks) integrates the record, then free rocking in chunks with the same
+//! stops ([`crate::spectrum::housner_early_stop`]). Other engines run their whole duration.
+
+use crate::engines::auto::not_housner;
+use crate::engines::native::REST_WINDOW;
+use crate::engines::{EngineError, engine_by_name};
+use crate::events;
+use crate::excitation::GroundMotion;
+use crate::scene::Scene;
+use crate::spectrum::{SAFE_ENERGY_FRACTION, housner_early_stop};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::f64::consts::FRAC_PI_2;
+
+/// Bumped when the meaning of a cached outcome changes.
+pub const CACHE_FORMAT: u32 = 1;
+
+/// One run, as data.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunSpec {
+    pub engine: String,
+    /// The scene of the run: its excitation is the record (absolute path) times `scale`.
+    pub scene: Scene,
+    pub record_id: String,
+    pub record_sha256: String,
+    pub scale: f64,
+    pub early_stop: bool,
+}
+
+/// Why a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Stop {
+    End,
+    /// A block on its side (or, after the record, a single block beyond its critical angle
+    /// turning outwards).
+    Overturned,
+    AtRest,
+    BelowTippingEnergy,
+}
+
+impl Stop {
+    pub fn name(self) -> &'static str {
+        match self {
+            Stop::End => "end",
+            Stop::Overturned => "overturned",
+            Stop::AtRest => "at-rest",
+            Stop::BelowTippingEnergy => "below-tipping-energy",
+        }
+    }
+}
+
+/// What a run gives: per block (scene order) the largest |rotation| relative to its support
+/// over its critical angle, whether it overturned, its residual sliding (m).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RunOutcome {
+    pub rotation: Vec<f64>,
+    pub overturned: Vec<bool>,
+    /// `None` for a block that overturned.
+    pub sliding: Vec<Option<f64>>,
+    pub stop: Stop,
+    /// Simulated time when the run ended, s.
+    pub t_end: f64,
+    pub wall_s: f64,
+    pub engine_version: String,
+    /// The engine that ran (`auto` names the one it chose).
+    pub ran: String,
+}
+
+impl RunOutcome {
+    pub fn any_overturned(&self) -> bool {
+        self.overturned.iter().any(|&o| o)
+    }
+}
+
+/// An engine name a study accepts (`auto`: Housner where valid, else native).
+pub fn check_engine(name: &str) -> Result<(), String> {
+    engine_by_name(name).map(|_| ()).map_err(|e| e.to_string())
+}
+
+impl RunSpec {
+    /// The content hash: scene (engine settings included), record bytes, scale, engine,
+    /// early stop, rockbench version and cache format.
+    pub fn key(&self) -> String {
+        let key = serde_json::json!({
+            "format": CACHE_FORMAT,
+            "engine": self.engine,
+            "scene": self.scene,
+            "record_sha256": self.record_sha256,
+            "scale": self.scale,
+            "early_stop": self.early_stop,
+            "rockbench": env!("CARGO_PKG_VERSION"),
+            "build": build_id(),
+        });
+        let text = serde_json::to_string(&key).expect("keys serialise");
+        Sha256::digest(text.as_bytes())
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    }
+}
+
+/// The running program's identity in cache keys: the version and the source's content (the
+/// package's `src/` as compiled, through `RB_SOURCE_HASH`), so a changed engine never reuses
+/// an old outcome.
+fn build_id() -> &'static str {
+    env!("RB_SOURCE_HASH")
+}
+
+/// Run one unit of work.
+pub fn run_one(spec: &RunSpec) -> Result<RunOutcome, EngineError> {
+    let start = std::time::Instant::now();
+    let sim = simulate(&spec.engine, &spec.scene, spec.early_stop)?;
+    let mut o = outcome(&spec.scene, &sim);
+    o.wall_s = start.elapsed().as_secs_f64();
+    Ok(o)
+}
+
+/// A simulated run.
+pub struct Simulated {
+    pub trajectory: Trajectory,
+    pub stop: Stop,
+    /// Upper bound of the later rotation of a single block stopped below its tipping energy.
+    pub rotation_bound: Option<f64>,
+    pub engine_version: String,
+    pub ran: String,
+}
+
+/// The one place where a study runs an engine.
+pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulated, EngineError> {
+    let engine = if engine == "auto" {
+        if not_housner(scene).is_none() {
+            "housner"
+        } else {
+            "native"
+        }
+    } else {
+        engine
+    };
+    if early_stop && engine == "native" {
+        return native_early(scene);
+    }
+    if early_stop && engine == "housner" && scene.blocks.len() == 1 {
+        let (tr, _, stop) = housner_early_stop(scene)?;
+        let stop = match stop {
+            crate::spectrum::Stop::End => Stop::End,
+            crate::spectrum::Stop::Overturned => Stop::Overturned,
+            crate::spectrum::Stop::AtRest => Stop::AtRest,
+            crate::spectrum::Stop::BelowTippingEnergy => Stop::BelowTippingEnergy,
+        };
+        let bound = (stop == Stop::BelowTippingEnergy).then(|| {
+            let b = tr.blocks[0].clone();
+            let k = b.phi.len() - 1;
+            let s = [b.x[k], b.z[k], b.phi[k], b.vx[k], b.vz[k], b.omega[k]];
+            reachable_angle(
+                &s,
+                &scene.blocks[0],
+                scene.gravity,
+                0.5 * scene.blocks[0].height,
+            )
+        });
+        return Ok(Simulated {
+            trajectory: tr,
+            stop,
+            rotation_bound: bound,
+            engine_version: format!("rockbench {} (housner)", env!("CARGO_PKG_VERSION")),
+            ran: "housner".into(),
+        });
+    }
+    let e = engine_by_name(engine)?;
+    let out = e.run(scene)?;
+    if !out.trajectory.is_finite() {
+        return Err(EngineError::Failed {
+            engine: e.name(),
+            message: "the trajectory contains NaN or infinity".into(),
+        });
+    }
+    Ok(Simulated {
+        trajectory: out.trajectory,
+        stop: Stop::End,
+        rotation_bound: None,
+        engine_version: out.engine_version,
+        ran: e.name().to_string(),
+    })
+}
+
+/// The static threshold of a column stack (each block on the one listed before it, the bottom
+/// one on the ground) with block centres at `xs` (m), upright: the ground acceleration, as a
+/// fraction of g, below which nothing can start to move. In the frame of the ground the blocks
+/// carry a horizontal load `-m a`; a column stack is in equilibrium iff at every interface the
+/// resultant of the loads above passes inside the contact region, `|a|/g <= d / h` (d the
+/// horizontal distance from the centre of mass of the blocks above the interface to the nearer
+/// edge of the contact region, h its height above the interface) and does not slide,
+/// `|a|/g <= mu`. `None` for other scenes (walls, vertical excitation).
+pub fn static_threshold(scene: &Scene, xs: &[f64]) -> Option<f64> {
+    let layout = scene.layout();
+    let n = scene.blocks.len();
+    let column = (0..n).all(|i| layout.supports[i] == i.checked_sub(1))
+        && scene.blocks.iter().all(|b| b.x.is_none());
+    let vertical = scene
+        .excitation
+        .as_ref()
+        .is_some_and(|e| e.vertical.is_some());
+    if !column || vertical {
+        return None;
+    }
+    let mut base_z = vec![0.0; n];
+    for i in 1..n {
+        base_z[i] = base_z[i - 1] + scene.blocks[i - 1].height;
+    }
+    let mut thr = f64::INFINITY;
+    for i in 0..n {
+        let b = &scene.blocks[i];
+        let (mut lo, mut hi) = (xs[i] - 0.5 * b.width, xs[i] + 0.5 * b.width);
+        if i > 0 {
+            let s = &scene.blocks[i - 1];
+            lo = lo.max(xs[i - 1] - 0.5 * s.width);
+            hi = hi.min(xs[i - 1] + 0.5 * s.width);
+        }
+        let (mut m, mut mx, mut mz) = (0.0, 0.0, 0.0);
+        for k in i..n {
+            let bk = &scene.blocks[k];
+            let mass = bk.mass();
+            m += mass;
+            mx += mass * xs[k];
+            mz += mass * (base_z[k] + 0.5 * bk.height - base_z[i]);
+        }
+        let (xc, zc) = (mx / m, mz / m);
+        let d = (xc - lo).min(hi - xc);
+        if d <= 0.0 {
+            return Some(0.0);
+        }
+        thr = thr.min(d / zc).min(scene.friction_below(i));
+    }
+    Some(thr)
+}
+
+/// The time after which the horizontal ground acceleration stays below `a` (m/s^2): the end
+/// of the last record segment that reaches it (0 if none does).
+pub fn quiet_after(gm: &GroundMotion, a: f64) -> f64 {
+    use crate::excitation::Component;
+    match &gm.horizontal {
+        None => 0.0,
+        Some(Component::AccelerationRecord { t, a: acc, .. }) => {
+            match acc.iter().rposition(|x| x.abs() >= a) {
+                None => 0.0,
+                Some(k) => t[(k + 1).min(t.len() - 1)],
+            }
+        }
+        Some(c) => c.breakpoints().last().copied().unwrap_or(0.0),
+    }
+}
+
+/// The largest |phi| a single block with state `s` can reach in free rocking: where its
+/// energy above rest is all potential, `g (R cos(alpha - phi) - H/2) = E`.
+fn reachable_angle(s: &[f64; 6], b: &crate::scene::BlockSpec, g: f64, z_rest: f64) -> f64 {
+    let i_over_m = (b.width * b.width + b.height * b.height) / 12.0;
+    let e = 0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5]) + g * (s[1] - z_rest);
+    let r = 0.5 * b.width.hypot(b.height);
+    let alpha = (b.width / b.height).atan();
+    let c = ((e / g + 0.5 * b.height) / r).clamp(-1.0, 1.0);
+    (alpha - c.acos()).max(s[2].abs())
+}
+
+fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
+    let failed = |m: String| EngineError::Failed {
+        engine: "native",
+        message: m,
+    };
+    let (mut stepper, mut state) = crate::native::stepper_for(scene)?;
+    let dt = stepper.settings.dt;
+    let rest_velocity = stepper.settings.rest_velocity;
+    let n_steps = ((scene.duration / dt - 1e-9).ceil() as u64).max(1);
+    let every = ((scene.output_interval / dt).round() as u64).max(1);
+    let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
+    let mut tr = Trajectory::new(&names);
+    tr.push(0.0, &stepper.relative_states(&state));
+    let gm = GroundMotion::from_scene(scene)?;
+    let record_end = gm.breakpoints().last().copied().unwrap_or(0.0);
+    let layout = scene.layout();
+    let upright_x: Vec<f64> = layout.upright.iter().map(|p| p.0).collect();
+    // Still blocks stay still once the rest of the record is below the static threshold.
+    let quiet = |xs: &[f64]| -> f64 {
+        match static_threshold(scene, xs) {
+            Some(thr) => quiet_after(&gm, thr * scene.gravity).min(record_end),
+            None => record_end,
+        }
+    };
+    let mut quiet_from = quiet(&upright_x);
+    let crit: Vec<f64> = scene.blocks.iter().map(|b| b.critical_angle()).collect();
+    let window = (REST_WINDOW / dt).ceil() as u64;
+    let single = scene.blocks.len() == 1;
+    let b0 = &scene.blocks[0];
+    let z_rest = layout.blocks[0].z;
+    let barrier = 0.5 * b0.width.hypot(b0.height) - 0.5 * b0.height;
+    let mut still = 0u64;
+    let mut prev = vec![0.0; scene.blocks.len()];
+    let version = format!(
+        "rockbench {} (clarabel {}, nalgebra {})",
+        env!("CARGO_PKG_VERSION"),
+        env!("RB_VERSION_CLARABEL"),
+        env!("RB_VERSION_NALGEBRA")
+    );
+    let done = |tr: Trajectory, stop: Stop, bound: Option<f64>| Simulated {
+        trajectory: tr,
+        stop,
+        rotation_bound: bound,
+        engine_version: version.clone(),
+        ran: "native".into(),
+    };
+    for k in 1..=n_steps {
+        stepper
+            .step(&mut state)
+            .map_err(|e| failed(e.to_string()))?;
+        state.t = k as f64 * dt;
+        let states = stepper.relative_states(&state);
+        if !states.iter().flatten().all(|x| x.is_finite()) {
+            return Err(failed("the trajectory contains NaN or infinity".into()));
+        }
+        let rel: Vec<(f64, f64)> = (0..states.len())
+            .map(|i| match layout.supports[i] {
+                Some(j) => (states[i][2] - states[j][2], states[i][5] - states[j][5]),
+                None => (states[i][2], states[i][5]),
+            })
+            .collect();
+        let mut stop = None;
+        if rel
+            .iter()
+            .any(|(phi, _)| phi.abs() >= FRAC_PI_2 - events::ON_SIDE_TOLERANCE)
+        {
+            stop = Some((Stop::Overturned, None));
+        } else {
+            let v = rest_velocity;
+            let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
+                st[3].abs() < v && st[4].abs() < v && (st[5] * b.width.max(b.height)).abs() < v
+            });
+            let upright = rel.iter().all(|r| r.0.abs() < 1e-6);
+            still = if is_still && upright { still + 1 } else { 0 };
+            if still == window && state.t <= record_end {
+                // Resting where it is now (it may have slid): the threshold of that layout.
+                let xs: Vec<f64> = states.iter().map(|s| s[0]).collect();
+                quiet_from = quiet(&xs);
+            }
+            if still >= window && state.t > quiet_from {
+                stop = Some((Stop::AtRest, None));
+            }
+        }
+        if stop.is_none() && state.t > record_end {
+            if single
+                && rel[0].0.abs() > crit[0]
+                && rel[0].0 * rel[0].1 > 0.0
+                && rel[0].0.abs() > prev[0]
+            {
+                stop = Some((Stop::Overturned, None));
+            }
+            if stop.is_none() && single && rel[0].0.abs() < crit[0] {
+                let s = &states[0];
+                let i_over_m = (b0.width * b0.width + b0.height * b0.height) / 12.0;
+                let e = 0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5])
+                    + scene.gravity * (s[1] - z_rest);
+                if e < SAFE_ENERGY_FRACTION * scene.gravity * barrier {
+                    let bound = reachable_angle(s, b0, scene.gravity, z_rest);
+                    stop = Some((Stop::BelowTippingEnergy, Some(bound)));
+                }
+            }
+        }
+        if k % every == 0 || k == n_steps || stop.is_some() {
+            tr.push(state.t.min(scene.duration), &states);
+        }
+        if let Some((s, bound)) = stop {
+            return Ok(done(tr, s, bound));
+        }
+        for (p, r) in prev.iter_mut().zip(&rel) {
+            *p = r.0.abs();
+        }
+    }
+    Ok(done(tr, Stop::End, None))
+}
+
+/// The outcome of a simulated run (see [`RunOutcome`]): rotations relative to each block's
+/// support from the trajectory; overturning by [`events::overturning`] (a stop at overturning
+/// counts for the block that caused it); residual sliding is |x(end) - x(0)| of the block's
+/// centroid relative to its support's (the ground's for the bottom block), for blocks that did
+/// not overturn.
+pub fn outcome(scene: &Scene, sim: &Simulated) -> RunOutcome {
+    let tr = &sim.trajectory;
+    let layout = scene.layout();
+    let n = tr.t.len();
+    let mut rotation = Vec::new();
+    let mut overturned = Vec::new();
+    let mut sliding = Vec::new();
+    for (i, b) in scene.blocks.iter().enumerate() {
+        let alpha = b.critical_angle();
+        let (rel, rate) = tr.rotation(i, layout.supports[i]);
+        let h = events::History::new(&tr.t, &rel, &rate);
+        let (mut over, _) = events::overturning(&h, alpha);
+        if sim.stop == Stop::Overturned
+            && let Some(&last) = rel.last()
+            && (last.abs() >= FRAC_PI_2 - events::ON_SIDE_TOLERANCE
+                || (scene.blocks.len() == 1 && last.abs() > alpha))
+        {
+            over = true;
+        }
+        let mut max = rel.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+        if i == 0
+            && let Some(bound) = sim.rotation_bound
+        {
+            max = max.max(bound);
+        }
+        rotation.push(max / alpha);
+        overturned.push(over);
+        let x = |k: usize| {
+            let own = tr.blocks[i].x[k];
+            match layout.supports[i] {
+                Some(j) => own - tr.blocks[j].x[k],
+                None => own,
+            }
+        };
+        sliding.push((!over && n > 0).then(|| (x(n - 1) - x(0)).abs()));
+    }
+    RunOutcome {
+        rotation,
+        overturned,
+        sliding,
+        stop: sim.stop,
+        t_end: tr.t.last().copied().unwrap_or(0.0),
+        wall_s: 0.0,
+        engine_version: sim.engine_version.clone(),
+        ran: sim.ran.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    fn statue(offset: f64, record: Option<(&str, f64)>) -> Scene {
+        let exc = record
+            .map(|(f, s)| {
+                format!(
+                    "\n[excitation.horizontal]\nkind = \"record\"\nfile = \"{f}\"\nscale = {s}\n"
+                )
+            })
+            .unwrap_or_default();
+        let text = format!(
+            "name = \"s\"\nduration = 3.0\n[[blocks]]\nname = \"pedestal\"\nwidth = 1.25\nheight = 1.25\n[[blocks]]\nname = \"statue\"\nwidth = 1.0\nheight = 2.5\noffset = {offset}\n[contact]\nfriction = 0.7\n[native]\ntheta = 0.7\ndt = 1e-3\n{exc}"
+        );
+        parse_scene_str(&text, false, "statue", &[]).unwrap()
+    }
+
+    /// The threshold of the paper's stack is the whole stack rocking on the ground: its
+    /// centre of mass is 0.625 m from the pedestal's edge at height
+    /// (m_p 0.625 + m_s 2.5) / (m_p + m_s); the statue alone needs B/H = 0.4, sliding 0.7.
+    #[test]
+    fn static_threshold_of_the_statue_stack() {
+        let s = statue(0.0, None);
+        let (mp, ms) = (1.25 * 1.25, 2.5);
+        let zc = (mp * 0.625 + ms * 2.5) / (mp + ms);
+        let thr = static_threshold(&s, &[0.0, 0.0]).unwrap();
+        assert!((thr - 0.625 / zc).abs() < 1e-12, "{thr}");
+        // The statue 0.3 m right of centre spans [-0.2, 0.8] on the pedestal's [-0.625,
+        // 0.625]: its contact region is [-0.2, 0.625], 0.325 m from its centre on the right.
+        let thr = static_threshold(&s, &[0.0, 0.3]).unwrap();
+        let x_c = ms * 0.3 / (mp + ms);
+        let expect = (0.325 / 1.25f64).min((0.625 - x_c) / zc).min(0.7);
+        assert!((thr - expect).abs() < 1e-12, "{thr} vs {expect}");
+    }
+
+    /// Exactness of the skip on the native engine: the stack under a record whose peak is 1 %
+    /// below the threshold does not move at all; 5 % above it, it rocks.
+    #[test]
+    fn below_the_static_threshold_the_native_stack_does_not_move() {
+        let dir = std::env::temp_dir().join(format!("rb-threshold-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("burst.csv");
+        let mut csv = String::from("t,a\n");
+        for k in 0..=200 {
+            let t = k as f64 * 0.01;
+            csv += &format!("{t},{}\n", (std::f64::consts::PI * t).sin());
+        }
+        std::fs::write(&f, csv).unwrap();
+        let thr = static_threshold(&statue(0.0, None), &[0.0, 0.0]).unwrap() * 9.81;
+        let max_rot = |scale: f64| {
+            let s = statue(0.0, Some((f.to_str().unwrap(), scale)));
+            let sim = simulate("native", &s, false).unwrap();
+            let o = outcome(&s, &sim);
+            o.rotation.iter().copied().fold(0.0, f64::max)
+        };
+        assert!(max_rot(0.99 * thr) < 1e-9, "{}", max_rot(0.99 * thr));
+        assert!(max_rot(1.05 * thr) > 1e-4, "{}", max_rot(1.05 * thr));
+    }
+}

@@ -1,0 +1,417 @@
+//! The study file (`rockbench fragility STUDY.toml`): scenes, a record suite, intensity
+//! levels, engines, limit states and methods. Read and checked completely (every scene, the
+//! suite and each of its records) before anything runs; a problem is one line
+//! `file: field: problem`. The format is in docs/fragility.md.
+
+use crate::excitation::suite::{Suite, load_suite};
+use crate::scene::{Scene, SceneError, load_scene, num};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Intensity measures. A rigid block has no period: no spectral measure is offered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Measure {
+    /// Peak ground acceleration, g.
+    Pga,
+    /// Peak ground velocity, m/s.
+    Pgv,
+    /// PGA / (g tan alpha), dimensionless.
+    PgaRatio,
+    /// PGV p / (g tan alpha), dimensionless.
+    PgvRatio,
+    /// The FEMA P695 scale factor: the record times its normalisation factor times the level.
+    P695,
+}
+
+impl Measure {
+    pub fn name(self) -> &'static str {
+        match self {
+            Measure::Pga => "pga",
+            Measure::Pgv => "pgv",
+            Measure::PgaRatio => "pga-ratio",
+            Measure::PgvRatio => "pgv-ratio",
+            Measure::P695 => "p695",
+        }
+    }
+    pub fn label(self) -> &'static str {
+        match self {
+            Measure::Pga => "PGA (g)",
+            Measure::Pgv => "PGV (m/s)",
+            Measure::PgaRatio => "PGA / (g tan alpha)",
+            Measure::PgvRatio => "PGV p / (g tan alpha)",
+            Measure::P695 => "P695 scale factor (normalised record x level)",
+        }
+    }
+}
+
+/// Limit-state kinds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LimitKind {
+    /// max |phi| / alpha of any block (rotation relative to its support) reaches `threshold`.
+    Rotation,
+    /// max |phi| / alpha of the named `block` relative to the block it stands on.
+    RelativeRotation,
+    /// Residual sliding of any block relative to its support reaches `threshold` metres.
+    Sliding,
+    /// A block overturns.
+    Overturn,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LimitState {
+    pub name: String,
+    pub kind: LimitKind,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub block: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntensitySpec {
+    pub measure: Measure,
+    /// The stripes' levels, in the measure's unit.
+    pub levels: Vec<f64>,
+    /// The block whose p and alpha make the dimensionless measures (default: the bottom one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub block: Option<String>,
+}
+
+fn d_true() -> bool {
+    true
+}
+fn d_factor() -> f64 {
+    2.0
+}
+fn d_tol() -> f64 {
+    0.05
+}
+fn d_fill() -> usize {
+    3
+}
+fn d_boot() -> usize {
+    1000
+}
+fn d_seed() -> u64 {
+    1
+}
+fn d_tail() -> f64 {
+    5.0
+}
+
+/// IDA by hunt and fill (per record and limit state).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdaSpec {
+    /// First level of the hunt (default: the lowest stripe level).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<f64>,
+    /// The hunt multiplies the level by this until the limit state is exceeded.
+    #[serde(default = "d_factor")]
+    pub factor: f64,
+    /// Bisection (geometric) until hi/lo - 1 is below this.
+    #[serde(default = "d_tol")]
+    pub tolerance: f64,
+    /// Highest level tried (default: the highest stripe level); a record that does not reach
+    /// the limit state there is censored at it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
+    /// Levels run (geometrically spaced) below the bracket to catch resurrection.
+    #[serde(default = "d_fill")]
+    pub fill: usize,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitSpec {
+    /// Bootstrap resamples (over record pairs) of the 95 % intervals.
+    #[serde(default = "d_boot")]
+    pub bootstrap: usize,
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+}
+
+impl Default for FitSpec {
+    fn default() -> Self {
+        FitSpec {
+            bootstrap: d_boot(),
+            seed: d_seed(),
+        }
+    }
+}
+
+/// The initial state of every run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Initial {
+    /// Every block upright and at rest (the scene's `[initial]` is dropped).
+    #[default]
+    AtRest,
+    /// The scene's own initial state.
+    Scene,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    pub name: String,
+    pub scenes: Vec<String>,
+    pub suite: String,
+    pub engines: Vec<String>,
+    pub intensity: IntensitySpec,
+    #[serde(default, rename = "limit_state")]
+    pub limit_states: Vec<LimitState>,
+    /// Multiple-stripe analysis (every record at every level).
+    #[serde(default = "d_true")]
+    pub stripes: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ida: Option<IdaSpec>,
+    #[serde(default)]
+    pub fit: FitSpec,
+    #[serde(default)]
+    pub initial: Initial,
+    /// Seconds run after the record ends (early stops end most runs sooner).
+    #[serde(default = "d_tail")]
+    pub tail: f64,
+    /// Stop a run early when every block has overturned or all are at rest after the record.
+    #[serde(default = "d_true")]
+    pub early_stop: bool,
+    /// The run cache folder, relative to the study file (default `.cache/rockbench/fragility`
+    /// in the working directory).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cache: Option<String>,
+}
+
+/// A study, read and checked.
+#[derive(Debug, Clone)]
+pub struct Study {
+    pub file: StudyFile,
+    pub path: PathBuf,
+    pub scenes: Vec<Scene>,
+    pub suite: Suite,
+    pub limit_states: Vec<LimitState>,
+    pub cache_dir: PathBuf,
+}
+
+/// The limit states when a study lists none: max |phi|/alpha of any block at 0.1 and 0.5, and
+/// overturning.
+pub fn default_limit_states() -> Vec<LimitState> {
+    let rot = |t: f64| LimitState {
+        name: format!("rotation-{t}"),
+        kind: LimitKind::Rotation,
+        threshold: Some(t),
+        block: None,
+    };
+    vec![
+        rot(0.1),
+        rot(0.5),
+        LimitState {
+            name: "overturn".into(),
+            kind: LimitKind::Overturn,
+            threshold: None,
+            block: None,
+        },
+    ]
+}
+
+/// Read and check a study and everything it names.
+pub fn load_study(path: &Path) -> Result<Study, SceneError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SceneError::new(&file, "study", format!("cannot read the study: {e}")))?;
+    let de = toml::Deserializer::new(&text);
+    let f: StudyFile = serde_path_to_error::deserialize(de).map_err(|e| {
+        let field = e.path().to_string();
+        let msg = e.into_inner().message().to_string();
+        SceneError::new(
+            &file,
+            if field == "." { "study".into() } else { field },
+            msg,
+        )
+    })?;
+    let err = |field: &str, msg: String| SceneError::new(&file, field, msg);
+    let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    if f.scenes.is_empty() {
+        return Err(err("scenes", "lists no scene".into()));
+    }
+    if f.engines.is_empty() {
+        return Err(err("engines", "lists no engine".into()));
+    }
+    for (k, e) in f.engines.iter().enumerate() {
+        if let Err(why) = super::run::check_engine(e) {
+            return Err(err(&format!("engines[{k}]"), why));
+        }
+        if f.engines[..k].contains(e) {
+            return Err(err(
+                &format!("engines[{k}]"),
+                format!("`{e}` is listed twice"),
+            ));
+        }
+    }
+    if f.intensity.levels.is_empty() {
+        return Err(err("intensity.levels", "lists no level".into()));
+    }
+    for (k, l) in f.intensity.levels.iter().enumerate() {
+        if !(l.is_finite() && *l > 0.0) {
+            return Err(err(
+                &format!("intensity.levels[{k}]"),
+                format!("an intensity level must be > 0 (got {})", num(*l)),
+            ));
+        }
+    }
+    if !(f.tail.is_finite() && f.tail >= 0.0) {
+        return Err(err("tail", format!("must be >= 0 s (got {})", num(f.tail))));
+    }
+    if !f.stripes && f.ida.is_none() {
+        return Err(err(
+            "stripes",
+            "false and no [ida]: the study would run nothing".into(),
+        ));
+    }
+    if let Some(ida) = &f.ida {
+        if !(ida.factor.is_finite() && ida.factor > 1.0) {
+            return Err(err(
+                "ida.factor",
+                format!("must be > 1 (got {})", num(ida.factor)),
+            ));
+        }
+        if !(ida.tolerance.is_finite() && ida.tolerance > 0.0) {
+            return Err(err(
+                "ida.tolerance",
+                format!("must be > 0 (got {})", num(ida.tolerance)),
+            ));
+        }
+        for (name, v) in [("ida.start", ida.start), ("ida.max", ida.max)] {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(err(name, format!("must be > 0 (got {})", num(v))));
+            }
+        }
+    }
+    if f.fit.bootstrap == 1 {
+        return Err(err(
+            "fit.bootstrap",
+            "one resample gives no interval: use 0 or >= 2".into(),
+        ));
+    }
+    let mut scenes = Vec::new();
+    for (k, s) in f.scenes.iter().enumerate() {
+        let p = base.join(s);
+        let sc = load_scene(&p).map_err(|e| {
+            err(
+                &format!("scenes[{k}]"),
+                format!("{}: {}: {}", e.file, e.field, e.message),
+            )
+        })?;
+        scenes.push(sc);
+    }
+    let suite = load_suite(&base.join(&f.suite))
+        .map_err(|e| err("suite", format!("{}: {}: {}", e.file, e.field, e.message)))?;
+    if f.intensity.measure == Measure::P695
+        && let Some(r) = suite.records.iter().find(|r| r.p695_factor.is_none())
+    {
+        return Err(err(
+            "intensity.measure",
+            format!(
+                "p695 needs every record's p695_factor; record `{}` of the suite has none",
+                r.id
+            ),
+        ));
+    }
+    if let Some(b) = &f.intensity.block
+        && let Some(s) = scenes.iter().find(|s| s.index_of(b).is_none())
+    {
+        return Err(err(
+            "intensity.block",
+            format!("scene `{}` has no block `{b}`", s.name),
+        ));
+    }
+    let limit_states = if f.limit_states.is_empty() {
+        default_limit_states()
+    } else {
+        f.limit_states.clone()
+    };
+    for (k, ls) in limit_states.iter().enumerate() {
+        let field = |x: &str| format!("limit_state[{k}].{x}");
+        if ls.name.trim().is_empty() {
+            return Err(err(&field("name"), "must not be empty".into()));
+        }
+        if limit_states[..k].iter().any(|o| o.name == ls.name) {
+            return Err(err(
+                &field("name"),
+                format!("`{}` is listed twice", ls.name),
+            ));
+        }
+        let needs_threshold = ls.kind != LimitKind::Overturn;
+        match (needs_threshold, ls.threshold) {
+            (true, None) => return Err(err(&field("threshold"), "missing".into())),
+            (true, Some(t)) if !(t.is_finite() && t > 0.0) => {
+                return Err(err(
+                    &field("threshold"),
+                    format!("must be > 0 (got {})", num(t)),
+                ));
+            }
+            (false, Some(_)) => {
+                return Err(err(
+                    &field("threshold"),
+                    "overturn takes no threshold".into(),
+                ));
+            }
+            _ => {}
+        }
+        match (ls.kind, &ls.block) {
+            (LimitKind::RelativeRotation, None) => {
+                return Err(err(
+                    &field("block"),
+                    "missing: which block (e.g. \"statue\")".into(),
+                ));
+            }
+            (LimitKind::RelativeRotation, Some(b)) => {
+                for s in &scenes {
+                    match s.index_of(b) {
+                        None => {
+                            return Err(err(
+                                &field("block"),
+                                format!("scene `{}` has no block `{b}`", s.name),
+                            ));
+                        }
+                        Some(i) if s.layout().supports[i].is_none() => {
+                            return Err(err(
+                                &field("block"),
+                                format!(
+                                    "block `{b}` of scene `{}` stands on the ground, not on a pedestal",
+                                    s.name
+                                ),
+                            ));
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            (_, Some(_)) => {
+                return Err(err(
+                    &field("block"),
+                    "only relative-rotation names a block".into(),
+                ));
+            }
+            _ => {}
+        }
+    }
+    let cache_dir = match &f.cache {
+        Some(c) => base.join(c),
+        None => PathBuf::from(".cache/rockbench/fragility"),
+    };
+    Ok(Study {
+        file: f,
+        path: path.to_path_buf(),
+        scenes,
+        suite,
+        limit_states,
+        cache_dir,
+    })
+}

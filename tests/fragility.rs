@@ -1,0 +1,434 @@
+//! `rockbench fragility`: study and suite checks (one line, nothing run), an end-to-end study
+//! on synthetic records (outputs, the cache making a second run free), and the early stops
+//! against full runs.
+
+mod common;
+use common::{bin, run_ok, tmp};
+use std::path::Path;
+
+/// A PEER .AT2 record: a sine burst of `cycles` cycles of period `period` s and peak `peak` g,
+/// sampled at 0.01 s, then 2 s of zeros.
+fn at2(peak: f64, period: f64, cycles: f64) -> String {
+    let dt = 0.01;
+    let n = ((cycles * period + 2.0) / dt) as usize;
+    let mut s = format!(
+        "synthetic\nsine burst\nACCELERATION TIME SERIES IN UNITS OF G\nNPTS= {n}, DT= {dt:.4} SEC\n"
+    );
+    for k in 0..n {
+        let t = k as f64 * dt;
+        let a = if t <= cycles * period {
+            peak * (2.0 * std::f64::consts::PI * t / period).sin()
+        } else {
+            0.0
+        };
+        s += &format!("{a:15.7E}");
+        if k % 5 == 4 {
+            s.push('\n');
+        }
+    }
+    s.push('\n');
+    s
+}
+
+/// A folder with a block scene, six records in three pairs, a manifest and a study.
+fn fixture(dir: &Path, engines: &str, extra: &str) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("block.toml"),
+        "name = \"block\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = 0.3\nheight = 1.5\n\n[contact]\nfriction = 2.0\n",
+    )
+    .unwrap();
+    let mut manifest = String::from("[suite]\nname = \"synthetic\"\n\n");
+    let periods = [0.4, 0.55, 0.7, 0.85, 1.0, 1.2];
+    for (k, p) in periods.iter().enumerate() {
+        let name = format!("r{k}.AT2");
+        std::fs::write(dir.join(&name), at2(0.5, *p, 2.0)).unwrap();
+        manifest += &format!(
+            "[[record]]\nid = \"r{k}\"\nfile = \"{name}\"\npair = \"p{}\"\nevent = \"burst\"\n\n",
+            k / 2
+        );
+    }
+    std::fs::write(dir.join("suite.toml"), manifest).unwrap();
+    let study = format!(
+        "name = \"t\"\nscenes = [\"block.toml\"]\nsuite = \"suite.toml\"\nengines = [{engines}]\ncache = \"cache\"\ntail = 3.0\n{extra}\n[intensity]\nmeasure = \"pga-ratio\"\nlevels = [1.2, 1.6, 2.2, 3.0, 4.0, 5.5]\n\n[fit]\nbootstrap = 200\n"
+    );
+    let p = dir.join("study.toml");
+    std::fs::write(&p, study).unwrap();
+    p
+}
+
+fn fails_with(study: &Path, out: &Path, needles: &[&str]) {
+    let o = bin()
+        .args(["fragility"])
+        .arg(study)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "succeeded: {err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "not one line: {err}");
+    for n in needles {
+        assert!(lines[0].contains(n), "`{n}` not in: {}", lines[0]);
+    }
+    assert!(!lines[0].contains("panicked"), "{err}");
+    assert!(!out.exists(), "wrote {}", out.display());
+    assert!(
+        !study.parent().unwrap().join("cache").exists(),
+        "ran something"
+    );
+}
+
+#[test]
+fn bad_studies_stop_before_running_with_one_line() {
+    let d = tmp("rb-fragility", "bad");
+    let study = fixture(&d, "\"native\"", "");
+    let out = d.join("out");
+    let text = std::fs::read_to_string(&study).unwrap();
+    let edit = |from: &str, to: &str| std::fs::write(&study, text.replace(from, to)).unwrap();
+
+    edit("levels = [1.2,", "levels = [0.0,");
+    fails_with(&study, &out, &["study.toml", "intensity.levels[0]", "> 0"]);
+    edit("levels = [1.2,", "levels = [-1,");
+    fails_with(&study, &out, &["intensity.levels[0]", "> 0"]);
+
+    std::fs::write(
+        &study,
+        text.clone() + "\n[[limit_state]]\nname = \"x\"\nkind = \"toppling\"\n",
+    )
+    .unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["limit_state[0].kind", "unknown variant `toppling`"],
+    );
+
+    std::fs::write(
+        &study,
+        text.replace("engines = [\"native\"]", "engines = [\"nope\"]"),
+    )
+    .unwrap();
+    fails_with(&study, &out, &["engines[0]", "unknown engine `nope`"]);
+
+    // A manifest naming a missing file.
+    std::fs::write(&study, &text).unwrap();
+    let manifest = std::fs::read_to_string(d.join("suite.toml")).unwrap();
+    std::fs::write(d.join("suite.toml"), manifest.replace("r3.AT2", "gone.AT2")).unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["suite", "suite.toml", "record[3].file", "gone.AT2"],
+    );
+
+    // A broken record: truncated data.
+    std::fs::write(d.join("suite.toml"), &manifest).unwrap();
+    let rec = std::fs::read_to_string(d.join("r2.AT2")).unwrap();
+    let cut: String = rec.lines().take(20).collect::<Vec<_>>().join("\n");
+    std::fs::write(d.join("r2.AT2"), cut).unwrap();
+    fails_with(&study, &out, &["record[2].file", "r2.AT2", "truncated"]);
+    std::fs::write(d.join("r2.AT2"), &rec).unwrap();
+
+    // Manifest metadata that disagrees with the file.
+    std::fs::write(
+        d.join("suite.toml"),
+        manifest.replace("id = \"r1\"\n", "id = \"r1\"\nnpts = 12\n"),
+    )
+    .unwrap();
+    fails_with(&study, &out, &["record[1].npts", "12"]);
+    std::fs::write(
+        d.join("suite.toml"),
+        manifest.replace("id = \"r1\"\n", "id = \"r1\"\npga = 0.9\n"),
+    )
+    .unwrap();
+    fails_with(&study, &out, &["record[1].pga", "0.9 g"]);
+    std::fs::write(
+        d.join("suite.toml"),
+        manifest.replace("id = \"r1\"", "id = \"r0\""),
+    )
+    .unwrap();
+    fails_with(&study, &out, &["record[1].id", "twice"]);
+    std::fs::write(d.join("suite.toml"), &manifest).unwrap();
+
+    // A relative-rotation limit state needs a block on a pedestal.
+    std::fs::write(
+        &study,
+        text.clone()
+            + "\n[[limit_state]]\nname = \"x\"\nkind = \"relative-rotation\"\nblock = \"block\"\nthreshold = 0.5\n",
+    )
+    .unwrap();
+    fails_with(&study, &out, &["limit_state[0].block", "ground"]);
+
+    // And the fixture itself is good.
+    std::fs::write(&study, &text).unwrap();
+    let o = run_ok(bin().args(["fragility", "--check"]).arg(&study));
+    assert!(o.contains("6 records") && o.contains("ok"), "{o}");
+}
+
+#[test]
+fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
+    let d = tmp("rb-fragility", "run");
+    let study = fixture(
+        &d,
+        "\"auto\", \"native\"",
+        "[ida]\nfactor = 1.5\ntolerance = 0.05\nfill = 2\n",
+    );
+    let out = d.join("out");
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
+    for f in [
+        "outcomes.csv",
+        "capacities.csv",
+        "fits.csv",
+        "differences.csv",
+        "fragility.json",
+        "report.html",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    let rows = j["rows"].as_array().unwrap();
+    let stripes = rows.iter().filter(|r| r["method"] == "stripes").count();
+    assert_eq!(stripes, 2 * 6 * 6, "engines x records x levels");
+    // Only IDA levels that are also stripe levels come from the cache on the first run.
+    let cached = j["counts"]["cached"].as_u64().unwrap() as usize;
+    let ida_at_stripes = rows
+        .iter()
+        .filter(|r| {
+            r["method"] == "ida"
+                && [1.2, 1.6, 2.2, 3.0, 4.0, 5.5].contains(&r["level"].as_f64().unwrap())
+        })
+        .count();
+    assert_eq!(cached, ida_at_stripes);
+    // The auto engine ran Housner for the single block.
+    assert!(
+        rows.iter()
+            .filter(|r| r["engine"] == "auto")
+            .all(|r| r["outcome"]["ran"] == "housner")
+    );
+    // Overturning fit exists for both engines, and a paired difference with an interval.
+    let fits = j["fits"].as_array().unwrap();
+    let over: Vec<&serde_json::Value> = fits
+        .iter()
+        .filter(|f| f["limit_state"] == "overturn" && f["method"] == "stripes")
+        .collect();
+    assert_eq!(over.len(), 2);
+    for f in &over {
+        assert!(f["fit"]["theta"].as_f64().unwrap() > 1.0, "{f}");
+        let ci = f["theta_ci"].as_array().unwrap();
+        assert!(ci[0].as_f64().unwrap() <= f["fit"]["theta"].as_f64().unwrap());
+    }
+    let diffs = j["differences"].as_array().unwrap();
+    assert!(
+        diffs
+            .iter()
+            .any(|x| x["engine"] == "native" && x["reference"] == "auto")
+    );
+    // IDA capacities: one per engine x record x limit state.
+    assert_eq!(j["capacities"].as_array().unwrap().len(), 2 * 6 * 3);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("native") && html.contains("auto"));
+
+    // Second run: every run from the cache, the same fits; with the paper outputs.
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet", "--paper"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
+    let paper = out.join("paper");
+    let tex = std::fs::read_to_string(paper.join("fits.tex")).unwrap();
+    assert!(
+        tex.contains("\\toprule") && tex.contains("overturn"),
+        "{tex}"
+    );
+    assert!(paper.join("differences.tex").is_file());
+    assert!(paper.join("fragility-block-stripes-overturn.pdf").is_file());
+    assert!(paper.join("README.md").is_file());
+    let j2: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    assert_eq!(j2["counts"]["cached"], j2["counts"]["runs"]);
+    assert_eq!(j2["fits"], j["fits"]);
+}
+
+/// The early stops change no outcome: the same study with `early_stop = false` gives the same
+/// exceedances (rotations to 1e-6 of alpha) on the native engine.
+#[test]
+fn early_stops_change_no_outcome() {
+    let d = tmp("rb-fragility", "early");
+    let study = fixture(&d, "\"native\"", "");
+    let text = std::fs::read_to_string(&study).unwrap();
+    let out1 = d.join("out1");
+    let out2 = d.join("out2");
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out1),
+    );
+    std::fs::write(
+        &study,
+        text.replace("tail = 3.0", "tail = 3.0\nearly_stop = false"),
+    )
+    .unwrap();
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out2),
+    );
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p.join("fragility.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&out1), read(&out2));
+    let (ra, rb) = (a["rows"].as_array().unwrap(), b["rows"].as_array().unwrap());
+    assert_eq!(ra.len(), rb.len());
+    let mut early = 0;
+    for (x, y) in ra.iter().zip(rb) {
+        assert_eq!(x["record"], y["record"]);
+        assert_eq!(x["level"], y["level"]);
+        assert_eq!(x["exceeded"], y["exceeded"], "{x} vs {y}");
+        if x["outcome"]["stop"] != "end" {
+            early += 1;
+        }
+        if x["outcome"]["overturned"] == serde_json::json!([false]) {
+            let (p, q) = (
+                x["outcome"]["rotation"][0].as_f64().unwrap(),
+                y["outcome"]["rotation"][0].as_f64().unwrap(),
+            );
+            assert!((p - q).abs() <= 1e-6 + 0.02 * q, "{p} vs {q}");
+        }
+    }
+    assert!(
+        early > ra.len() / 2,
+        "only {early} of {} stopped early",
+        ra.len()
+    );
+}
+
+/// The FEMA P695 sets written by `make records`: 44 far-field components in 22 pairs, 28 + 28
+/// near-field ones, each read and checked by the suite loader (`--check` of a study on each),
+/// the normalisation factor shared by both components of a record.
+#[test]
+fn the_p695_suites_load_and_check() {
+    let root = common::root();
+    let dir = root.join("validation/records/p695");
+    assert!(
+        dir.join("farfield.toml").is_file(),
+        "run `make records` first (writes validation/records/p695/)"
+    );
+    for (set, n) in [
+        ("farfield", 44),
+        ("nearfield-pulse", 28),
+        ("nearfield-no-pulse", 28),
+    ] {
+        let d = tmp("rb-fragility", set);
+        let study = d.join("study.toml");
+        std::fs::write(
+            &study,
+            format!(
+                "name = \"p\"\nscenes = [\"{}\"]\nsuite = \"{}\"\nengines = [\"native\"]\n\n[intensity]\nmeasure = \"p695\"\nlevels = [1.0]\n",
+                root.join("validation/scenes/two-block-free-rocking.toml").display(),
+                dir.join(format!("{set}.toml")).display()
+            ),
+        )
+        .unwrap();
+        let o = run_ok(bin().args(["fragility", "--check"]).arg(&study));
+        assert!(o.contains(&format!("({n} records)")), "{o}");
+        let text = std::fs::read_to_string(dir.join(format!("{set}.toml"))).unwrap();
+        let m: toml::Value = toml::from_str(&text).unwrap();
+        let recs = m["record"].as_array().unwrap();
+        assert_eq!(recs.len(), n);
+        let mut factor = std::collections::BTreeMap::new();
+        for r in recs {
+            let f = r["p695_factor"].as_float().unwrap();
+            let old = factor.insert(r["pair"].as_str().unwrap().to_string(), f);
+            assert!(old.is_none_or(|o| o == f), "{r}");
+            assert!(r["pga"].as_float().unwrap() > 0.0 && r["npts"].as_integer().unwrap() > 100);
+        }
+        assert_eq!(factor.len(), n / 2);
+    }
+}
+
+/// Ctrl-C in the middle of a study: every cache entry left is whole (parses), no output folder
+/// is written, and the rerun resumes from the entries.
+#[test]
+fn an_interrupted_study_leaves_whole_entries_and_resumes() {
+    let d = tmp("rb-fragility", "interrupt");
+    let study = fixture(&d, "\"native\"", "");
+    let text = std::fs::read_to_string(&study).unwrap();
+    // Full-length runs, so that the study is still running when interrupted.
+    std::fs::write(
+        &study,
+        text.replace("tail = 3.0", "tail = 20.0\nearly_stop = false"),
+    )
+    .unwrap();
+    let out = d.join("out");
+    let mut child = bin()
+        .args(["fragility", "--quiet", "--jobs", "1"])
+        .arg(&study)
+        .arg("--out")
+        .arg(&out)
+        .spawn()
+        .unwrap();
+    let cache = d.join("cache");
+    let entries = |dir: &Path| -> Vec<std::path::PathBuf> {
+        let mut v = Vec::new();
+        for sub in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            for f in std::fs::read_dir(sub.path())
+                .into_iter()
+                .flatten()
+                .flatten()
+            {
+                v.push(f.path());
+            }
+        }
+        v
+    };
+    let t0 = std::time::Instant::now();
+    while entries(&cache)
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .count()
+        < 3
+    {
+        assert!(t0.elapsed().as_secs() < 120, "no cache entries after 120 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the study finished before the interrupt");
+    assert!(!out.exists(), "an output folder was written");
+    let json: Vec<_> = entries(&cache)
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    for p in &json {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).expect("a whole entry");
+        assert!(v["rotation"].is_array());
+    }
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fragility.json")).unwrap())
+            .unwrap();
+    assert!(j["counts"]["cached"].as_u64().unwrap() >= json.len() as u64);
+}
