@@ -53,7 +53,7 @@
 use super::assembly::{Bodies, contact_rows, poses};
 use super::coulomb::Coulomb;
 use super::material::MaterialContact;
-use super::problem::{SparseRow, StepProblem, StepSolution};
+use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 
 /// Penetration beyond which the impact-consistent stepper projects positions back, m.
@@ -635,6 +635,20 @@ impl Stepper {
         if rows.is_empty() {
             return Ok(0);
         }
+        let iterations = self.closest_admissible_velocity(s, rows)?;
+        self.iterations += iterations as u64;
+        Ok(iterations)
+    }
+
+    /// The velocities become the closest ones (kinetic-energy norm) that satisfy the
+    /// velocity-level law `(n ± mu t)·v >= 0` on the given rows: the step problem with
+    /// theta = dt = 1, no force and `v0 = v`. Positions do not change. Returns the solver
+    /// iterations.
+    fn closest_admissible_velocity(
+        &mut self,
+        s: &mut NativeState,
+        rows: Vec<ContactRows>,
+    ) -> Result<u32, SolveFailure> {
         let pr = StepProblem {
             theta: 1.0,
             dt: 1.0,
@@ -645,7 +659,6 @@ impl Stepper {
         };
         let sol = self.solve_law(&pr)?;
         s.v.copy_from_slice(&sol.dq);
-        self.iterations += sol.iterations as u64;
         Ok(sol.iterations)
     }
 
@@ -808,18 +821,8 @@ impl Stepper {
         if worst * h <= VELOCITY_TOLERANCE {
             return Ok(0);
         }
-        let pr = StepProblem {
-            theta: 1.0,
-            dt: 1.0,
-            mass: self.bodies.mass.clone(),
-            force: vec![0.0; s.v.len()],
-            v0: s.v.clone(),
-            contacts: rows,
-        };
-        let settled = self.solve_law(&pr)?;
-        s.v.copy_from_slice(&settled.dq);
         self.settled_velocities += 1;
-        Ok(settled.iterations)
+        self.closest_admissible_velocity(s, rows)
     }
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
