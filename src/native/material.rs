@@ -66,6 +66,9 @@ fn dot(a: (f64, f64), b: (f64, f64)) -> f64 {
     a.0 * b.0 + a.1 * b.1
 }
 
+/// A gradient over at most two bodies' DOFs: (DOF, coefficient), B's three then A's.
+pub type Gradient = [(usize, f64); 6];
+
 /// A contact point as a pair of material points (see the module docs).
 #[derive(Debug, Clone, Copy)]
 pub struct MaterialContact {
@@ -111,7 +114,7 @@ impl MaterialContact {
 
     /// Gradients of `g_n` and `g_t` at `q`, as (DOF, coefficient) pairs: B's three DOFs, then
     /// A's (the layout of `assembly::contact_rows`).
-    pub fn gradients(&self, q: &[f64]) -> ([(usize, f64); 6], [(usize, f64); 6], usize) {
+    pub fn gradients(&self, q: &[f64]) -> (Gradient, Gradient, usize) {
         let n = self.normal(q);
         let t = (n.1, -n.0);
         let mut gn = [(0, 0.0); 6];
@@ -190,7 +193,7 @@ mod tests {
             a: Some(0),
             b: 1,
             point: (0.05, 0.93),
-            normal: (0.2f64.sin() * -1.0, 0.2f64.cos()),
+            normal: (-(0.2f64.sin()), 0.2f64.cos()),
             gap: 1e-4,
             feature: 3,
         };
