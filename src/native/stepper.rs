@@ -5,36 +5,15 @@
 //! `q = q0 + dq`.
 //!
 //! Two contact laws in time (`native.stepper`):
-//! - `position` (the paper's scheme): every contact point gets `g0 + (nrow ± mu trow) dq >= 0`.
-//!   The step that closes a contact returns a rebound `e ~ (1 - theta)/theta`.
-//! - `impact` (impact-consistent, Moreau-Jean style). With `w` the kinematic weight,
-//!   `dq = dt ((1 - w) v0 + w v)` (`native.kinematics`: `midpoint`, the default, `w = 1/2`;
-//!   `theta`, `w = theta`), a point that is closed or closes within the first `1 - w` of the
-//!   step, `g0 + (1 - w) dt v_n0 <= 0`, gets the velocity-level law on the end-of-step
-//!   relative velocity, `(n ± mu t)·v >= 0` (a plastic impact, no rebound); since
-//!   `w dt v = dq - (1 - w) dt v0` this only changes the row's offset. The other points keep
-//!   the position-level law; a point closing later than `(1 - w) dt` ends the step with
-//!   `v_n = (1 - w - s) |v_n0| / w <= 0` (s the closing fraction of the step): no rebound.
-//!   The velocity-level law lets an impact penetrate by up to `(1 - w) dt |v_n|`; positions
-//!   are then projected back onto the admissible set with velocities untouched (see
-//!   `project_out_penetration`).
-//!
-//!   Kinematics: `M (v - v0) = dt f + H'c` in both. With a constant acceleration `a` within a
-//!   step (free flight, and very nearly a block rocking on a corner through a small angle) the
-//!   midpoint update is exact, `dq = dt v0 + dt^2 a/2`, whereas the theta update adds
-//!   `(theta - 1/2) dt^2 a` per step: after a rise of duration `t_p` to a peak it has lost
-//!   `(theta - 1/2) dt a t_p` of height, a relative amplitude error `2 (theta - 1/2) dt / t_p`
-//!   (7.4 % at theta 1, dt 1e-3 for the square block's second excursion, t_p = 13.5 ms).
-//!   The free forces here (gravity, the exact mean ground acceleration of the step) are constant
-//!   over a step, so with midpoint kinematics theta no longer enters the impact stepper's
-//!   motion (only the position-level stepper and the theta kinematics use it).
-//!
-//!   Impact location (`native.locate_impacts`, default on): an impact applied at the end of
-//!   the step rather than at its instant `t*` makes the post-impact velocity wrong by about
-//!   `(1 + r) a (t1 - t*)` (r the velocity ratio of the impact), a first-order error that
-//!   depends on where in the step the impact falls, hence not monotone in dt. See
-//!   `step_locating`: the instant is the root of the quadratic gap of the discrete free motion,
-//!   exact in free flight, and the impact is a velocity jump there.
+//! - `paper` (the paper's scheme, the default): every contact point gets
+//!   `g0 + (nrow ± mu trow) dq >= 0`. The step that closes a contact returns a rebound
+//!   `e ~ (1 - theta)/theta`.
+//! - `impact` (impact-consistent, second order): midpoint kinematics, `dq = h (v0 + v)/2`;
+//!   the rows are discrete gradients of each point's gap functions between the ends of the step
+//!   (`native::material`, re-evaluated until the loaded points do not drift), so a closed
+//!   contact keeps its gap exactly and its force does no work; the end velocity is made
+//!   admissible on the loaded points (`settle_velocity`); new impacts are located within the
+//!   step and plastic (`step_locating`). See docs/method.md for the equations and figures.
 //!
 //! Ground motion is discretised once per step and shared by both routes, so that inertial
 //! forces and a moving ground give the same relative motion to round-off:
@@ -43,7 +22,7 @@
 //! - given as a displacement: `Δd = D(t1) - D(t0)` (exact), `w1 = (Δd/dt - (1-theta) w0)/theta`,
 //!   `a_eff = (w1 - w0)/dt`.
 //!
-//! With midpoint kinematics (impact stepper) both use the first form with `1/2` for theta, so
+//! The impact stepper uses the first form with `1/2` for theta for both, so
 //! the ground follows the blocks' update (a displacement-defined motion through its exact
 //! velocity `V = D'`).
 //!
@@ -69,8 +48,7 @@ pub const DRIFT_TOLERANCE: f64 = 1e-15;
 /// Impact stepper: an end velocity approaching a loaded point by less than this in a step
 /// (m) is kept as it is (see `settle_velocity`).
 pub const VELOCITY_TOLERANCE: f64 = 1e-15;
-/// Impact stepper: most impacts located within one step (the paper's stepper with located
-/// impacts: one).
+/// Impact stepper: most impacts located within one step.
 pub const LOCATED_PER_STEP: usize = 8;
 /// Impact stepper: most solves of one step for its discrete-gradient rows.
 pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
@@ -466,17 +444,15 @@ impl Stepper {
         })
     }
 
-    /// One step with the impact instant located.
+    /// One step with the impact instants located.
     ///
-    /// The ordinary step is taken first. If a point that was open at the start and carried no
-    /// force in the previous step carries one now (a new impact), the step is retried without
-    /// those points (a free trial), which gives each one's normal relative velocity at both ends,
-    /// `vn0`, `vn1`, hence its normal acceleration `an = (vn1 - vn0)/dt`. Within one step the
-    /// discrete motion is `dq(tau) = tau v0 + w tau^2 a` (w the kinematic weight: theta, or 1/2
-    /// with midpoint kinematics), so its gap is `g(tau) = g0 + vn0 tau + w an tau^2`: the
-    /// impact instant is the smallest root in (0, dt]. From the start of the step: a sub-step
-    /// to that instant (without the impacting points), a plastic impact on every closed point
-    /// (`impact`), and the rest of the step. Only one impact is located per step.
+    /// The ordinary (sub-)step is taken first. If a point that was open at its start and carried
+    /// no force before carries one now (a new impact), the sub-step is retried without those
+    /// points (a free trial); each one's gap within it is `g0 + vn0 tau + c2 tau^2` through its
+    /// exact gap at the trial's end (`closing_instant`), and the impact instant is the smallest
+    /// root. From the start: a sub-step to that instant (without the impacting points), a
+    /// plastic impact on every closed point and the located ones (`impact`), and the rest of the
+    /// step, located again: up to `LOCATED_PER_STEP` impacts a step.
     fn step_locating(
         &mut self,
         s: &mut NativeState,
@@ -486,8 +462,7 @@ impl Stepper {
         let t_end = s.t + dt;
         let mut iterations = 0;
         let mut located_here: Vec<u64> = Vec::new();
-        let impact = self.settings.stepper == StepperKind::Impact;
-        let rounds = if impact { LOCATED_PER_STEP } else { 1 };
+        let rounds = LOCATED_PER_STEP;
         for round in 0..=rounds {
             let h = t_end - s.t;
             let s0 = s.clone();
@@ -576,28 +551,20 @@ impl Stepper {
         fresh: &[usize],
         h: f64,
     ) -> Option<f64> {
-        let w = self.kinematic_weight();
         let ps = poses(&s0.q);
-        let impact = self.settings.stepper == StepperKind::Impact;
         let mut tau: Option<f64> = None;
         for &k in fresh {
             let c = &contacts[k];
             let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
             let vn0 = self.normal_speed(c, &r.nrow, &s0.v, s0.ground_w);
-            // The gap within the step, `g0 + vn0 tau + c2 tau^2`: for the impact stepper through
-            // the point's exact gap at the end of the free trial (local error O(h^3) whatever
-            // the motion), else from the normal speeds at both ends.
-            let c2 = if impact {
-                let mut g1 = MaterialContact::new(c, &ps).gaps(&s1.q).0;
-                if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
-                    let dd = (s1.ground_d.0 - s0.ground_d.0, s1.ground_d.1 - s0.ground_d.1);
-                    g1 -= c.normal.0 * dd.0 + c.normal.1 * dd.1;
-                }
-                (g1 - c.gap - vn0 * h) / (h * h)
-            } else {
-                let vn1 = self.normal_speed(c, &r.nrow, &s1.v, s1.ground_w);
-                w * (vn1 - vn0) / h
-            };
+            // The gap within the step, `g0 + vn0 tau + c2 tau^2`, through the point's exact gap
+            // at the end of the free trial (local error O(h^3) whatever the motion).
+            let mut g1 = MaterialContact::new(c, &ps).gaps(&s1.q).0;
+            if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
+                let dd = (s1.ground_d.0 - s0.ground_d.0, s1.ground_d.1 - s0.ground_d.1);
+                g1 -= c.normal.0 * dd.0 + c.normal.1 * dd.1;
+            }
+            let c2 = (g1 - c.gap - vn0 * h) / (h * h);
             if let Some(t) = first_root(c.gap, vn0, c2, h) {
                 tau = Some(tau.map_or(t, |x: f64| x.min(t)));
             }
