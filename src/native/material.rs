@@ -25,12 +25,11 @@
 use super::problem::{ContactRows, SparseRow};
 use crate::geometry::{ContactPoint, Pose};
 
-/// One body's share of a contact point: its index, pose at the start of the step and the
-/// point's offset from the centroid then.
+/// One body's share of a contact point: its index, and the point's offset from the centroid
+/// at the start of the step.
 #[derive(Debug, Clone, Copy)]
 struct Carrier {
     body: usize,
-    phi0: f64,
     rho: (f64, f64),
 }
 
@@ -38,17 +37,29 @@ impl Carrier {
     fn new(body: usize, pose: &Pose, p: (f64, f64)) -> Self {
         Carrier {
             body,
-            phi0: pose.phi,
             rho: (p.0 - pose.x, p.1 - pose.z),
         }
     }
-    /// The offset turned to configuration `q`: `R(phi - phi0) rho`.
-    fn arm(&self, q: &[f64]) -> (f64, f64) {
-        rotate(self.rho, q[3 * self.body + 2] - self.phi0)
+    fn turn(&self, dq: &[f64]) -> f64 {
+        dq[3 * self.body + 2]
     }
-    fn point(&self, q: &[f64]) -> (f64, f64) {
-        let r = self.arm(q);
-        (q[3 * self.body] + r.0, q[3 * self.body + 1] + r.1)
+    /// The offset turned by the step's increment `dq`: `R(dphi) rho`.
+    fn arm(&self, dq: &[f64]) -> (f64, f64) {
+        rotate(self.rho, self.turn(dq))
+    }
+    /// The point's displacement over the increment `dq`: `dc + (R(dphi) - I) rho`, formed from
+    /// the increments alone so that it keeps their relative precision however far the body is
+    /// from the origin (`cos a - 1 = -2 sin^2(a/2)`).
+    fn displacement(&self, dq: &[f64]) -> (f64, f64) {
+        let a = self.turn(dq);
+        let s = a.sin();
+        let h = (0.5 * a).sin();
+        let cm1 = -2.0 * h * h;
+        let i = 3 * self.body;
+        (
+            dq[i] + cm1 * self.rho.0 - s * self.rho.1,
+            dq[i + 1] + s * self.rho.0 + cm1 * self.rho.1,
+        )
     }
 }
 
@@ -69,13 +80,15 @@ fn dot(a: (f64, f64), b: (f64, f64)) -> f64 {
 /// A gradient over at most two bodies' DOFs: (DOF, coefficient), B's three then A's.
 pub type Gradient = [(usize, f64); 6];
 
-/// A contact point as a pair of material points (see the module docs).
+/// A contact point as a pair of material points (see the module docs). Configurations are
+/// given as increments `dq` from the start of the step, `q = q0 + dq`: both material points
+/// start at the detected location, so the separation is a difference of displacements and the
+/// gap functions keep the increments' relative precision (the discrete gradients divide by
+/// `dq' M dq`).
 #[derive(Debug, Clone, Copy)]
 pub struct MaterialContact {
     a: Option<Carrier>,
     b: Carrier,
-    /// Where A's point starts (the ground's point when A is the ground).
-    p: (f64, f64),
     n0: (f64, f64),
     g0: f64,
 }
@@ -85,42 +98,48 @@ impl MaterialContact {
         MaterialContact {
             a: c.a.map(|a| Carrier::new(a, &poses[a], c.point)),
             b: Carrier::new(c.b, &poses[c.b], c.point),
-            p: c.point,
             n0: c.normal,
             g0: c.gap,
         }
     }
 
-    fn normal(&self, q: &[f64]) -> (f64, f64) {
+    fn normal(&self, dq: &[f64]) -> (f64, f64) {
         match &self.a {
-            Some(a) => rotate(self.n0, q[3 * a.body + 2] - a.phi0),
+            Some(a) => rotate(self.n0, a.turn(dq)),
             None => self.n0,
         }
     }
 
-    fn separation(&self, q: &[f64]) -> (f64, f64) {
-        let pb = self.b.point(q);
-        let pa = self.a.as_ref().map_or(self.p, |a| a.point(q));
-        (pb.0 - pa.0, pb.1 - pa.1)
+    /// `d = p_B - p_A` at `q0 + dq` (zero at `q0`).
+    fn separation(&self, dq: &[f64]) -> (f64, f64) {
+        let db = self.b.displacement(dq);
+        let da = self.a.as_ref().map_or((0.0, 0.0), |a| a.displacement(dq));
+        (db.0 - da.0, db.1 - da.1)
     }
 
-    /// `(g_n(q), g_t(q))`.
-    pub fn gaps(&self, q: &[f64]) -> (f64, f64) {
-        let n = self.normal(q);
+    /// `(g_n, g_t)` at `q0 + dq`.
+    pub fn gaps(&self, dq: &[f64]) -> (f64, f64) {
+        let (dn, dt) = self.increments(dq);
+        (self.g0 + dn, dt)
+    }
+
+    /// `(g_n - g0, g_t)` at `q0 + dq`: the change of the gaps over the increment.
+    pub fn increments(&self, dq: &[f64]) -> (f64, f64) {
+        let n = self.normal(dq);
         let t = (n.1, -n.0);
-        let d = self.separation(q);
-        (self.g0 + dot(n, d), dot(t, d))
+        let d = self.separation(dq);
+        (dot(n, d), dot(t, d))
     }
 
-    /// Gradients of `g_n` and `g_t` at `q`, as (DOF, coefficient) pairs: B's three DOFs, then
-    /// A's (the layout of `assembly::contact_rows`).
-    pub fn gradients(&self, q: &[f64]) -> (Gradient, Gradient, usize) {
-        let n = self.normal(q);
+    /// Gradients of `g_n` and `g_t` at `q0 + dq`, as (DOF, coefficient) pairs: B's three DOFs,
+    /// then A's (the layout of `assembly::contact_rows`).
+    pub fn gradients(&self, dq: &[f64]) -> (Gradient, Gradient, usize) {
+        let n = self.normal(dq);
         let t = (n.1, -n.0);
         let mut gn = [(0, 0.0); 6];
         let mut gt = [(0, 0.0); 6];
         let ib = 3 * self.b.body;
-        let rb = perp(self.b.arm(q));
+        let rb = perp(self.b.arm(dq));
         gn[0] = (ib, n.0);
         gn[1] = (ib + 1, n.1);
         gn[2] = (ib + 2, dot(n, rb));
@@ -131,8 +150,8 @@ impl MaterialContact {
             return (gn, gt, 3);
         };
         let ia = 3 * a.body;
-        let ra = perp(a.arm(q));
-        let d = self.separation(q);
+        let ra = perp(a.arm(dq));
+        let d = self.separation(dq);
         gn[3] = (ia, -n.0);
         gn[4] = (ia + 1, -n.1);
         gn[5] = (ia + 2, -dot(n, ra) + dot(perp(n), d));
@@ -142,40 +161,33 @@ impl MaterialContact {
         (gn, gt, 6)
     }
 
-    /// The discrete gradients of `g_n` and `g_t` between `q0` and `q1` (module docs), `mass` the
-    /// diagonal of M. With no motion of the point's bodies, the gradient at `q0`.
-    pub fn discrete_gradients(
-        &self,
-        q0: &[f64],
-        q1: &[f64],
-        mass: &[f64],
-    ) -> (SparseRow, SparseRow) {
-        let qm: Vec<f64> = q0.iter().zip(q1).map(|(a, b)| 0.5 * (a + b)).collect();
-        let (mut gn, mut gt, len) = self.gradients(&qm);
-        let dq = |i: usize| q1[i] - q0[i];
+    /// The discrete gradients of `g_n` and `g_t` over the increment `dq` (module docs), `mass`
+    /// the diagonal of M. With no motion of the point's bodies, the gradient at `q0`.
+    pub fn discrete_gradients(&self, dq: &[f64], mass: &[f64]) -> (SparseRow, SparseRow) {
+        let half: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
+        let (mut gn, mut gt, len) = self.gradients(&half);
         let norm: f64 = gn[..len]
             .iter()
-            .map(|&(i, _)| mass[i] * dq(i) * dq(i))
+            .map(|&(i, _)| mass[i] * dq[i] * dq[i])
             .sum();
         if norm > 0.0 {
-            let (n0, t0) = self.gaps(q0);
-            let (n1, t1) = self.gaps(q1);
-            let along = |g: &[(usize, f64)]| g.iter().map(|&(i, c)| c * dq(i)).sum::<f64>();
-            let cn = (n1 - n0 - along(&gn[..len])) / norm;
-            let ct = (t1 - t0 - along(&gt[..len])) / norm;
+            let (dn, dt) = self.increments(dq);
+            let along = |g: &[(usize, f64)]| g.iter().map(|&(i, c)| c * dq[i]).sum::<f64>();
+            let cn = (dn - along(&gn[..len])) / norm;
+            let ct = (dt - along(&gt[..len])) / norm;
             for k in 0..len {
                 let i = gn[k].0;
-                gn[k].1 += cn * mass[i] * dq(i);
-                gt[k].1 += ct * mass[i] * dq(i);
+                gn[k].1 += cn * mass[i] * dq[i];
+                gt[k].1 += ct * mass[i] * dq[i];
             }
         }
         (gn[..len].to_vec(), gt[..len].to_vec())
     }
 
     /// Replace the rows of `r` (built by `assembly::contact_rows` for this point) by the
-    /// discrete gradients between `q0` and `q1`; offsets unchanged.
-    pub fn set_rows(&self, r: &mut ContactRows, q0: &[f64], q1: &[f64], mass: &[f64]) {
-        let (n, t) = self.discrete_gradients(q0, q1, mass);
+    /// discrete gradients over the increment `dq`; offsets unchanged.
+    pub fn set_rows(&self, r: &mut ContactRows, dq: &[f64], mass: &[f64]) {
+        let (n, t) = self.discrete_gradients(dq, mass);
         r.nrow = n;
         r.trow = t;
     }
@@ -187,12 +199,12 @@ mod tests {
     use crate::geometry::ContactPoint;
     use crate::native::assembly::{contact_rows, poses};
 
-    fn sample() -> (MaterialContact, Vec<f64>, ContactPoint) {
-        let q0 = vec![0.1, 0.5, 0.2, -0.3, 1.4, -0.15];
+    fn sample(offset: f64) -> (MaterialContact, Vec<f64>, ContactPoint) {
+        let q0 = vec![0.1 + offset, 0.5, 0.2, -0.3 + offset, 1.4, -0.15];
         let c = ContactPoint {
             a: Some(0),
             b: 1,
-            point: (0.05, 0.93),
+            point: (0.05 + offset, 0.93),
             normal: (-(0.2f64.sin()), 0.2f64.cos()),
             gap: 1e-4,
             feature: 3,
@@ -200,28 +212,31 @@ mod tests {
         (MaterialContact::new(&c, &poses(&q0)), q0, c)
     }
 
+    fn along(g: &SparseRow, dq: &[f64]) -> f64 {
+        g.iter().map(|&(i, c)| c * dq[i]).sum()
+    }
+
     #[test]
     fn gradients_at_the_start_are_the_assembly_rows() {
-        let (m, q0, c) = sample();
+        let (m, q0, c) = sample(0.0);
         let r = contact_rows(&c, &poses(&q0), 0.0, (0.0, 0.0));
-        let (gn, gt, len) = m.gradients(&q0);
+        let (gn, gt, len) = m.gradients(&[0.0; 6]);
         assert_eq!(len, 6);
         for (a, b) in gn.iter().zip(&r.nrow).chain(gt.iter().zip(&r.trow)) {
             assert_eq!(a.0, b.0);
             assert!((a.1 - b.1).abs() < 1e-15, "{a:?} {b:?}");
         }
-        let (gn, gt) = m.gaps(&q0);
-        assert!((gn - 1e-4).abs() < 1e-17 && gt.abs() < 1e-16, "{gn} {gt}");
+        assert_eq!(m.gaps(&[0.0; 6]), (1e-4, 0.0));
     }
 
     #[test]
     fn gradients_match_finite_differences() {
-        let (m, q0, _) = sample();
-        let q: Vec<f64> = q0.iter().map(|x| x + 0.07).collect();
-        let (gn, gt, _) = m.gradients(&q);
+        let (m, _, _) = sample(0.0);
+        let dq = [0.07; 6];
+        let (gn, gt, _) = m.gradients(&dq);
         for k in 0..6 {
             let h = 1e-6;
-            let (mut qp, mut qm) = (q.clone(), q.clone());
+            let (mut qp, mut qm) = (dq, dq);
             qp[gn[k].0] += h;
             qm[gn[k].0] -= h;
             let (np, tp) = m.gaps(&qp);
@@ -233,22 +248,31 @@ mod tests {
 
     #[test]
     fn the_discrete_gradient_is_exact_over_the_step() {
-        let (m, q0, _) = sample();
-        let q1: Vec<f64> = q0
-            .iter()
-            .enumerate()
-            .map(|(i, x)| x + 0.03 * (i as f64 - 2.5))
-            .collect();
+        let (m, _, _) = sample(0.0);
+        let dq: Vec<f64> = (0..6).map(|i| 0.03 * (i as f64 - 2.5)).collect();
         let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
-        let (gn, gt) = m.discrete_gradients(&q0, &q1, &mass);
-        let along = |g: &SparseRow| g.iter().map(|&(i, c)| c * (q1[i] - q0[i])).sum::<f64>();
-        let (n0, t0) = m.gaps(&q0);
-        let (n1, t1) = m.gaps(&q1);
-        assert!(
-            (n0 + along(&gn) - n1).abs() < 1e-15,
-            "{}",
-            n0 + along(&gn) - n1
-        );
-        assert!((t0 + along(&gt) - t1).abs() < 1e-15);
+        let (gn, gt) = m.discrete_gradients(&dq, &mass);
+        let (n1, t1) = m.gaps(&dq);
+        assert!((1e-4 + along(&gn, &dq) - n1).abs() < 1e-15);
+        assert!((along(&gt, &dq) - t1).abs() < 1e-15);
+    }
+
+    /// Tiny increments of bodies far from the origin: the discrete gradient stays within
+    /// round-off of the midpoint gradient (its correction is O(|dq|^2)), where gaps formed
+    /// from absolute positions would divide their round-off by `dq' M dq`.
+    #[test]
+    fn the_discrete_gradient_of_a_tiny_increment_is_the_midpoint_gradient() {
+        let (m, _, _) = sample(1000.0);
+        let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
+        for scale in [1e-6, 1e-9, 1e-12] {
+            let dq: Vec<f64> = (0..6).map(|i| scale * (i as f64 - 2.5)).collect();
+            let half: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
+            let (mn, mt, len) = m.gradients(&half);
+            let (gn, gt) = m.discrete_gradients(&dq, &mass);
+            for k in 0..len {
+                assert!((gn[k].1 - mn[k].1).abs() < 1e-9, "{scale} n {k}");
+                assert!((gt[k].1 - mt[k].1).abs() < 1e-9, "{scale} t {k}");
+            }
+        }
     }
 }

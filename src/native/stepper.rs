@@ -552,6 +552,7 @@ impl Stepper {
         h: f64,
     ) -> Option<f64> {
         let ps = poses(&s0.q);
+        let dq: Vec<f64> = s1.q.iter().zip(&s0.q).map(|(a, b)| a - b).collect();
         let mut tau: Option<f64> = None;
         for &k in fresh {
             let c = &contacts[k];
@@ -559,7 +560,7 @@ impl Stepper {
             let vn0 = self.normal_speed(c, &r.nrow, &s0.v, s0.ground_w);
             // The gap within the step, `g0 + vn0 tau + c2 tau^2`, through the point's exact gap
             // at the end of the free trial (local error O(h^3) whatever the motion).
-            let mut g1 = MaterialContact::new(c, &ps).gaps(&s1.q).0;
+            let mut g1 = MaterialContact::new(c, &ps).gaps(&dq).0;
             if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
                 let dd = (s1.ground_d.0 - s0.ground_d.0, s1.ground_d.1 - s0.ground_d.1);
                 g1 -= c.normal.0 * dd.0 + c.normal.1 * dd.1;
@@ -710,31 +711,27 @@ impl Stepper {
             .iter()
             .map(|c| MaterialContact::new(c, &ps))
             .collect();
-        let start: Vec<(f64, f64)> = points.iter().map(|m| m.gaps(&s.q)).collect();
-        let mut q1: Vec<f64> = (0..s.q.len())
-            .map(|i| s.q[i] + h * s.v[i] + 0.5 * h * h * self.accel[i])
+        let mut dq: Vec<f64> = (0..s.q.len())
+            .map(|i| h * s.v[i] + 0.5 * h * h * self.accel[i])
             .collect();
         let mut iterations = 0;
         for solve in 1..=DISCRETE_GRADIENT_SOLVES {
             for (r, m) in pr.contacts.iter_mut().zip(&points) {
-                m.set_rows(r, &s.q, &q1, &self.bodies.mass);
+                m.set_rows(r, &dq, &self.bodies.mass);
             }
             let mut sol = self.solve_law(pr)?;
             iterations += sol.iterations;
-            for (q, (q0, d)) in q1.iter_mut().zip(s.q.iter().zip(&sol.dq)) {
-                *q = q0 + d;
-            }
+            dq.copy_from_slice(&sol.dq);
             let carries = loaded(&sol);
             let drift = points
                 .iter()
                 .zip(&pr.contacts)
-                .zip(&start)
                 .zip(&carries)
                 .filter(|(_, l)| **l)
-                .map(|(((m, r), g0), _)| {
-                    let (gn, gt) = m.gaps(&q1);
-                    let dn = gn - g0.0 - row_dot(&r.nrow, &sol.dq);
-                    let dt = gt - g0.1 - row_dot(&r.trow, &sol.dq);
+                .map(|((m, r), _)| {
+                    let (dn, dt) = m.increments(&dq);
+                    let dn = dn - row_dot(&r.nrow, &dq);
+                    let dt = dt - row_dot(&r.trow, &dq);
                     dn.abs().max(dt.abs())
                 })
                 .fold(0.0f64, f64::max);
@@ -777,7 +774,7 @@ impl Stepper {
             let mu = self.bodies.friction(c);
             let mut r = contact_rows(c, &ps, mu, w);
             r.g_n -= c.gap;
-            let (gn, gt, len) = m.gradients(&s.q);
+            let (gn, gt, len) = m.gradients(&sol.dq);
             r.nrow = gn[..len].to_vec();
             r.trow = gt[..len].to_vec();
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
