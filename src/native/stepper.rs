@@ -30,7 +30,7 @@
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
 use super::assembly::{Bodies, contact_rows, poses};
-use super::coulomb::Coulomb;
+use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
 use super::material::MaterialContact;
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
@@ -57,6 +57,29 @@ use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
 use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
 use crate::scene::AppliedAs;
+
+/// Add `r`'s tangential row and offset to `sum`'s (rows of the same body pair share their DOF
+/// layout).
+fn add_tangential(sum: &mut ContactRows, r: &ContactRows) {
+    sum.g_t += r.g_t;
+    for (a, b) in sum.trow.iter_mut().zip(&r.trow) {
+        debug_assert_eq!(a.0, b.0);
+        a.1 += b.1;
+    }
+}
+
+/// `w (g + row·v) = 0` as a pair of opposite frictionless rows (keys `key | 1 << 60` and
+/// `key | 2 << 60`).
+fn equal_to_zero(key: u64, g: f64, row: &SparseRow, w: f64) -> [ContactRows; 2] {
+    [(w, 1u64), (-w, 2u64)].map(|(sign, tag)| ContactRows {
+        key: key | tag << 60,
+        mu: 0.0,
+        g_n: sign * g,
+        g_t: 0.0,
+        nrow: row.iter().map(|&(i, c)| (i, sign * c)).collect(),
+        trow: row.iter().map(|&(i, _)| (i, 0.0)).collect(),
+    })
+}
 
 fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
     row.iter().map(|&(i, c)| c * x[i]).sum()
@@ -667,7 +690,7 @@ impl Stepper {
         s.t += h;
         if impact {
             sol.iterations += self
-                .settle_velocity(s, contacts, &points, &sol, h)
+                .settle_velocity(s, contacts, &points, &pr, &sol, h)
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
                     t: s.t,
@@ -756,6 +779,7 @@ impl Stepper {
         s: &mut NativeState,
         contacts: &[ContactPoint],
         points: &[MaterialContact],
+        pr: &StepProblem,
         sol: &StepSolution,
         h: f64,
     ) -> Result<u32, SolveFailure> {
@@ -764,10 +788,13 @@ impl Stepper {
             AppliedAs::InertialForces => (0.0, 0.0),
         };
         let carries = loaded(sol);
+        let coulomb = self.settings.friction_law == FrictionLaw::Coulomb;
         let ps = poses(&s.q);
         let mut rows = Vec::new();
+        // Coulomb: per body pair, the sum of its stopping points' tangential rows and offsets.
+        let mut stuck: Vec<((Option<usize>, usize), ContactRows, usize)> = Vec::new();
         let mut worst = 0.0f64;
-        for ((c, m), l) in contacts.iter().zip(points).zip(&carries) {
+        for (k, ((c, m), l)) in contacts.iter().zip(points).zip(&carries).enumerate() {
             if !*l {
                 continue;
             }
@@ -779,13 +806,68 @@ impl Stepper {
             r.trow = gt[..len].to_vec();
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
             let vt = r.g_t + row_dot(&r.trow, &s.v);
-            worst = worst.max(mu * vt.abs() - vn);
-            rows.push(r);
+            if !coulomb {
+                worst = worst.max(mu * vt.abs() - vn);
+                rows.push(r);
+                continue;
+            }
+            // Coulomb. A point that did not slip in the step (judged by its slip, not its
+            // force: a face's friction is shared between its points in any proportion) is
+            // settled as under the associative law, so that the two laws agree where nothing
+            // slides. A point that slid keeps its normal row only (no lift); if its end velocity
+            // reverses its slip, the slip stopped within the step (friction never reverses one):
+            // it stops, no relative velocity either way (held below, by body pair).
+            let step_row = &pr.contacts[k];
+            let slip = step_row.g_t + row_dot(&step_row.trow, &sol.dq);
+            if slip.abs() <= COULOMB_TOLERANCE {
+                worst = worst.max(mu * vt.abs() - vn);
+                rows.push(r);
+            } else if vt * slip < 0.0 {
+                worst = worst.max(vn.abs()).max(vt.abs());
+                let pair = (c.a, c.b);
+                match stuck.iter_mut().find(|(p, _, _)| *p == pair) {
+                    Some((_, t, count)) => {
+                        add_tangential(t, &r);
+                        *count += 1;
+                    }
+                    None => stuck.push((pair, r.clone(), 1)),
+                }
+                rows.extend(equal_to_zero(r.key, r.g_n, &r.nrow, 1.0));
+            } else {
+                worst = worst.max(-vn);
+                r.mu = 0.0;
+                rows.push(r);
+            }
+        }
+        // No relative tangential velocity of a body pair's stopping points, on average (the
+        // points' own rows are dependent on a face).
+        for (_, t, count) in stuck {
+            rows.extend(equal_to_zero(
+                t.key | 1 << 62,
+                t.g_t,
+                &t.trow,
+                1.0 / count as f64,
+            ));
         }
         if worst * h <= VELOCITY_TOLERANCE {
             return Ok(0);
         }
         self.settled_velocities += 1;
+        if coulomb {
+            // The associative back-end: each row carries its own friction.
+            let pr = StepProblem {
+                theta: 1.0,
+                dt: 1.0,
+                mass: self.bodies.mass.clone(),
+                force: vec![0.0; s.v.len()],
+                v0: s.v.clone(),
+                contacts: rows,
+            };
+            let sol = self.solver.solve(&pr)?;
+            s.v.copy_from_slice(&sol.dq);
+            self.iterations += sol.iterations as u64;
+            return Ok(sol.iterations);
+        }
         self.closest_admissible_velocity(s, rows)
     }
 
