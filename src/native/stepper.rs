@@ -171,6 +171,9 @@ pub struct Stepper {
     motion: GroundMotion,
     applied_as: AppliedAs,
     solver: Box<dyn ContactSolver>,
+    /// The back-end of the velocity problems (impacts, settled end velocities) and position
+    /// projections: its own instance, so that each kind of problem keeps its own warm start.
+    velocity_solver: Box<dyn ContactSolver>,
     /// Contacts of the last step (for inspection and tests).
     pub last_contacts: Vec<ContactPoint>,
     pub iterations: u64,
@@ -218,6 +221,7 @@ impl Stepper {
         solver: Box<dyn ContactSolver>,
     ) -> Self {
         let n_blocks = bodies.len();
+        let velocity_solver = super::solver::solver_for(&settings);
         Stepper {
             settings,
             bodies,
@@ -225,6 +229,7 @@ impl Stepper {
             motion,
             applied_as,
             solver,
+            velocity_solver,
             last_contacts: Vec::new(),
             iterations: 0,
             polished_steps: 0,
@@ -245,12 +250,12 @@ impl Stepper {
 
     /// Steps the back-end handed to Clarabel.
     pub fn solver_fallbacks(&self) -> u64 {
-        self.solver.fallbacks()
+        self.solver.fallbacks() + self.velocity_solver.fallbacks()
     }
 
     /// Newton-matrix factorisations of the back-end (sparse).
     pub fn solver_factorisations(&self) -> u64 {
-        self.solver.factorisations()
+        self.solver.factorisations() + self.velocity_solver.factorisations()
     }
 
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
@@ -648,7 +653,10 @@ impl Stepper {
             v0: s.v.clone(),
             contacts: rows,
         };
-        let sol = self.solve_law(&pr)?;
+        let sol = match self.settings.friction_law {
+            FrictionLaw::Associative => self.velocity_solver.solve(&pr),
+            FrictionLaw::Coulomb => self.coulomb.solve(self.velocity_solver.as_mut(), &pr),
+        }?;
         s.v.copy_from_slice(&sol.dq);
         Ok(sol.iterations)
     }
@@ -863,7 +871,7 @@ impl Stepper {
                 v0: s.v.clone(),
                 contacts: rows,
             };
-            let sol = self.solver.solve(&pr)?;
+            let sol = self.velocity_solver.solve(&pr)?;
             s.v.copy_from_slice(&sol.dq);
             self.iterations += sol.iterations as u64;
             return Ok(sol.iterations);
@@ -893,7 +901,7 @@ impl Stepper {
                 .map(|c| contact_rows(c, &ps, self.bodies.friction(c), (0.0, 0.0)))
                 .collect(),
         };
-        let sol = self.solver.solve(&pr)?;
+        let sol = self.velocity_solver.solve(&pr)?;
         for (q, d) in s.q.iter_mut().zip(&sol.dq) {
             *q += d;
         }
