@@ -161,10 +161,24 @@ impl ContactSolver for ActiveSetSolver {
         let scale = pr.scale_into(&mut p, &mut q);
         self.pinv.clear();
         self.pinv.extend(p.iter().map(|p| 1.0 / p));
-        let result = self.solve_scaled(pr, &q, scale);
+        let mut result = self.solve_scaled(pr, &q, scale, Rule::MostViolated);
+        if result.is_err() {
+            // Cycling among nearly dependent rows: Bland's rule from a cold start.
+            result = self.solve_scaled(pr, &q, scale, Rule::Bland);
+        }
         (self.p, self.q) = (p, q);
         result
     }
+}
+
+/// Which row enters or leaves the working set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Rule {
+    /// The most violated row enters; else the most negative multiplier leaves.
+    MostViolated,
+    /// The first violated row (in row order) enters; else the first negative multiplier
+    /// leaves: Bland's rule, which cannot cycle; slower, so only after the other fails.
+    Bland,
 }
 
 impl ActiveSetSolver {
@@ -173,6 +187,7 @@ impl ActiveSetSolver {
         pr: &StepProblem,
         q: &[f64],
         scale: f64,
+        rule: Rule,
     ) -> Result<StepSolution, SolveFailure> {
         edge_rows(pr, &mut self.rows, &mut self.r);
         let nrows = self.rows.len();
@@ -187,7 +202,10 @@ impl ActiveSetSolver {
                 self.work.push(i);
             }
         }
-        let max_moves = 3 * nrows + 10;
+        let max_moves = match rule {
+            Rule::MostViolated => 3 * nrows + 10,
+            Rule::Bland => 20 * nrows + 50,
+        };
         let mut moves = 0;
         loop {
             if !self.solve_working_set(q) {
@@ -201,7 +219,7 @@ impl ActiveSetSolver {
                 let v = self.rows[i].dot(&self.u) + self.r[i];
                 if v < -1e-11 * (1.0 + self.r[i].abs())
                     && !self.work.contains(&i)
-                    && worst.is_none_or(|w| v < w.1)
+                    && worst.is_none_or(|w| rule == Rule::MostViolated && v < w.1)
                 {
                     worst = Some((i, v));
                 }
@@ -210,12 +228,16 @@ impl ActiveSetSolver {
                 Some((true, i))
             } else {
                 // Most negative multiplier.
-                self.lambda
+                let negative = self
+                    .lambda
                     .iter()
                     .enumerate()
-                    .filter(|&(_, &l)| l < -1e-10 * lmax)
-                    .min_by(|a, b| a.1.total_cmp(b.1))
-                    .map(|(a, _)| (false, a))
+                    .filter(|&(_, &l)| l < -1e-10 * lmax);
+                match rule {
+                    Rule::MostViolated => negative.min_by(|a, b| a.1.total_cmp(b.1)),
+                    Rule::Bland => negative.min_by_key(|&(a, _)| self.work[a]),
+                }
+                .map(|(a, _)| (false, a))
             };
             match action {
                 None => break,
