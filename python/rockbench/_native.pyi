@@ -18,6 +18,14 @@ __all__ = [
     "fragility_study",
     "fragility_run_specs",
     "fragility_run",
+    "fragility_cache_dir",
+    "fragility_ida_jobs",
+    "fragility_ida_batch",
+    "fragility_run_batch",
+    "fragility_cache_has",
+    "fragility_is_python_worker",
+    "fragility_worker_scene",
+    "fragility_worker_outcome",
 ]
 
 @final
@@ -72,7 +80,24 @@ def compare_rows(
     overrides: Sequence[str] = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, str]]: ...
 def fragility_study(
-    study: str | os.PathLike[str], out: str | os.PathLike[str] | None = None, quiet: bool = True
+    study: str | os.PathLike[str],
+    out: str | os.PathLike[str] | None = None,
+    quiet: bool = True,
+    cache: str | os.PathLike[str] | None = None,
 ) -> dict[str, Any]: ...
 def fragility_run_specs(study: str | os.PathLike[str]) -> list[tuple[str, str]]: ...
 def fragility_run(spec: str) -> str: ...
+def fragility_cache_dir(study: str | os.PathLike[str]) -> str: ...
+def fragility_ida_jobs(study: str | os.PathLike[str]) -> list[tuple[int, str, str]]: ...
+def fragility_ida_batch(
+    study: str | os.PathLike[str], jobs: Sequence[tuple[int, str, str]], cache: str | os.PathLike[str]
+) -> tuple[int, int]: ...
+def fragility_run_batch(
+    specs: Sequence[str], cache: str | os.PathLike[str]
+) -> list[tuple[str, bool, str]]: ...
+def fragility_cache_has(cache: str | os.PathLike[str], keys: Sequence[str]) -> list[bool]: ...
+def fragility_is_python_worker(engine: str) -> bool: ...
+def fragility_worker_scene(spec: str) -> str: ...
+def fragility_worker_outcome(
+    spec: str, out_dir: str | os.PathLike[str], wall_s: float, cache: str | os.PathLike[str]
+) -> str: ...
