@@ -12,6 +12,7 @@ from rockbench._native import (
     Scene,
     __version__,
     engine_names,
+    fragility_is_python_worker,
     fragility_run,
     fragility_run_specs,
     fragility_study,
@@ -20,7 +21,7 @@ from rockbench._native import (
 )
 from rockbench.compare import compare
 from rockbench.results import Comparison, FragilityResult
-from rockbench.study import fragility, run_many
+from rockbench.studies import fragility, run_many
 
 __all__ = [
     "Comparison",
@@ -31,6 +32,7 @@ __all__ = [
     "compare",
     "engine_names",
     "fragility",
+    "fragility_is_python_worker",
     "fragility_run",
     "fragility_run_specs",
     "fragility_study",

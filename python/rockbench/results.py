@@ -54,7 +54,8 @@ class Comparison(pd.DataFrame):  # type: ignore[misc]  # pandas is untyped here
     @property
     def _constructor(self) -> type[pd.DataFrame]:
         # Selections and arithmetic give plain DataFrames.
-        return pd.DataFrame
+        frame: type[pd.DataFrame] = pd.DataFrame
+        return frame
 
     @property
     def status(self) -> dict[str, str]:
@@ -180,7 +181,8 @@ class FragilityResult:
                 f"; on Dask: {d['tasks']} tasks, {d['made']} runs made by the workers"
             )
         fits = self.fits[["scene", "engine", "limit_state", "method", "theta", "theta_lo", "theta_hi", "beta"]]
-        return head + "</div>" + fits.to_html(index=False, float_format=lambda x: f"{x:.4g}", na_rep="-")
+        table: str = fits.to_html(index=False, float_format=lambda x: f"{x:.4g}", na_rep="-")
+        return head + "</div>" + table
 
     def __repr__(self) -> str:
         c = self.counts
