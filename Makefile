@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic \
-	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum \
+	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier
 
 all: build
@@ -56,6 +56,19 @@ test-rust: chromium ffmpeg records paper-tools siconos
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
+
+# The Python package as users install it: `maturin build --release` makes the wheel, a fresh
+# virtual environment in a temporary folder installs it with pip (extra [dask]; versions
+# constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
+# outside the source tree (import, run, compare, a fragility study here and on Dask,
+# DataFrames, xarray). About 2 min on 2 cores, most of it the release build.
+wheel-test: $(VENV)/.requirements.stamp
+	rm -rf target/wheels
+	$(VENV)/bin/maturin build --release --out target/wheels
+	tmp=$$(mktemp -d) && trap 'rm -rf "$$tmp"' EXIT && \
+	$(PYTHON311) -m venv "$$tmp/venv" && \
+	"$$tmp/venv/bin/pip" install -q --disable-pip-version-check "$$(ls target/wheels/rockbench-*.whl)[dask]" -c python/requirements.txt && \
+	cd "$$tmp" && "$$tmp/venv/bin/python" $(CURDIR)/tests/wheel/smoke.py
 
 # `--paper` outputs: SVG to vector PDF (librsvg2-bin), and for the test that compiles the tables
 # and renders the figures a real LaTeX with booktabs and poppler's pdftoppm (about 75 s to

@@ -193,12 +193,15 @@ def distribute(
     probe: int = 2,
     task_seconds: float = TASK_SECONDS,
     per_task: int | None = None,
+    window: int = 4,
     label: str = "runs",
     progress: Callable[[str], None] | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Run `fn(batch, *args)` over `items` on a Dask client. Unless `per_task` is given, one
     probe task of `probe` items per worker thread measures an item's cost, then the rest is cut
-    into tasks of :func:`task_size`. Returns the tasks' results in item order and statistics."""
+    into tasks of :func:`task_size`. At most `window` tasks per worker thread are submitted at
+    a time (the scheduler holds a bounded amount of work; a new task goes out as one ends).
+    Returns the tasks' results in item order and statistics."""
     from distributed import as_completed
 
     start = time.perf_counter()
@@ -206,19 +209,30 @@ def distribute(
     items = list(items)
     batches: list[list[Any]] = []
     results: dict[int, dict[str, Any]] = {}
+    index: dict[Any, int] = {}
     done_items = 0
 
     def submit(batch: list[Any]) -> Any:
         batches.append(batch)
-        return client.submit(fn, batch, *args, pure=False, key=f"rockbench-{label}-{os.getpid()}-{time.time_ns()}-{len(batches)}")
+        key = f"rockbench-{label}-{os.getpid()}-{time.time_ns()}-{len(batches)}"
+        f = client.submit(fn, batch, *args, pure=False, key=key)
+        index[f.key] = len(batches) - 1
+        return f
 
-    def collect(futures: Iterable[Any], index: dict[Any, int]) -> None:
+    def run_all(todo: list[list[Any]]) -> None:
         nonlocal done_items
-        for fut in as_completed(list(futures)):  # type: ignore[no-untyped-call]
+        pending = iter(todo)
+        first = [submit(b) for _, b in zip(range(window * slots), pending)]
+        queue = as_completed(first)  # type: ignore[no-untyped-call]
+        for fut in queue:
             r = fut.result()
             i = index[fut.key]
             results[i] = r
             done_items += len(batches[i])
+            fut.release()
+            nxt = next(pending, None)
+            if nxt is not None:
+                queue.add(submit(nxt))  # type: ignore[no-untyped-call]
             if progress:
                 progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
 
@@ -226,24 +240,11 @@ def distribute(
     size = per_task
     if size is None and items:
         n = min(len(items), probe * slots)
-        index = {}
-        probes = []
-        for b in _chunks(items[:n], max(1, probe)):
-            f = submit(b)
-            index[f.key] = len(batches) - 1
-            probes.append(f)
-        collect(probes, index)
-        work = sum(results[i]["work_s"] for i in index.values())
-        per_item = work / n
+        run_all(_chunks(items[:n], max(1, probe)))
+        work = sum(r["work_s"] for r in results.values())
         pos = n
-        size = task_size(per_item, len(items) - n, slots, task_seconds)
-    index = {}
-    futures = []
-    for b in _chunks(items[pos:], size or 1):
-        f = submit(b)
-        index[f.key] = len(batches) - 1
-        futures.append(f)
-    collect(futures, index)
+        size = task_size(work / n, len(items) - n, slots, task_seconds)
+    run_all(_chunks(items[pos:], size or 1))
     wall = time.perf_counter() - start
     ordered = [results[i] for i in range(len(batches))]
     work = sum(r["work_s"] for r in ordered)
