@@ -40,8 +40,9 @@ fragility-rapier: build records
 	$(BIN) fragility validation/studies/statue-farfield-rapier.toml --out out/fragility/statue-farfield-rapier
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
-# tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
-test: test-no-default-features test-rust test-python
+# tests, pytest (warnings are errors, see pyproject.toml) including the stub check, and the wheel
+# installed in a fresh virtual environment (wheel-test, about 2.5 min).
+test: test-no-default-features test-rust test-python wheel-test
 
 # The validation tests load the earthquake case, whose record `make records` downloads.
 test-no-default-features: chromium ffmpeg records siconos
@@ -61,7 +62,8 @@ test-python: .venv build
 # virtual environment in a temporary folder installs it with pip (extra [dask]; versions
 # constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
 # outside the source tree (import, run, compare, a fragility study here and on Dask,
-# DataFrames, xarray). About 2 min on 2 cores, most of it the release build.
+# DataFrames, xarray). 153 s on 2 shared cores (load 5): 99 s the release build, the rest pip
+# and the smoke script.
 wheel-test: $(VENV)/.requirements.stamp
 	rm -rf target/wheels
 	$(VENV)/bin/maturin build --release --out target/wheels
