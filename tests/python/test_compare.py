@@ -27,3 +27,15 @@ def test_compare_lists_a_skipped_engine_with_its_reason() -> None:
     assert df.attrs["status"]["housner"].startswith("skipped: ")
     assert "single block" in df.attrs["status"]["housner"]
     assert set(df.engine) <= {"native"}
+
+
+def test_a_comparison_shows_its_status_and_metrics_in_a_notebook() -> None:
+    df = rockbench.compare(scene_path("housner-slender"), engines=["native", "housner"], reference="housner")
+    assert isinstance(df, rockbench.Comparison)
+    page = df._repr_html_()
+    assert "native: ok" in page and "housner: ok" in page
+    assert "<table" in page and "impact_time_1" in page
+    # Selections are plain DataFrames.
+    assert type(df[df.engine == "native"]) is pd.DataFrame
+    skipped = rockbench.compare(scene_path("two-block-free-rocking"), engines=["housner"], reference="native")
+    assert "housner: skipped: " in skipped._repr_html_()
