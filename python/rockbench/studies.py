@@ -19,7 +19,7 @@
 MuJoCo and PyBullet runs execute in the Dask worker's own Python: the worker code of
 ``python -m rockbench.worker`` (``rockbench.worker.run``) is called in-process, and its outputs
 are read by the same Rust code that reads the worker process's outputs. (Inside IDA hunts,
-which the Rust core drives, they still run as worker processes.)
+which the Rust core drives, they run as worker processes of the Dask worker's interpreter.)
 
 The cluster's workers need ``rockbench`` installed, and the study's record files and run cache
 at the same paths as the client (a shared filesystem); see docs/cluster.md.
@@ -122,19 +122,26 @@ def _python_worker_run(key: str, spec: str, cache: str) -> tuple[str, bool, str]
 
 
 def ida_task(jobs: list[tuple[int, str, str]], study: str, cache: str) -> dict[str, Any]:
-    """Hunt and fill the IDA of `jobs` (scene index, engine, record id) through the cache."""
+    """Hunt and fill the IDA of `jobs` (scene index, engine, record id) through the cache. The
+    Rust core drives the hunt; MuJoCo and PyBullet runs in it are worker processes of this
+    worker's own interpreter (``ROCKBENCH_PYTHON``, unless set)."""
+    os.environ.setdefault("ROCKBENCH_PYTHON", sys.executable)
     start = time.perf_counter()
     made, cached = fragility_ida_batch(study, jobs, cache)
-    return {"made": made, "cached": cached, "work_s": time.perf_counter() - start, "pid": os.getpid()}
+    return {
+        "results": [None] * len(jobs),
+        "made": made,
+        "cached": cached,
+        "work_s": time.perf_counter() - start,
+        "pid": os.getpid(),
+    }
 
 
 def scenes_task(items: list[tuple[Any, str]]) -> dict[str, Any]:
-    """Run `(scene, engine)` pairs; one row per block of each run (a failed run: one row with
-    its reason)."""
+    """Run `(scene, engine)` pairs; per pair, one row per block of the run (a failed run: one
+    row with its reason)."""
     start = time.perf_counter()
-    rows: list[dict[str, Any]] = []
-    for scene, engine in items:
-        rows.extend(_scene_rows(scene, engine))
+    rows = [_scene_rows(scene, engine) for scene, engine in items]
     return {"results": rows, "made": len(items), "work_s": time.perf_counter() - start, "pid": os.getpid()}
 
 
@@ -184,6 +191,14 @@ def _chunks(items: Sequence[T], size: int) -> list[list[T]]:
     return [list(items[i : i + size]) for i in range(0, len(items), size)]
 
 
+def spread(n: int, parts: int) -> list[list[int]]:
+    """Indices 0..n-1 dealt into `parts` groups like cards (group j: j, j + parts, ...): a
+    study lists its runs record by record and level by level, and run costs follow the level,
+    so dealt groups cost about the same and a sample of a few groups measures the average."""
+    parts = max(1, min(parts, n))
+    return [list(range(j, n, parts)) for j in range(parts)]
+
+
 def distribute(
     client: Any,
     fn: Callable[..., dict[str, Any]],
@@ -196,30 +211,32 @@ def distribute(
     window: int = 4,
     label: str = "runs",
     progress: Callable[[str], None] | None = None,
-) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """Run `fn(batch, *args)` over `items` on a Dask client. Unless `per_task` is given, one
-    probe task of `probe` items per worker thread measures an item's cost, then the rest is cut
-    into tasks of :func:`task_size`. At most `window` tasks per worker thread are submitted at
-    a time (the scheduler holds a bounded amount of work; a new task goes out as one ends).
-    Returns the tasks' results in item order and statistics."""
+) -> tuple[list[Any], dict[str, Any]]:
+    """Run `fn(batch, *args)` over `items` on a Dask client; `fn` returns a dict with
+    ``results`` (one per item of its batch), ``made`` and ``work_s``. Tasks take items dealt
+    across the list (:func:`spread`). Unless `per_task` is given, one probe task of `probe`
+    items per worker thread measures an item's cost, then the rest is cut into tasks of
+    :func:`task_size`. At most `window` tasks per worker thread are submitted at a time (the
+    scheduler holds a bounded amount of work; a new task goes out as one ends). Returns the
+    results in item order and statistics."""
     from distributed import as_completed
 
     start = time.perf_counter()
     slots = max(1, sum(client.nthreads().values()))
     items = list(items)
-    batches: list[list[Any]] = []
+    batches: list[list[int]] = []
     results: dict[int, dict[str, Any]] = {}
     index: dict[Any, int] = {}
     done_items = 0
 
-    def submit(batch: list[Any]) -> Any:
+    def submit(batch: list[int]) -> Any:
         batches.append(batch)
         key = f"rockbench-{label}-{os.getpid()}-{time.time_ns()}-{len(batches)}"
-        f = client.submit(fn, batch, *args, pure=False, key=key)
+        f = client.submit(fn, [items[i] for i in batch], *args, pure=False, key=key)
         index[f.key] = len(batches) - 1
         return f
 
-    def run_all(todo: list[list[Any]]) -> None:
+    def run_all(todo: list[list[int]]) -> None:
         nonlocal done_items
         pending = iter(todo)
         first = [submit(b) for _, b in zip(range(window * slots), pending)]
@@ -236,29 +253,37 @@ def distribute(
             if progress:
                 progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
 
-    pos = 0
+    left = list(range(len(items)))
     size = per_task
     if size is None and items:
         n = min(len(items), probe * slots)
-        run_all(_chunks(items[:n], max(1, probe)))
+        probes = [left[j] for j in sorted(g[0] for g in spread(len(left), n))]
+        run_all([probes[k : k + max(1, probe)] for k in range(0, n, max(1, probe))])
         work = sum(r["work_s"] for r in results.values())
-        pos = n
-        size = task_size(work / n, len(items) - n, slots, task_seconds)
-    run_all(_chunks(items[pos:], size or 1))
+        taken = set(probes)
+        left = [i for i in left if i not in taken]
+        size = task_size(work / n, len(left), slots, task_seconds)
+    if left:
+        groups = spread(len(left), math.ceil(len(left) / (size or 1)))
+        run_all([[left[k] for k in g] for g in groups])
     wall = time.perf_counter() - start
-    ordered = [results[i] for i in range(len(batches))]
-    work = sum(r["work_s"] for r in ordered)
+    per_item: list[Any] = [None] * len(items)
+    for i, r in results.items():
+        for item, x in zip(batches[i], r["results"]):
+            per_item[item] = x
+    tasks = [results[i] for i in range(len(batches))]
+    work = sum(r["work_s"] for r in tasks)
     stats = {
         "items": len(items),
         "tasks": len(batches),
         "task_size": size,
-        "made": sum(int(r["made"]) for r in ordered),
+        "made": sum(int(r["made"]) for r in tasks),
         "work_s": work,
         "wall_s": wall,
         "slots": slots,
-        "pids": sorted({int(r["pid"]) for r in ordered}),
+        "pids": sorted({int(r["pid"]) for r in tasks}),
     }
-    return ordered, stats
+    return per_item, stats
 
 
 # ---------------------------------------------------------------------------------------------
@@ -349,13 +374,15 @@ def run_many(
             chunks = _chunks(specs, max(1, math.ceil(len(specs) / n)))
             with ThreadPoolExecutor(n) as pool:
                 parts = list(pool.map(lambda c: run_specs_task(c, str(cache_dir)), chunks))
+            per_item = [r for p in parts for r in p["results"]]
         else:
-            parts, _ = distribute(
+            per_item, _ = distribute(
                 client, run_specs_task, specs, (str(cache_dir),),
                 task_seconds=task_seconds, per_task=runs_per_task,
             )
         rows = []
-        for (key, spec), (_, made, text) in zip(specs, [r for p in parts for r in p["results"]]):
+        for (key, spec), (k2, made, text) in zip(specs, per_item):
+            assert k2 == key, "a run came back under another key"
             s = json.loads(spec)
             row = {
                 "scene": s["scene"]["name"],
@@ -378,13 +405,12 @@ def run_many(
         for e in engines
     ]
     if client is None:
-        rows = scenes_task(items)["results"]
+        per_item = scenes_task(items)["results"]
     else:
-        parts, _ = distribute(
+        per_item, _ = distribute(
             client, scenes_task, items, probe=1, task_seconds=task_seconds, per_task=runs_per_task
         )
-        rows = [r for p in parts for r in p["results"]]
-    return pd.DataFrame(rows)
+    return pd.DataFrame([row for rows in per_item for row in rows])
 
 
 # ---------------------------------------------------------------------------------------------

@@ -22,7 +22,7 @@ from conftest import at2
 from distributed import Client, LocalCluster, WorkerPlugin
 
 import rockbench
-from rockbench.study import task_size
+from rockbench.studies import spread, task_size
 
 ROOT = Path(__file__).resolve().parents[2]
 N_RECORDS = 8
@@ -232,6 +232,9 @@ def test_task_size_aims_at_the_target_and_balances() -> None:
     assert task_size(0.005, 600, 2) == 100
     assert task_size(3.0, 1000, 100) == 1
     assert task_size(0.0, 10, 1) == 4
+    groups = spread(10, 3)
+    assert groups == [[0, 3, 6, 9], [1, 4, 7], [2, 5, 8]]
+    assert sorted(i for g in spread(97, 7) for i in g) == list(range(97))
 
 
 def test_the_command_rejects_bad_input_in_one_line(study: Path, tmp_path: Path) -> None:
