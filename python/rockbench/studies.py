@@ -214,9 +214,9 @@ def distribute(
 ) -> tuple[list[Any], dict[str, Any]]:
     """Run `fn(batch, *args)` over `items` on a Dask client; `fn` returns a dict with
     ``results`` (one per item of its batch), ``made`` and ``work_s``. Tasks take items dealt
-    across the list (:func:`spread`). Unless `per_task` is given, one probe task of `probe`
-    items per worker thread measures an item's cost, then the rest is cut into tasks of
-    :func:`task_size`. At most `window` tasks per worker thread are submitted at a time (the
+    across the list (:func:`spread`). Unless `per_task` is given, probe tasks of `probe` items
+    (one per worker thread, at least 8 items in all, evenly spaced over the list) measure an
+    item's cost, then the rest is cut into tasks of :func:`task_size`. At most `window` tasks per worker thread are submitted at a time (the
     scheduler holds a bounded amount of work; a new task goes out as one ends). Returns the
     results in item order and statistics."""
     from distributed import as_completed
@@ -256,8 +256,8 @@ def distribute(
     left = list(range(len(items)))
     size = per_task
     if size is None and items:
-        n = min(len(items), probe * slots)
-        probes = [left[j] for j in sorted(g[0] for g in spread(len(left), n))]
+        n = min(len(items), max(probe * slots, 8))
+        probes = [left[(k * len(left)) // n] for k in range(n)]
         run_all([probes[k : k + max(1, probe)] for k in range(0, n, max(1, probe))])
         work = sum(r["work_s"] for r in results.values())
         taken = set(probes)
