@@ -4,6 +4,8 @@ matrix) built from what the Rust core returns, and their notebook display (``_re
 from __future__ import annotations
 
 import html
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -86,6 +88,7 @@ class FragilityResult:
       outcomes.csv, one boolean column per limit state);
     - ``fits``, ``capacities``, ``differences``: fits.csv, capacities.csv, differences.csv;
     - ``to_xarray()``: the stripes as a Dataset with dimensions scene x record x level x engine;
+    - ``to_parquet(folder)``: the four tables as Parquet files;
     - ``counts``: runs, runs from the cache, runs made, wall time;
     - ``json``: everything, as the Rust core returned it.
     """
@@ -166,6 +169,18 @@ class FragilityResult:
         ds.attrs["study"] = self.name
         ds.attrs["measure"] = self.json["study"]["intensity"]["measure"]
         return ds
+
+    def to_parquet(self, folder: str | os.PathLike[str]) -> list[Path]:
+        """Write outcomes.parquet, fits.parquet, capacities.parquet and differences.parquet
+        (pyarrow) to `folder`; returns the paths."""
+        out = Path(folder)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = []
+        for name in ("outcomes", "fits", "capacities", "differences"):
+            p = out / f"{name}.parquet"
+            getattr(self, name).to_parquet(p, engine="pyarrow", index=False)
+            paths.append(p)
+        return paths
 
     def _repr_html_(self) -> str:
         c = self.counts

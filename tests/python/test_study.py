@@ -115,6 +115,20 @@ def test_a_study_on_a_local_cluster_equals_the_local_run(
     assert dict(ds.sizes) == {"scene": 1, "record": N_RECORDS, "level": 5, "engine": 1, "limit_state": 2}
     assert 0 < int(ds["exceeded"].sel(limit_state="overturn").sum()) < N_RECORDS * 5
     assert "bursts" in dist._repr_html_() and "<table" in dist._repr_html_()
+    import pandas as pd
+
+    (pq,) = [p for p in dist.to_parquet(tmp_path / "pq") if p.name == "outcomes.parquet"]
+    back = pd.read_parquet(pq)
+    assert back.drop(columns=["wall_s", "cached"]).equals(loc.outcomes.drop(columns=["wall_s", "cached"]))
+    # The command on the same cluster: the same fits, nothing left to run.
+    r = subprocess.run(
+        [sys.executable, "-m", "rockbench.study", str(study), "--scheduler", client.scheduler.address,
+         "--cache", str(tmp_path / "cache"), "--out", str(tmp_path / "cli"), "--quiet"],
+        capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    assert "0 runs made" in r.stdout, r.stdout
+    assert (tmp_path / "cli" / "fits.csv").read_bytes() == (loc_dir / "out" / "fits.csv").read_bytes()
 
 
 class KillOnce(WorkerPlugin):  # type: ignore[misc]
