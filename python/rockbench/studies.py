@@ -228,6 +228,7 @@ def distribute(
     results: dict[int, dict[str, Any]] = {}
     index: dict[Any, int] = {}
     done_items = 0
+    last = [0.0]  # when the last progress line was printed (at most one a second)
 
     def submit(batch: list[int]) -> Any:
         batches.append(batch)
@@ -250,7 +251,8 @@ def distribute(
             nxt = next(pending, None)
             if nxt is not None:
                 queue.add(submit(nxt))  # type: ignore[no-untyped-call]
-            if progress:
+            if progress and (time.perf_counter() - last[0] >= 1.0 or done_items == len(items)):
+                last[0] = time.perf_counter()
                 progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
 
     left = list(range(len(items)))
