@@ -9,7 +9,9 @@
   is missing from its run cache are cut into tasks of many runs, the stripes first, then the
   IDA hunts (a record's hunt is sequential: one IDA job is one record), and run on the
   cluster; each task calls the Rust core with the GIL released and stores every outcome in the
-  run cache under its content hash (temporary file + rename). The study is then assembled by
+  run cache under its content hash (temporary file + rename), and sends the outcomes it made
+  back, which the client stores too as each task ends (so results reach the client's store
+  even when workers do not share its filesystem). The study is then assembled by
   the same Rust code as a local study, from the cache, with no new run: the outcome matrix and
   the fits are the local ones, bit for bit. An interrupted study, or one whose worker died,
   resumes from the cache: finished runs are never run again.
@@ -21,8 +23,9 @@ MuJoCo and PyBullet runs execute in the Dask worker's own Python: the worker cod
 are read by the same Rust code that reads the worker process's outputs. (Inside IDA hunts,
 which the Rust core drives, they run as worker processes of the Dask worker's interpreter.)
 
-The cluster's workers need ``rockbench`` installed, and the study's record files and run cache
-at the same paths as the client (a shared filesystem); see docs/cluster.md.
+The cluster's workers need ``rockbench`` installed and the study's record files at the same
+paths as the client; a run cache they share with the client (a shared filesystem) also lets a
+task skip runs another finished; see docs/cluster.md.
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ from rockbench._native import (
     fragility_is_python_worker,
     fragility_run_batch,
     fragility_run_specs,
+    fragility_store,
     fragility_study,
     fragility_worker_outcome,
     fragility_worker_scene,
@@ -127,9 +131,10 @@ def ida_task(jobs: list[tuple[int, str, str]], study: str, cache: str) -> dict[s
     worker's own interpreter (``ROCKBENCH_PYTHON``, unless set)."""
     os.environ.setdefault("ROCKBENCH_PYTHON", sys.executable)
     start = time.perf_counter()
-    made, cached = fragility_ida_batch(study, jobs, cache)
+    made, cached, runs = fragility_ida_batch(study, jobs, cache)
     return {
         "results": [None] * len(jobs),
+        "runs": runs,
         "made": made,
         "cached": cached,
         "work_s": time.perf_counter() - start,
@@ -211,14 +216,16 @@ def distribute(
     window: int = 4,
     label: str = "runs",
     progress: Callable[[str], None] | None = None,
+    on_result: Callable[[dict[str, Any]], None] | None = None,
 ) -> tuple[list[Any], dict[str, Any]]:
     """Run `fn(batch, *args)` over `items` on a Dask client; `fn` returns a dict with
     ``results`` (one per item of its batch), ``made`` and ``work_s``. Tasks take items dealt
     across the list (:func:`spread`). Unless `per_task` is given, probe tasks of `probe` items
     (one per worker thread, at least 8 items in all, evenly spaced over the list) measure an
     item's cost, then the rest is cut into tasks of :func:`task_size`. At most `window` tasks per worker thread are submitted at a time (the
-    scheduler holds a bounded amount of work; a new task goes out as one ends). Returns the
-    results in item order and statistics."""
+    scheduler holds a bounded amount of work; a new task goes out as one ends). `on_result` is
+    called with each task's result as it arrives. Returns the results in item order and
+    statistics."""
     from distributed import as_completed
 
     start = time.perf_counter()
@@ -244,6 +251,8 @@ def distribute(
         queue = as_completed(first)  # type: ignore[no-untyped-call]
         for fut in queue:
             r = fut.result()
+            if on_result:
+                on_result(r)
             i = index[fut.key]
             results[i] = r
             done_items += len(batches[i])
@@ -304,30 +313,42 @@ def fragility(
     *,
     out: PathLike | None = None,
     cache: PathLike | None = None,
+    worker_cache: PathLike | None = None,
     task_seconds: float = TASK_SECONDS,
     runs_per_task: int | None = None,
     quiet: bool = True,
 ) -> FragilityResult:
     """Run the fragility study `study` (a study TOML file) and return its results; with `out`,
     also write outcomes.csv, fits.csv, ..., report.html there. `client`: a
-    ``distributed.Client`` (None: run here). `cache`: the run cache (default: the study's).
-    `task_seconds` / `runs_per_task` size the tasks (``runs_per_task`` also sizes IDA tasks, in
-    records)."""
+    ``distributed.Client`` (None: run here). `cache`: the run cache, the store of results
+    (default: the study's). `worker_cache`: the cache path the workers use (default `cache`;
+    another path when workers do not share the client's filesystem: their runs come back with
+    the tasks and are stored in `cache` as each task ends). `task_seconds` / `runs_per_task`
+    size the tasks (``runs_per_task`` also sizes IDA tasks, in records)."""
     path, cache_dir = _paths(study, cache)
     if client is None:
         return FragilityResult(fragility_study(path, out, quiet, cache_dir))
+    wcache = str(Path(worker_cache).resolve()) if worker_cache is not None else str(cache_dir)
     say = None if quiet else (lambda m: print(f"study: {m}", file=sys.stderr))
+    stored = [0]
+
+    def store(r: dict[str, Any]) -> None:
+        runs = r["runs"] if "runs" in r else [(k, text) for k, made, text in r["results"] if made]
+        stored[0] += fragility_store(cache_dir, runs)
+
     specs = fragility_run_specs(path)
     have = fragility_cache_has(cache_dir, [k for k, _ in specs])
     missing = [(k, s) for (k, s), h in zip(specs, have) if not h]
     _, stripes = distribute(
-        client, run_specs_task, missing, (str(cache_dir),),
+        client, run_specs_task, missing, (wcache,),
         task_seconds=task_seconds, per_task=runs_per_task, label="stripes", progress=say,
+        on_result=store,
     )
     jobs = fragility_ida_jobs(path)
     _, ida = distribute(
-        client, ida_task, jobs, (str(path), str(cache_dir)), probe=1,
+        client, ida_task, jobs, (str(path), wcache), probe=1,
         task_seconds=task_seconds, per_task=runs_per_task, label="ida", progress=say,
+        on_result=store,
     )
     data = fragility_study(path, out, quiet, cache_dir)
     info = {
@@ -335,6 +356,7 @@ def fragility(
         "ida": ida,
         "tasks": stripes["tasks"] + ida["tasks"],
         "made": stripes["made"] + ida["made"],
+        "stored_by_client": stored[0],
         "already_cached": len(specs) - len(missing),
     }
     return FragilityResult(data, distributed=info)

@@ -273,6 +273,8 @@ pub struct Runner {
     pub cached: AtomicUsize,
     pub early: AtomicUsize,
     run_wall: Mutex<f64>,
+    /// The runs this runner made: (key, outcome), in the order they ended.
+    made_runs: Mutex<Vec<(String, RunOutcome)>>,
     pub expected: AtomicUsize,
     start: Instant,
     last: Mutex<Instant>,
@@ -287,6 +289,7 @@ impl Runner {
             cached: AtomicUsize::new(0),
             early: AtomicUsize::new(0),
             run_wall: Mutex::new(0.0),
+            made_runs: Mutex::new(Vec::new()),
             expected: AtomicUsize::new(0),
             start: Instant::now(),
             last: Mutex::new(Instant::now()),
@@ -311,8 +314,18 @@ impl Runner {
         })?;
         *self.run_wall.lock().expect("not poisoned") += o.wall_s;
         let _ = cache_store(&self.dir, &key, &o);
+        self.made_runs
+            .lock()
+            .expect("not poisoned")
+            .push((key, o.clone()));
         self.tick(o.stop);
         Ok((o, false))
+    }
+
+    /// The runs made so far, (key, outcome): what a distributed task sends back, so that its
+    /// results reach the client's store even when the worker's cache is not shared.
+    pub fn made_runs(&self) -> Vec<(String, RunOutcome)> {
+        self.made_runs.lock().expect("not poisoned").clone()
     }
 
     /// Runs made (not taken from the cache) so far.

@@ -366,24 +366,50 @@ fn fragility_ida_jobs(study: PathBuf) -> PyResult<Vec<(usize, String, String)>> 
 }
 
 /// Run the IDA jobs `jobs` of a study through the run cache `cache` (GIL released): finished
-/// runs are read, missing ones run and stored. Returns `(made, cached)` run counts.
+/// runs are read, missing ones run and stored. Returns `(made, cached, [(key, outcome_json),
+/// ...])`: the run counts and the runs made.
 #[pyfunction]
 fn fragility_ida_batch(
     py: Python<'_>,
     study: PathBuf,
     jobs: Vec<(usize, String, String)>,
     cache: PathBuf,
-) -> PyResult<(usize, usize)> {
+) -> PyResult<(usize, usize, Vec<(String, String)>)> {
     let st = load_study(&study)?;
-    py.detach(|| -> Result<(usize, usize), String> {
+    py.detach(|| -> Result<_, String> {
         let runner = crate::fragility::Runner::new(cache, true);
         crate::fragility::run_ida_jobs(&st, &runner, &jobs)?;
+        let made = runner
+            .made_runs()
+            .into_iter()
+            .map(|(k, o)| (k, serde_json::to_string(&o).expect("outcomes serialise")))
+            .collect();
         Ok((
             runner.made(),
             runner.cached.load(std::sync::atomic::Ordering::Relaxed),
+            made,
         ))
     })
     .map_err(PyRuntimeError::new_err)
+}
+
+/// Store outcomes `[(key, outcome_json), ...]` (as tasks return them) in the run cache `cache`
+/// where it has no entry yet (atomically, as every run is stored). Returns how many were new.
+#[pyfunction]
+fn fragility_store(cache: PathBuf, runs: Vec<(String, String)>) -> PyResult<usize> {
+    let mut new = 0;
+    for (key, text) in runs {
+        if key.len() != 64 || !key.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(PyValueError::new_err(format!("not a run key: {key:?}")));
+        }
+        let o: crate::fragility::run::RunOutcome = serde_json::from_str(&text)
+            .map_err(|e| PyValueError::new_err(format!("run {key}: outcome: {e}")))?;
+        if crate::fragility::cache_load(&cache, &key).is_none() {
+            crate::fragility::cache_store(&cache, &key, &o).map_err(PyRuntimeError::new_err)?;
+            new += 1;
+        }
+    }
+    Ok(new)
 }
 
 /// Run the runs `specs` (JSON specs of `fragility_run_specs`) one after the other through the
@@ -504,6 +530,7 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fragility_ida_jobs, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_ida_batch, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_run_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_store, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_cache_has, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_is_python_worker, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_worker_scene, m)?)?;

@@ -290,3 +290,19 @@ def test_mujoco_and_pybullet_runs_in_the_workers_python_equal_the_worker_process
     assert dist.distributed is not None and dist.distributed["made"] == 2 == loc.counts["made"]
     assert [r["outcome"]["ran"] for r in dist.json["rows"]] == ["mujoco", "pybullet"]
     assert_same_study(loc.json, dist.json)
+
+
+def test_workers_without_the_clients_filesystem_still_fill_its_store(
+    study: Path, local: tuple[rockbench.FragilityResult, Path], client: Client, tmp_path: Path
+) -> None:
+    """Workers writing to a cache the client does not read (here: another folder): the runs
+    they make come back with their tasks and the client stores them; nothing is run twice."""
+    loc, loc_dir = local
+    cache, elsewhere = tmp_path / "client", tmp_path / "workers"
+    res = rockbench.fragility(study, client, cache=cache, worker_cache=elsewhere)
+    d = res.distributed
+    assert d is not None
+    assert d["made"] == loc.counts["made"] == d["stored_by_client"]
+    assert res.counts["made"] == 0
+    assert cache_entries(cache) == cache_entries(elsewhere) == cache_entries(loc_dir / "cache")
+    assert_same_study(loc.json, res.json)
