@@ -449,7 +449,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("study", help="the study file (TOML)")
     ap.add_argument("--scheduler", help="address of a Dask scheduler (tcp://HOST:8786)")
     ap.add_argument("--out", default="out/fragility", help="output folder (default out/fragility)")
-    ap.add_argument("--cache", help="run cache folder (default: the study's)")
+    ap.add_argument("--cache", help="run cache folder, the store of results (default: the study's)")
+    ap.add_argument("--worker-cache", help="the workers' cache folder when they do not share --cache")
     ap.add_argument("--task-seconds", type=float, default=TASK_SECONDS, help="target wall time of a task, s")
     ap.add_argument("--runs-per-task", type=int, help="fixed task size (runs; IDA: records)")
     ap.add_argument("--timeout", type=float, default=20.0, help="seconds to wait for the scheduler (default 20)")
@@ -480,7 +481,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"--scheduler {a.scheduler}: cannot connect: {e}".replace("\n", " "), file=sys.stderr)
                 return 1
         res = fragility(
-            a.study, client, out=a.out, cache=a.cache, task_seconds=a.task_seconds,
+            a.study, client, out=a.out, cache=a.cache, worker_cache=a.worker_cache,
+            task_seconds=a.task_seconds,
             runs_per_task=a.runs_per_task, quiet=a.quiet,
         )
     except (RuntimeError, ValueError, OSError) as e:
