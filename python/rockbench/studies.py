@@ -37,7 +37,7 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, TypeVar
@@ -64,8 +64,9 @@ from rockbench.results import FragilityResult, outcome_row
 T = TypeVar("T")
 PathLike = str | os.PathLike[str]
 
-#: Default wall time of one task, s: long enough that the scheduler's overhead per task (about
-#: a millisecond, docs/cluster.md) stays far below 5 %, short enough to balance the load.
+#: Default wall time of one task, s: long enough that the cost of a task to the scheduler,
+#: client and worker (6-8 ms measured on a loaded 2-core machine, docs/cluster.md) stays far
+#: below 5 %, short enough to balance the load.
 TASK_SECONDS = 2.0
 
 

@@ -365,6 +365,9 @@ fn fragility_ida_jobs(study: PathBuf) -> PyResult<Vec<(usize, String, String)>> 
     Ok(crate::fragility::ida_jobs(&load_study(&study)?))
 }
 
+/// Runs made, runs found in the cache, and the runs made as `(key, outcome_json)`.
+type IdaBatch = (usize, usize, Vec<(String, String)>);
+
 /// Run the IDA jobs `jobs` of a study through the run cache `cache` (GIL released): finished
 /// runs are read, missing ones run and stored. Returns `(made, cached, [(key, outcome_json),
 /// ...])`: the run counts and the runs made.
@@ -374,7 +377,7 @@ fn fragility_ida_batch(
     study: PathBuf,
     jobs: Vec<(usize, String, String)>,
     cache: PathBuf,
-) -> PyResult<(usize, usize, Vec<(String, String)>)> {
+) -> PyResult<IdaBatch> {
     let st = load_study(&study)?;
     py.detach(|| -> Result<_, String> {
         let runner = crate::fragility::Runner::new(cache, true);
