@@ -20,7 +20,7 @@ from rockbench._native import (
     run,
 )
 from rockbench.compare import compare
-from rockbench.results import Comparison, FragilityResult
+from rockbench.results import Comparison, FragilityResult, trajectory
 from rockbench.studies import fragility, run_many
 
 __all__ = [
@@ -39,4 +39,5 @@ __all__ = [
     "load_scene",
     "run",
     "run_many",
+    "trajectory",
 ]

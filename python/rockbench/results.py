@@ -30,6 +30,19 @@ OUTCOME_COLUMNS = [
 ]
 
 
+def trajectory(run: Any) -> pd.DataFrame:
+    """A run's trajectory (``rockbench.run(...)``) as a DataFrame: one row per sample time
+    (index ``t``, s), columns (block, field) for x, z, phi, vx, vz, omega (SI units)."""
+    cols = {
+        (block, field): values
+        for block, fields in run.blocks.items()
+        for field, values in fields.items()
+    }
+    df = pd.DataFrame(cols, index=pd.Index(run.t, name="t"))
+    df.columns = pd.MultiIndex.from_tuples(list(cols), names=["block", "field"])
+    return df
+
+
 def _sliding(values: list[float | None]) -> float:
     """Largest residual sliding of a run (infinite when a block overturned: no residual)."""
     return max((np.inf if v is None else float(v)) for v in values) if values else 0.0

@@ -36,8 +36,9 @@ def test_public_names_come_from_the_native_module() -> None:
         "load_scene",
         "run",
         "run_many",
+        "trajectory",
     }
-    python_side = {"compare", "fragility", "run_many", "Comparison", "FragilityResult"}
+    python_side = {"compare", "fragility", "run_many", "trajectory", "Comparison", "FragilityResult"}
     for name in set(rockbench.__all__) - python_side:
         assert getattr(rockbench, name) is getattr(rockbench._native, name)
     # `compare` wraps the native `compare_rows` in a pandas DataFrame.

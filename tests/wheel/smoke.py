@@ -36,6 +36,9 @@ def main() -> int:
     assert "site-packages" in str(src), f"rockbench imported from {src}, not the installed wheel"
     r = rockbench.run(SCENE, engine="native")
     assert r.t[-1] > 1.9 and len(r.blocks["block"]["phi"]) == len(r.t)
+    traj = rockbench.trajectory(r)
+    assert isinstance(traj, pd.DataFrame) and len(traj) == len(r.t)
+    assert traj[("block", "phi")].iloc[0] == r.blocks["block"]["phi"][0]
     c = rockbench.compare(SCENE, engines=["native", "housner"], reference="housner")
     assert isinstance(c, pd.DataFrame) and c.status == {"native": "ok", "housner": "ok"}, c.status
     assert "<table" in c._repr_html_()
