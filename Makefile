@@ -41,7 +41,7 @@ fragility-rapier: build records
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check, and the wheel
-# installed in a fresh virtual environment (wheel-test, about 2.5 min).
+# installed in a fresh virtual environment (wheel-test, about 2-2.5 min).
 test: test-no-default-features test-rust test-python wheel-test
 
 # The validation tests load the earthquake case, whose record `make records` downloads.
@@ -62,8 +62,8 @@ test-python: .venv build
 # virtual environment in a temporary folder installs it with pip (extra [dask]; versions
 # constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
 # outside the source tree (import, run, compare, a fragility study here and on Dask,
-# DataFrames, xarray). 153 s on 2 shared cores (load 5): 99 s the release build, the rest pip
-# and the smoke script.
+# DataFrames, xarray). 108-153 s on 2 shared cores (load 4-5), 72-99 s of it the release
+# build, the rest pip and the smoke script.
 wheel-test: $(VENV)/.requirements.stamp
 	rm -rf target/wheels
 	$(VENV)/bin/maturin build --release --out target/wheels
