@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic \
-	stress proptest fuzz fmt clippy clean .venv paper-tools paper converge siconos siconos-sweep spectrum \
+	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier
 
 all: build
@@ -40,8 +40,9 @@ fragility-rapier: build records
 	$(BIN) fragility validation/studies/statue-farfield-rapier.toml --out out/fragility/statue-farfield-rapier
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
-# tests, pytest (warnings are errors, see pyproject.toml) including the stub check.
-test: test-no-default-features test-rust test-python
+# tests, pytest (warnings are errors, see pyproject.toml) including the stub check, and the wheel
+# installed in a fresh virtual environment (wheel-test, about 2-2.5 min).
+test: test-no-default-features test-rust test-python wheel-test
 
 # The validation tests load the earthquake case, whose record `make records` downloads.
 test-no-default-features: chromium ffmpeg records siconos
@@ -56,6 +57,20 @@ test-rust: chromium ffmpeg records paper-tools siconos
 
 test-python: .venv build
 	$(VPY) -m pytest -q tests/python
+
+# The Python package as users install it: `maturin build --release` makes the wheel, a fresh
+# virtual environment in a temporary folder installs it with pip (extra [dask]; versions
+# constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
+# outside the source tree (import, run, compare, a fragility study here and on Dask,
+# DataFrames, xarray). 108-153 s on 2 shared cores (load 4-5), 72-99 s of it the release
+# build, the rest pip and the smoke script.
+wheel-test: $(VENV)/.requirements.stamp
+	rm -rf target/wheels
+	$(VENV)/bin/maturin build --release --out target/wheels
+	tmp=$$(mktemp -d) && trap 'rm -rf "$$tmp"' EXIT && \
+	$(PYTHON311) -m venv "$$tmp/venv" && \
+	"$$tmp/venv/bin/pip" install -q --disable-pip-version-check "$$(ls target/wheels/rockbench-*.whl)[dask]" -c python/requirements.txt && \
+	cd "$$tmp" && "$$tmp/venv/bin/python" $(CURDIR)/tests/wheel/smoke.py
 
 # `--paper` outputs: SVG to vector PDF (librsvg2-bin), and for the test that compiles the tables
 # and renders the figures a real LaTeX with booktabs and poppler's pdftoppm (about 75 s to

@@ -432,3 +432,78 @@ fn an_interrupted_study_leaves_whole_entries_and_resumes() {
             .unwrap();
     assert!(j["counts"]["cached"].as_u64().unwrap() >= json.len() as u64);
 }
+
+/// The units of work a distributed study hands out: a run spec read back from its JSON (the
+/// scene's engine tables included) has the same key and the same outcome; the IDA jobs run one
+/// by one through a cache give the rows and capacities of the study, and the study assembled
+/// from that cache makes no new run.
+#[test]
+fn specs_and_ida_jobs_run_apart_give_the_study() {
+    use rockbench::fragility::{self, Runner, run, study};
+    let d = tmp("rb-fragility", "units");
+    let p = fixture(
+        &d,
+        "\"native\"",
+        "\n[ida]\nstart = 1.2\nfactor = 1.5\nmax = 4.0\nfill = 1\n",
+    );
+    let scene = std::fs::read_to_string(d.join("block.toml")).unwrap();
+    std::fs::write(
+        d.join("block.toml"),
+        scene + "\n[native]\ntheta = 0.7\ndt = 2e-3\n",
+    )
+    .unwrap();
+    let st = study::load_study(&p).unwrap();
+    let specs = fragility::stripe_specs(&st);
+    let text = serde_json::to_string(&specs[3]).unwrap();
+    let back: run::RunSpec = serde_json::from_str(&text).unwrap();
+    assert_eq!(back.key(), specs[3].key());
+    assert_eq!(back.scene.engines, specs[3].scene.engines);
+    assert!(back.scene.engines.contains_key("native"));
+    let (a, b) = (
+        run::run_one(&back).unwrap(),
+        run::run_one(&specs[3]).unwrap(),
+    );
+    assert_eq!(
+        (&a.rotation, &a.overturned, a.stop),
+        (&b.rotation, &b.overturned, b.stop)
+    );
+
+    let cache = d.join("units-cache");
+    let runner = Runner::new(cache.clone(), true);
+    for s in &specs {
+        runner.get(s).unwrap();
+    }
+    let jobs = fragility::ida_jobs(&st);
+    assert_eq!(jobs.len(), 6);
+    let mut caps = Vec::new();
+    for chunk in jobs.chunks(4) {
+        for (_, c) in fragility::run_ida_jobs(&st, &runner, chunk).unwrap() {
+            caps.extend(c);
+        }
+    }
+    let made = runner.made();
+    assert!(made > specs.len(), "IDA made no run of its own");
+    let mut whole = st.clone();
+    whole.cache_dir = cache;
+    let res = fragility::run_study(&whole, true).unwrap();
+    assert_eq!(res.counts.made, 0);
+    assert_eq!(res.counts.cached, res.counts.runs);
+    let entries: usize = std::fs::read_dir(&whole.cache_dir)
+        .unwrap()
+        .map(|e| std::fs::read_dir(e.unwrap().path()).unwrap().count())
+        .sum();
+    assert_eq!(entries, made);
+    let key = |c: &fragility::Capacity| {
+        (
+            c.record.clone(),
+            c.limit_state.clone(),
+            c.capacity.to_bits(),
+            c.censored,
+        )
+    };
+    assert_eq!(
+        caps.iter().map(key).collect::<Vec<_>>(),
+        res.capacities.iter().map(key).collect::<Vec<_>>()
+    );
+    assert!(fragility::run_ida_jobs(&st, &runner, &[(0, "rapier".into(), "r0".into())]).is_err());
+}

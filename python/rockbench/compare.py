@@ -1,4 +1,5 @@
-"""Cross-validation from Python: the metrics of ``rockbench compare`` as a pandas DataFrame."""
+"""Cross-validation from Python: the metrics of ``rockbench compare`` as a pandas DataFrame
+(:class:`rockbench.results.Comparison`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from typing import Any
 import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for 3.x
 
 from rockbench._native import Scene, compare_rows
+from rockbench.results import Comparison
 
 COLUMNS = ["scene", "engine", "block", "metric", "value", "reference", "unit"]
 
@@ -18,12 +20,13 @@ def compare(
     engines: Sequence[str] = ("native", "rapier", "mujoco", "pybullet", "housner"),
     reference: str = "native",
     overrides: Sequence[str] = (),
-) -> pd.DataFrame:
+) -> Comparison:
     """Run ``engines`` on ``scene`` and compare each with ``reference`` (an engine name or a
     trajectory.csv path). Returns one row per metric (long format, the columns of
     metrics.csv); ``df.attrs["status"]`` maps each engine to ``ok``, ``skipped: why`` or
-    ``failed: why``. The definitions are the Rust ones (VALIDATION.md)."""
+    ``failed: why``. The definitions are the Rust ones (VALIDATION.md). The result is a
+    DataFrame that shows the status and an engine x metric table in a notebook."""
     rows, status = compare_rows(scene, list(engines), reference, list(overrides))
-    df = pd.DataFrame(rows, columns=COLUMNS)
+    df = Comparison(pd.DataFrame(rows, columns=COLUMNS))
     df.attrs["status"] = status
     return df

@@ -316,7 +316,10 @@ impl ExternalEngine {
         }
     }
 
-    fn read_outputs(&self, scene: &Scene, out: &Path) -> Result<RunOutput, EngineError> {
+    /// What a worker wrote to `out` (trajectory.csv, summary.json), read and checked against
+    /// the scene: the harness after its worker process, and callers that ran the worker's
+    /// code in their own Python (a study's runs in a Dask worker).
+    pub fn read_outputs(&self, scene: &Scene, out: &Path) -> Result<RunOutput, EngineError> {
         let trajectory = Trajectory::read_csv(&out.join("trajectory.csv"))
             .map_err(|e| self.failed(format!("worker output: {e}")))?;
         let names: Vec<&str> = trajectory.blocks.iter().map(|b| b.name.as_str()).collect();

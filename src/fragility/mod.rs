@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use run::{RunOutcome, RunSpec, Stop};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -210,6 +210,9 @@ pub struct Difference {
 pub struct Counts {
     pub runs: usize,
     pub cached: usize,
+    /// Runs made by this study run (not taken from the cache); a run that several rows share
+    /// (a stripe level an IDA hunt also visits) counts once.
+    pub made: usize,
     pub early_stopped: usize,
     pub wall_s: f64,
     /// Summed wall time of the runs made (not cached), s.
@@ -229,6 +232,40 @@ pub struct Results {
     pub engine_versions: BTreeMap<String, String>,
 }
 
+/// Where the outcome of the run with content hash `key` is stored in the cache `dir`.
+pub fn cache_path(dir: &Path, key: &str) -> PathBuf {
+    dir.join(&key[..2]).join(format!("{key}.json"))
+}
+
+/// The stored outcome of the run with content hash `key`, if the cache has a whole one.
+pub fn cache_load(dir: &Path, key: &str) -> Option<RunOutcome> {
+    let text = std::fs::read_to_string(cache_path(dir, key)).ok()?;
+    serde_json::from_str::<RunOutcome>(&text).ok()
+}
+
+/// Store an outcome: written to a temporary file unique to this process and thread, then
+/// renamed over the entry. Renames are atomic: readers (other threads, processes or machines
+/// sharing the folder) see no entry or a whole one, and two writers of the same run (the same
+/// content, as runs are deterministic) leave one entry.
+pub fn cache_store(dir: &Path, key: &str, o: &RunOutcome) -> Result<(), String> {
+    static SEQ: AtomicUsize = AtomicUsize::new(0);
+    let path = cache_path(dir, key);
+    let parent = path.parent().expect("entries are in a sub-folder");
+    std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+    let host = std::env::var("HOSTNAME").unwrap_or_default();
+    let tmp = path.with_extension(format!(
+        "tmp-{host}-{}-{}",
+        std::process::id(),
+        SEQ.fetch_add(1, Ordering::Relaxed)
+    ));
+    let text = serde_json::to_string(o).expect("outcomes serialise");
+    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, &path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("{}: {e}", path.display())
+    })
+}
+
 /// The run cache and the progress line.
 pub struct Runner {
     dir: PathBuf,
@@ -236,6 +273,8 @@ pub struct Runner {
     pub cached: AtomicUsize,
     pub early: AtomicUsize,
     run_wall: Mutex<f64>,
+    /// The runs this runner made: (key, outcome), in the order they ended.
+    made_runs: Mutex<Vec<(String, RunOutcome)>>,
     pub expected: AtomicUsize,
     start: Instant,
     last: Mutex<Instant>,
@@ -250,6 +289,7 @@ impl Runner {
             cached: AtomicUsize::new(0),
             early: AtomicUsize::new(0),
             run_wall: Mutex::new(0.0),
+            made_runs: Mutex::new(Vec::new()),
             expected: AtomicUsize::new(0),
             start: Instant::now(),
             last: Mutex::new(Instant::now()),
@@ -257,14 +297,11 @@ impl Runner {
         }
     }
 
-    /// The outcome of a run: from the cache, or run and stored (written to a temporary file
-    /// and renamed: an interrupted study leaves whole entries only).
+    /// The outcome of a run: from the cache, or run and stored ([`cache_store`]: an
+    /// interrupted study leaves whole entries only).
     pub fn get(&self, spec: &RunSpec) -> Result<(RunOutcome, bool), String> {
         let key = spec.key();
-        let path = self.dir.join(&key[..2]).join(format!("{key}.json"));
-        if let Ok(text) = std::fs::read_to_string(&path)
-            && let Ok(o) = serde_json::from_str::<RunOutcome>(&text)
-        {
+        if let Some(o) = cache_load(&self.dir, &key) {
             self.cached.fetch_add(1, Ordering::Relaxed);
             self.tick(o.stop);
             return Ok((o, true));
@@ -276,16 +313,24 @@ impl Runner {
             )
         })?;
         *self.run_wall.lock().expect("not poisoned") += o.wall_s;
-        if let Some(parent) = path.parent() {
-            let _ = std::fs::create_dir_all(parent);
-            let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-            let text = serde_json::to_string(&o).expect("outcomes serialise");
-            if std::fs::write(&tmp, text).is_ok() {
-                let _ = std::fs::rename(&tmp, &path);
-            }
-        }
+        let _ = cache_store(&self.dir, &key, &o);
+        self.made_runs
+            .lock()
+            .expect("not poisoned")
+            .push((key, o.clone()));
         self.tick(o.stop);
         Ok((o, false))
+    }
+
+    /// The runs made so far, (key, outcome): what a distributed task sends back, so that its
+    /// results reach the client's store even when the worker's cache is not shared.
+    pub fn made_runs(&self) -> Vec<(String, RunOutcome)> {
+        self.made_runs.lock().expect("not poisoned").clone()
+    }
+
+    /// Runs made (not taken from the cache) so far.
+    pub fn made(&self) -> usize {
+        self.done.load(Ordering::Relaxed) - self.cached.load(Ordering::Relaxed)
     }
 
     fn tick(&self, stop: Stop) {
@@ -364,13 +409,7 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
         rows.extend(out?);
     }
     let mut capacities = Vec::new();
-    if let Some(ida) = &f.ida {
-        let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = levels.iter().copied().fold(0.0, f64::max);
-        let (start_l, max_l) = (
-            ida.start.unwrap_or(lo),
-            ida.max.unwrap_or(hi).max(ida.start.unwrap_or(lo)),
-        );
+    if f.ida.is_some() {
         let jobs: Vec<(usize, &String, &SuiteRecord)> = (0..study.scenes.len())
             .flat_map(|si| {
                 f.engines
@@ -380,71 +419,7 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
             .collect();
         let out: Result<Vec<IdaRecord>, String> = jobs
             .par_iter()
-            .map(|&(si, e, r)| {
-                let scene = &study.scenes[si];
-                let mut memo: Vec<Row> = Vec::new();
-                let mut caps = Vec::new();
-                for (k, ls) in study.limit_states.iter().enumerate() {
-                    let mut runs = 0;
-                    let mut at = |l: f64, memo: &mut Vec<Row>| -> Result<bool, String> {
-                        if let Some(row) = memo.iter().find(|x| x.level == l) {
-                            return Ok(row.exceeded[k]);
-                        }
-                        runs += 1;
-                        let scale = scale_for(study, scene, r, l);
-                        let spec = spec_for(study, scene, e, r, scale);
-                        let (o, cached) = runner.get(&spec)?;
-                        let rw = row(study, scene, e, r, l, scale, Method::Ida, o, cached);
-                        let x = rw.exceeded[k];
-                        memo.push(rw);
-                        Ok(x)
-                    };
-                    // Hunt: step up until exceeded.
-                    let mut safe = None;
-                    let mut l = start_l;
-                    let mut hit = None;
-                    loop {
-                        if at(l, &mut memo)? {
-                            hit = Some(l);
-                            break;
-                        }
-                        safe = Some(l);
-                        if l >= max_l {
-                            break;
-                        }
-                        l = (l * ida.factor).min(max_l);
-                    }
-                    let Some(mut hi_l) = hit else {
-                        caps.push(capacity(scene, e, r, ls, max_l, true, false, runs));
-                        continue;
-                    };
-                    // Bisect the bracket (geometric mid-points).
-                    if let Some(mut lo_l) = safe {
-                        while hi_l / lo_l - 1.0 > ida.tolerance {
-                            let mid = (lo_l * hi_l).sqrt();
-                            if at(mid, &mut memo)? {
-                                hi_l = mid;
-                            } else {
-                                lo_l = mid;
-                            }
-                        }
-                        // Fill below the bracket: levels between the start and lo.
-                        let bottom = start_l.min(lo_l);
-                        for j in 1..=ida.fill {
-                            let fl =
-                                bottom * (lo_l / bottom).powf(j as f64 / (ida.fill + 1) as f64);
-                            at(fl, &mut memo)?;
-                        }
-                    }
-                    let mut lv: Vec<(f64, bool)> =
-                        memo.iter().map(|x| (x.level, x.exceeded[k])).collect();
-                    lv.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    let first = lv.iter().find(|x| x.1).map(|x| x.0).unwrap_or(hi_l);
-                    let resurrection = lv.iter().any(|x| x.0 > first && !x.1);
-                    caps.push(capacity(scene, e, r, ls, first, false, resurrection, runs));
-                }
-                Ok((memo, caps))
-            })
+            .map(|&(si, e, r)| ida_record(study, &runner, si, e, r))
             .collect();
         for (r, c) in out? {
             rows.extend(r);
@@ -461,6 +436,7 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
     let counts = Counts {
         runs: rows.len(),
         cached: runner.cached.load(Ordering::Relaxed),
+        made: runner.made(),
         early_stopped: runner.early.load(Ordering::Relaxed),
         wall_s: start.elapsed().as_secs_f64(),
         run_wall_s: *runner.run_wall.lock().expect("not poisoned"),
@@ -480,6 +456,129 @@ pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
         counts,
         engine_versions,
     })
+}
+
+/// The IDA jobs of a study, in the order [`run_study`] makes them: (scene index, engine,
+/// record id), one per scene x engine x record (a job hunts and fills every limit state).
+pub fn ida_jobs(study: &Study) -> Vec<(usize, String, String)> {
+    if study.file.ida.is_none() {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for si in 0..study.scenes.len() {
+        for e in &study.file.engines {
+            for r in &study.suite.records {
+                out.push((si, e.clone(), r.id.clone()));
+            }
+        }
+    }
+    out
+}
+
+/// Run IDA jobs of [`ida_jobs`] through `runner` (its cache): the runs a distributed study
+/// hands out record by record, as the hunt and fill of a record is sequential. Returns the
+/// jobs' rows and capacities.
+pub fn run_ida_jobs(
+    study: &Study,
+    runner: &Runner,
+    jobs: &[(usize, String, String)],
+) -> Result<Vec<IdaRecord>, String> {
+    let mut out = Vec::new();
+    for (si, e, id) in jobs {
+        if *si >= study.scenes.len() || !study.file.engines.contains(e) {
+            return Err(format!("IDA job ({si}, {e}, {id}) is not in the study"));
+        }
+        let r = study
+            .suite
+            .records
+            .iter()
+            .find(|r| &r.id == id)
+            .ok_or_else(|| format!("IDA job ({si}, {e}, {id}): no such record in the suite"))?;
+        out.push(ida_record(study, runner, *si, e, r)?);
+    }
+    Ok(out)
+}
+
+/// The hunt and fill of one record (scene `si`, engine `e`) for every limit state.
+fn ida_record(
+    study: &Study,
+    runner: &Runner,
+    si: usize,
+    e: &str,
+    r: &SuiteRecord,
+) -> Result<IdaRecord, String> {
+    let f = &study.file;
+    let Some(ida) = &f.ida else {
+        return Ok((Vec::new(), Vec::new()));
+    };
+    let levels = &f.intensity.levels;
+    let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = levels.iter().copied().fold(0.0, f64::max);
+    let (start_l, max_l) = (
+        ida.start.unwrap_or(lo),
+        ida.max.unwrap_or(hi).max(ida.start.unwrap_or(lo)),
+    );
+    let scene = &study.scenes[si];
+    let mut memo: Vec<Row> = Vec::new();
+    let mut caps = Vec::new();
+    for (k, ls) in study.limit_states.iter().enumerate() {
+        let mut runs = 0;
+        let mut at = |l: f64, memo: &mut Vec<Row>| -> Result<bool, String> {
+            if let Some(row) = memo.iter().find(|x| x.level == l) {
+                return Ok(row.exceeded[k]);
+            }
+            runs += 1;
+            let scale = scale_for(study, scene, r, l);
+            let spec = spec_for(study, scene, e, r, scale);
+            let (o, cached) = runner.get(&spec)?;
+            let rw = row(study, scene, e, r, l, scale, Method::Ida, o, cached);
+            let x = rw.exceeded[k];
+            memo.push(rw);
+            Ok(x)
+        };
+        // Hunt: step up until exceeded.
+        let mut safe = None;
+        let mut l = start_l;
+        let mut hit = None;
+        loop {
+            if at(l, &mut memo)? {
+                hit = Some(l);
+                break;
+            }
+            safe = Some(l);
+            if l >= max_l {
+                break;
+            }
+            l = (l * ida.factor).min(max_l);
+        }
+        let Some(mut hi_l) = hit else {
+            caps.push(capacity(scene, e, r, ls, max_l, true, false, runs));
+            continue;
+        };
+        // Bisect the bracket (geometric mid-points).
+        if let Some(mut lo_l) = safe {
+            while hi_l / lo_l - 1.0 > ida.tolerance {
+                let mid = (lo_l * hi_l).sqrt();
+                if at(mid, &mut memo)? {
+                    hi_l = mid;
+                } else {
+                    lo_l = mid;
+                }
+            }
+            // Fill below the bracket: levels between the start and lo.
+            let bottom = start_l.min(lo_l);
+            for j in 1..=ida.fill {
+                let fl = bottom * (lo_l / bottom).powf(j as f64 / (ida.fill + 1) as f64);
+                at(fl, &mut memo)?;
+            }
+        }
+        let mut lv: Vec<(f64, bool)> = memo.iter().map(|x| (x.level, x.exceeded[k])).collect();
+        lv.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let first = lv.iter().find(|x| x.1).map(|x| x.0).unwrap_or(hi_l);
+        let resurrection = lv.iter().any(|x| x.0 > first && !x.1);
+        caps.push(capacity(scene, e, r, ls, first, false, resurrection, runs));
+    }
+    Ok((memo, caps))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -556,7 +655,7 @@ fn stripes_of(rows: &[&Row], k: usize, weight: &BTreeMap<&str, f64>) -> Vec<(f64
 }
 
 /// The IDA runs and capacities of one record.
-type IdaRecord = (Vec<Row>, Vec<Capacity>);
+pub type IdaRecord = (Vec<Row>, Vec<Capacity>);
 
 type FitOut = (Vec<Fit>, Vec<Difference>, Vec<f64>);
 

@@ -38,11 +38,44 @@ pub const CACHE_FORMAT: u32 = 1;
 pub struct RunSpec {
     pub engine: String,
     /// The scene of the run: its excitation is the record (absolute path) times `scale`.
+    #[serde(deserialize_with = "scene_with_tables")]
     pub scene: Scene,
     pub record_id: String,
     pub record_sha256: String,
     pub scale: f64,
     pub early_stop: bool,
+}
+
+/// A scene as [`Scene`] serialises it: its fields, and its engines' tables (`[native]`,
+/// `[mujoco]`, ...) flattened beside them. The tables go back to [`Scene::engines`], so a spec
+/// read back runs with the same settings and has the same [`RunSpec::key`].
+fn scene_with_tables<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Scene, D::Error> {
+    const FIELDS: [&str; 8] = [
+        "name",
+        "duration",
+        "gravity",
+        "output_interval",
+        "blocks",
+        "initial",
+        "contact",
+        "excitation",
+    ];
+    let mut v = serde_json::Map::deserialize(d)?;
+    let tables: Vec<String> = v
+        .keys()
+        .filter(|k| !FIELDS.contains(&k.as_str()))
+        .cloned()
+        .collect();
+    let mut engines = crate::scene::EngineTables::new();
+    for k in tables {
+        if let Some(t) = v.remove(&k) {
+            engines.insert(k, t);
+        }
+    }
+    let mut scene: Scene =
+        serde_json::from_value(serde_json::Value::Object(v)).map_err(serde::de::Error::custom)?;
+    scene.engines = engines;
+    Ok(scene)
 }
 
 /// Why a run ended.
@@ -131,6 +164,40 @@ pub fn run_one(spec: &RunSpec) -> Result<RunOutcome, EngineError> {
     let sim = simulate(&spec.engine, &spec.scene, spec.early_stop)?;
     let mut o = outcome(&spec.scene, &sim);
     o.wall_s = start.elapsed().as_secs_f64();
+    Ok(o)
+}
+
+/// Whether `engine` runs as a Python worker (MuJoCo, PyBullet): a distributed study runs its
+/// worker code in the Dask worker's own Python and reads the outputs with
+/// [`outcome_from_worker_output`].
+pub fn is_python_worker(engine: &str) -> bool {
+    crate::engines::registry::find(engine)
+        .and_then(|e| e.worker())
+        .is_some_and(|w| w.script.is_none() && w.input.is_none())
+}
+
+/// The outcome of a run of a worker engine (MuJoCo, PyBullet) whose worker code wrote its
+/// outputs to `dir` (`python -m rockbench.worker`'s trajectory.csv and summary.json, written
+/// by the same function in whatever process ran it): read and checked as the harness reads its
+/// worker process's outputs, then the same [`outcome`] as [`run_one`]. `wall_s` is the run's
+/// wall time as measured by the caller.
+pub fn outcome_from_worker_output(
+    spec: &RunSpec,
+    dir: &std::path::Path,
+    wall_s: f64,
+) -> Result<RunOutcome, EngineError> {
+    let eng = crate::engines::external::ExternalEngine::new(&spec.engine)
+        .ok_or_else(|| EngineError::Unknown(spec.engine.clone()))?;
+    let out = eng.read_outputs(&spec.scene, dir)?;
+    let sim = Simulated {
+        trajectory: out.trajectory,
+        stop: Stop::End,
+        rotation_bound: None,
+        engine_version: out.engine_version,
+        ran: crate::engines::Engine::name(&eng).to_string(),
+    };
+    let mut o = outcome(&spec.scene, &sim);
+    o.wall_s = wall_s;
     Ok(o)
 }
 

@@ -317,19 +317,26 @@ fn compare_rows(
     ))
 }
 
+fn load_study(study: &std::path::Path) -> PyResult<crate::fragility::study::Study> {
+    crate::fragility::study::load_study(study).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 /// A fragility study (`rockbench fragility`): read and check STUDY.toml, run it (GIL
 /// released; cached runs reused) and return fragility.json as a dict; with `out`, also write
-/// the outputs there.
+/// the outputs there; with `cache`, use that run cache instead of the study's.
 #[pyfunction]
-#[pyo3(signature = (study, out = None, quiet = true))]
+#[pyo3(signature = (study, out = None, quiet = true, cache = None))]
 fn fragility_study(
     py: Python<'_>,
-    study: std::path::PathBuf,
-    out: Option<std::path::PathBuf>,
+    study: PathBuf,
+    out: Option<PathBuf>,
     quiet: bool,
+    cache: Option<PathBuf>,
 ) -> PyResult<Py<PyAny>> {
-    let st = crate::fragility::study::load_study(&study)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let mut st = load_study(&study)?;
+    if let Some(c) = cache {
+        st.cache_dir = c;
+    }
     let res = py
         .detach(|| crate::fragility::run_study(&st, quiet))
         .map_err(PyRuntimeError::new_err)?;
@@ -342,12 +349,150 @@ fn fragility_study(
     Ok(convert::json_to_py(py, &j)?.unbind())
 }
 
+/// The run cache folder of a study (as the study file sets it, made absolute).
+#[pyfunction]
+fn fragility_cache_dir(study: PathBuf) -> PyResult<String> {
+    let st = load_study(&study)?;
+    std::path::absolute(&st.cache_dir)
+        .map(|p| p.display().to_string())
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// The IDA jobs of a study: `[(scene_index, engine, record_id), ...]` in the study's order
+/// (empty without `[ida]`).
+#[pyfunction]
+fn fragility_ida_jobs(study: PathBuf) -> PyResult<Vec<(usize, String, String)>> {
+    Ok(crate::fragility::ida_jobs(&load_study(&study)?))
+}
+
+/// Runs made, runs found in the cache, and the runs made as `(key, outcome_json)`.
+type IdaBatch = (usize, usize, Vec<(String, String)>);
+
+/// Run the IDA jobs `jobs` of a study through the run cache `cache` (GIL released): finished
+/// runs are read, missing ones run and stored. Returns `(made, cached, [(key, outcome_json),
+/// ...])`: the run counts and the runs made.
+#[pyfunction]
+fn fragility_ida_batch(
+    py: Python<'_>,
+    study: PathBuf,
+    jobs: Vec<(usize, String, String)>,
+    cache: PathBuf,
+) -> PyResult<IdaBatch> {
+    let st = load_study(&study)?;
+    py.detach(|| -> Result<_, String> {
+        let runner = crate::fragility::Runner::new(cache, true);
+        crate::fragility::run_ida_jobs(&st, &runner, &jobs)?;
+        let made = runner
+            .made_runs()
+            .into_iter()
+            .map(|(k, o)| (k, serde_json::to_string(&o).expect("outcomes serialise")))
+            .collect();
+        Ok((
+            runner.made(),
+            runner.cached.load(std::sync::atomic::Ordering::Relaxed),
+            made,
+        ))
+    })
+    .map_err(PyRuntimeError::new_err)
+}
+
+/// Store outcomes `[(key, outcome_json), ...]` (as tasks return them) in the run cache `cache`
+/// where it has no entry yet (atomically, as every run is stored). Returns how many were new.
+#[pyfunction]
+fn fragility_store(cache: PathBuf, runs: Vec<(String, String)>) -> PyResult<usize> {
+    let mut new = 0;
+    for (key, text) in runs {
+        if key.len() != 64 || !key.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(PyValueError::new_err(format!("not a run key: {key:?}")));
+        }
+        let o: crate::fragility::run::RunOutcome = serde_json::from_str(&text)
+            .map_err(|e| PyValueError::new_err(format!("run {key}: outcome: {e}")))?;
+        if crate::fragility::cache_load(&cache, &key).is_none() {
+            crate::fragility::cache_store(&cache, &key, &o).map_err(PyRuntimeError::new_err)?;
+            new += 1;
+        }
+    }
+    Ok(new)
+}
+
+/// Run the runs `specs` (JSON specs of `fragility_run_specs`) one after the other through the
+/// run cache `cache` (GIL released): a run whose outcome is stored is not run again.
+/// Returns `[(key, made, outcome_json), ...]` (`made` false for a run found in the cache).
+#[pyfunction]
+fn fragility_run_batch(
+    py: Python<'_>,
+    specs: Vec<String>,
+    cache: PathBuf,
+) -> PyResult<Vec<(String, bool, String)>> {
+    let specs: Vec<crate::fragility::run::RunSpec> = specs
+        .iter()
+        .map(|s| serde_json::from_str(s))
+        .collect::<Result<_, _>>()
+        .map_err(|e| PyValueError::new_err(format!("spec: {e}")))?;
+    py.detach(|| {
+        let runner = crate::fragility::Runner::new(cache, true);
+        specs
+            .iter()
+            .map(|s| {
+                let (o, cached) = runner.get(s)?;
+                let text = serde_json::to_string(&o).expect("outcomes serialise");
+                Ok((s.key(), !cached, text))
+            })
+            .collect::<Result<Vec<_>, String>>()
+    })
+    .map_err(PyRuntimeError::new_err)
+}
+
+/// Which of the runs `keys` (content hashes) have an outcome in the run cache `cache`.
+#[pyfunction]
+fn fragility_cache_has(py: Python<'_>, cache: PathBuf, keys: Vec<String>) -> Vec<bool> {
+    py.detach(|| {
+        keys.iter()
+            .map(|k| k.len() > 2 && crate::fragility::cache_load(&cache, k).is_some())
+            .collect()
+    })
+}
+
+/// Whether runs of `engine` are Python worker runs (MuJoCo, PyBullet), which a Dask worker
+/// runs in its own Python (`rockbench.worker.run`) instead of a worker process per run.
+#[pyfunction]
+fn fragility_is_python_worker(engine: &str) -> bool {
+    crate::fragility::run::is_python_worker(engine)
+}
+
+/// The scene of a run spec as the JSON a Python worker reads (`Scene::to_json`).
+#[pyfunction]
+fn fragility_worker_scene(spec: &str) -> PyResult<String> {
+    let spec = parse_spec(spec)?;
+    Ok(serde_json::to_string_pretty(&spec.scene.to_json()).expect("scenes serialise"))
+}
+
+/// Finish a Python worker run: read the outputs the worker code wrote to `out_dir`, make the
+/// outcome as a run of the harness does, store it in the run cache `cache` and return it as
+/// JSON.
+#[pyfunction]
+fn fragility_worker_outcome(
+    spec: &str,
+    out_dir: PathBuf,
+    wall_s: f64,
+    cache: PathBuf,
+) -> PyResult<String> {
+    let spec = parse_spec(spec)?;
+    let o = crate::fragility::run::outcome_from_worker_output(&spec, &out_dir, wall_s)
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    crate::fragility::cache_store(&cache, &spec.key(), &o).map_err(PyRuntimeError::new_err)?;
+    Ok(serde_json::to_string(&o).expect("outcomes serialise"))
+}
+
+fn parse_spec(spec: &str) -> PyResult<crate::fragility::run::RunSpec> {
+    serde_json::from_str(spec).map_err(|e| PyValueError::new_err(format!("spec: {e}")))
+}
+
 /// The stripes' runs of a study as JSON strings (the serialisable unit of work) with their
 /// cache keys: `[(key, spec_json), ...]`.
 #[pyfunction]
-fn fragility_run_specs(study: std::path::PathBuf) -> PyResult<Vec<(String, String)>> {
-    let st = crate::fragility::study::load_study(&study)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+fn fragility_run_specs(study: PathBuf) -> PyResult<Vec<(String, String)>> {
+    let st = load_study(&study)?;
     Ok(crate::fragility::stripe_specs(&st)
         .iter()
         .map(|s| (s.key(), serde_json::to_string(s).expect("specs serialise")))
@@ -358,8 +503,7 @@ fn fragility_run_specs(study: std::path::PathBuf) -> PyResult<Vec<(String, Strin
 /// GIL released.
 #[pyfunction]
 fn fragility_run(py: Python<'_>, spec: &str) -> PyResult<String> {
-    let spec: crate::fragility::run::RunSpec =
-        serde_json::from_str(spec).map_err(|e| PyValueError::new_err(format!("spec: {e}")))?;
+    let spec = parse_spec(spec)?;
     let o = py
         .detach(|| crate::fragility::run::run_one(&spec))
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
@@ -385,5 +529,14 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fragility_study, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_run_specs, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_run, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_cache_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_ida_jobs, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_ida_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_run_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_store, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_cache_has, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_is_python_worker, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_worker_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_worker_outcome, m)?)?;
     Ok(())
 }

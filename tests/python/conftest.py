@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 import pytest
 
 import rockbench
@@ -31,3 +33,20 @@ def run_once(scene: str, engine: str) -> rockbench.Run:
 @pytest.fixture
 def runs() -> object:
     return run_once
+
+
+def at2(peak: float, period: float, cycles: float) -> str:
+    """A sine burst of `cycles` periods (then 2 s of rest) as a PEER .AT2 file's text."""
+    dt = 0.01
+    n = int((cycles * period + 2.0) / dt)
+    t = np.arange(n) * dt
+    a = np.where(t <= cycles * period, peak * np.sin(2 * np.pi * t / period), 0.0)
+    lines = [
+        "synthetic",
+        "sine burst",
+        "ACCELERATION TIME SERIES IN UNITS OF G",
+        f"NPTS= {n}, DT= {dt:.4f} SEC",
+    ]
+    for k in range(0, n, 5):
+        lines.append("".join(f"{v:15.7E}" for v in a[k : k + 5]))
+    return "\n".join(lines) + "\n"

@@ -21,18 +21,25 @@ FIELDS = ("x", "z", "phi", "vx", "vz", "omega")
 
 def test_public_names_come_from_the_native_module() -> None:
     assert set(rockbench.__all__) == {
+        "Comparison",
+        "FragilityResult",
         "Run",
         "Scene",
         "__version__",
         "compare",
         "engine_names",
+        "fragility",
+        "fragility_is_python_worker",
         "fragility_run",
         "fragility_run_specs",
         "fragility_study",
         "load_scene",
         "run",
+        "run_many",
+        "trajectory",
     }
-    for name in set(rockbench.__all__) - {"compare"}:
+    python_side = {"compare", "fragility", "run_many", "trajectory", "Comparison", "FragilityResult"}
+    for name in set(rockbench.__all__) - python_side:
         assert getattr(rockbench, name) is getattr(rockbench._native, name)
     # `compare` wraps the native `compare_rows` in a pandas DataFrame.
     assert rockbench.compare.__module__ == "rockbench.compare"

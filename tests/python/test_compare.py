@@ -1,4 +1,5 @@
-"""`rockbench.compare` returns the Rust metrics as a pandas DataFrame."""
+"""`rockbench.compare` returns the Rust metrics as a pandas DataFrame (a `Comparison`, with its
+notebook HTML); `rockbench.trajectory` gives a run as one."""
 
 from __future__ import annotations
 
@@ -27,3 +28,23 @@ def test_compare_lists_a_skipped_engine_with_its_reason() -> None:
     assert df.attrs["status"]["housner"].startswith("skipped: ")
     assert "single block" in df.attrs["status"]["housner"]
     assert set(df.engine) <= {"native"}
+
+
+def test_a_comparison_shows_its_status_and_metrics_in_a_notebook() -> None:
+    df = rockbench.compare(scene_path("housner-slender"), engines=["native", "housner"], reference="housner")
+    assert isinstance(df, rockbench.Comparison)
+    page = df._repr_html_()
+    assert "native: ok" in page and "housner: ok" in page
+    assert "<table" in page and "impact_time_1" in page
+    # Selections are plain DataFrames.
+    assert type(df[df.engine == "native"]) is pd.DataFrame
+    skipped = rockbench.compare(scene_path("two-block-free-rocking"), engines=["housner"], reference="native")
+    assert "housner: skipped: " in skipped._repr_html_()
+
+
+def test_a_run_as_a_dataframe() -> None:
+    r = rockbench.run(scene_path("housner-slender"), engine="native")
+    df = rockbench.trajectory(r)
+    assert list(df.index[:2]) == list(r.t[:2]) and df.index.name == "t"
+    assert set(df.columns.get_level_values("field")) == {"x", "z", "phi", "vx", "vz", "omega"}
+    assert (df[("block", "phi")].to_numpy() == r.blocks["block"]["phi"]).all()

@@ -14,26 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import statsmodels.api as sm
+from conftest import at2
 from scipy import stats
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = ROOT / "target" / "release" / "rockbench"
-
-
-def at2(peak: float, period: float, cycles: float) -> str:
-    dt = 0.01
-    n = int((cycles * period + 2.0) / dt)
-    t = np.arange(n) * dt
-    a = np.where(t <= cycles * period, peak * np.sin(2 * np.pi * t / period), 0.0)
-    lines = [
-        "synthetic",
-        "sine burst",
-        "ACCELERATION TIME SERIES IN UNITS OF G",
-        f"NPTS= {n}, DT= {dt:.4f} SEC",
-    ]
-    for k in range(0, n, 5):
-        lines.append("".join(f"{v:15.7E}" for v in a[k : k + 5]))
-    return "\n".join(lines) + "\n"
 
 
 @pytest.fixture(scope="module")

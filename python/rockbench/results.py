@@ -1,0 +1,217 @@
+"""Result objects of the Python API: pandas DataFrames (and an xarray Dataset for the outcome
+matrix) built from what the Rust core returns, and their notebook display (``_repr_html_``)."""
+
+from __future__ import annotations
+
+import html
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for 3.x
+
+OUTCOME_COLUMNS = [
+    "scene",
+    "engine",
+    "record",
+    "pair",
+    "method",
+    "level",
+    "scale",
+    "ran",
+    "stop",
+    "t_end",
+    "wall_s",
+    "cached",
+    "max_rotation_over_alpha",
+    "overturned",
+    "max_residual_sliding_m",
+]
+
+
+def trajectory(run: Any) -> pd.DataFrame:
+    """A run's trajectory (``rockbench.run(...)``) as a DataFrame: one row per sample time
+    (index ``t``, s), columns (block, field) for x, z, phi, vx, vz, omega (SI units)."""
+    cols = {
+        (block, field): values
+        for block, fields in run.blocks.items()
+        for field, values in fields.items()
+    }
+    df = pd.DataFrame(cols, index=pd.Index(run.t, name="t"))
+    df.columns = pd.MultiIndex.from_tuples(list(cols), names=["block", "field"])
+    return df
+
+
+def _sliding(values: list[float | None]) -> float:
+    """Largest residual sliding of a run (infinite when a block overturned: no residual)."""
+    return max((np.inf if v is None else float(v)) for v in values) if values else 0.0
+
+
+def outcome_row(o: dict[str, Any]) -> dict[str, Any]:
+    """The scalar columns of one run outcome (the outcome JSON of the Rust core)."""
+    return {
+        "ran": o["ran"],
+        "stop": o["stop"],
+        "t_end": o["t_end"],
+        "wall_s": o["wall_s"],
+        "max_rotation_over_alpha": max(o["rotation"]),
+        "overturned": any(o["overturned"]),
+        "max_residual_sliding_m": _sliding(o["sliding"]),
+    }
+
+
+class Comparison(pd.DataFrame):  # type: ignore[misc]  # pandas is untyped here
+    """The metrics of ``rockbench.compare``: a DataFrame (one row per metric, the columns of
+    metrics.csv) with each engine's status in ``attrs["status"]``. In a notebook it shows the
+    status of every engine, then the metrics as an engine x metric table per block."""
+
+    @property
+    def _constructor(self) -> type[pd.DataFrame]:
+        # Selections and arithmetic give plain DataFrames.
+        frame: type[pd.DataFrame] = pd.DataFrame
+        return frame
+
+    @property
+    def status(self) -> dict[str, str]:
+        return dict(self.attrs.get("status", {}))
+
+    def _repr_html_(self) -> str:
+        parts = ["<div><b>rockbench comparison</b>"]
+        scenes = sorted(set(self["scene"])) if len(self) else []
+        if scenes:
+            parts.append(" of " + ", ".join(html.escape(str(s)) for s in scenes))
+        parts.append("<ul>")
+        for engine, st in self.status.items():
+            parts.append(f"<li>{html.escape(engine)}: {html.escape(st)}</li>")
+        parts.append("</ul>")
+        if len(self):
+            table = pd.DataFrame(self).pivot_table(
+                index=["block", "engine"], columns="metric", values="value", aggfunc="first"
+            )
+            parts.append(table.to_html(float_format=lambda x: f"{x:.6g}"))
+        parts.append("</div>")
+        return "".join(parts)
+
+
+class FragilityResult:
+    """A fragility study's results (the content of fragility.json) as tables.
+
+    - ``outcomes``: one row per run of the outcome matrix (stripes and IDA; the columns of
+      outcomes.csv, one boolean column per limit state);
+    - ``fits``, ``capacities``, ``differences``: fits.csv, capacities.csv, differences.csv;
+    - ``to_xarray()``: the stripes as a Dataset with dimensions scene x record x level x engine;
+    - ``to_parquet(folder)``: the four tables as Parquet files;
+    - ``counts``: runs, runs from the cache, runs made, wall time;
+    - ``json``: everything, as the Rust core returned it.
+    """
+
+    def __init__(self, data: dict[str, Any], distributed: dict[str, Any] | None = None) -> None:
+        self.json = data
+        self.distributed = distributed
+        self.limit_states = [ls["name"] for ls in data["limit_states"]]
+
+    @property
+    def name(self) -> str:
+        return str(self.json["study"]["name"])
+
+    @property
+    def counts(self) -> dict[str, Any]:
+        return dict(self.json["counts"])
+
+    @property
+    def outcomes(self) -> pd.DataFrame:
+        rows = []
+        for r in self.json["rows"]:
+            row = {k: r[k] for k in ("scene", "engine", "record", "pair", "method", "level", "scale")}
+            row.update(outcome_row(r["outcome"]))
+            row["cached"] = r["cached"]
+            for name, x in zip(self.limit_states, r["exceeded"]):
+                row[name] = bool(x)
+            rows.append(row)
+        return pd.DataFrame(rows, columns=OUTCOME_COLUMNS + self.limit_states)
+
+    @property
+    def fits(self) -> pd.DataFrame:
+        rows = []
+        for f in self.json["fits"]:
+            fit = f["fit"] or {}
+            tci = f["theta_ci"] or (None, None)
+            bci = f["beta_ci"] or (None, None)
+            rows.append(
+                {
+                    "scene": f["scene"],
+                    "engine": f["engine"],
+                    "limit_state": f["limit_state"],
+                    "method": f["method"],
+                    "theta": fit.get("theta"),
+                    "beta": fit.get("beta"),
+                    "theta_lo": tci[0],
+                    "theta_hi": tci[1],
+                    "beta_lo": bci[0],
+                    "beta_hi": bci[1],
+                    "resamples": f["resamples"],
+                    "problem": f["problem"],
+                }
+            )
+        return pd.DataFrame(rows)
+
+    @property
+    def capacities(self) -> pd.DataFrame:
+        return pd.DataFrame(self.json["capacities"])
+
+    @property
+    def differences(self) -> pd.DataFrame:
+        return pd.DataFrame(self.json["differences"])
+
+    def to_xarray(self) -> Any:
+        """The stripes' outcome matrix as an ``xarray.Dataset`` with dimensions scene x
+        record x level x engine: ``max_rotation_over_alpha``, ``overturned``, ``t_end`` and
+        ``exceeded`` (with a ``limit_state`` dimension). Needs ``xarray``
+        (``pip install rockbench[dask]`` or xarray itself)."""
+        import xarray as xr
+
+        df = self.outcomes
+        df = df[df["method"] == "stripes"]
+        dims = ["scene", "record", "level", "engine"]
+        idx = df.set_index(dims)
+        ds = xr.Dataset.from_dataframe(idx[["max_rotation_over_alpha", "overturned", "t_end"]])
+        ex = idx[self.limit_states]
+        ex.columns = pd.Index(self.limit_states, name="limit_state")
+        ds["exceeded"] = xr.DataArray.from_series(ex.stack()).astype(bool)
+        ds.attrs["study"] = self.name
+        ds.attrs["measure"] = self.json["study"]["intensity"]["measure"]
+        return ds
+
+    def to_parquet(self, folder: str | os.PathLike[str]) -> list[Path]:
+        """Write outcomes.parquet, fits.parquet, capacities.parquet and differences.parquet
+        (pyarrow) to `folder`; returns the paths."""
+        out = Path(folder)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = []
+        for name in ("outcomes", "fits", "capacities", "differences"):
+            p = out / f"{name}.parquet"
+            getattr(self, name).to_parquet(p, engine="pyarrow", index=False)
+            paths.append(p)
+        return paths
+
+    def _repr_html_(self) -> str:
+        c = self.counts
+        head = (
+            f"<div><b>rockbench fragility study {html.escape(self.name)}</b>: "
+            f"{c['runs']} runs ({c['cached']} from the cache, {c.get('made', '?')} made), "
+            f"intensity {html.escape(str(self.json['study']['intensity']['measure']))}, "
+            f"engines {html.escape(', '.join(self.json['study']['engines']))}"
+        )
+        if self.distributed:
+            d = self.distributed
+            head += (
+                f"; on Dask: {d['tasks']} tasks, {d['made']} runs made by the workers"
+            )
+        fits = self.fits[["scene", "engine", "limit_state", "method", "theta", "theta_lo", "theta_hi", "beta"]]
+        table: str = fits.to_html(index=False, float_format=lambda x: f"{x:.4g}", na_rep="-")
+        return head + "</div>" + table
+
+    def __repr__(self) -> str:
+        c = self.counts
+        return f"FragilityResult({self.name!r}, runs={c['runs']}, fits={len(self.json['fits'])})"

@@ -1,0 +1,506 @@
+"""Studies past one machine: fragility studies and batches of runs, on a Dask cluster or locally.
+
+    python -m rockbench.study STUDY.toml [--scheduler ADDRESS] [--out DIR] [--cache DIR]
+
+(the command is `rockbench.study`, which calls :func:`main`)
+
+- ``fragility(study, client=None)``: a fragility study (``rockbench fragility``). Without a
+  client the Rust core runs it on this machine. With a ``distributed.Client`` the runs the study
+  is missing from its run cache are cut into tasks of many runs, the stripes first, then the
+  IDA hunts (a record's hunt is sequential: one IDA job is one record), and run on the
+  cluster; each task calls the Rust core with the GIL released and stores every outcome in the
+  run cache under its content hash (temporary file + rename), and sends the outcomes it made
+  back, which the client stores too as each task ends (so results reach the client's store
+  even when workers do not share its filesystem). The study is then assembled by
+  the same Rust code as a local study, from the cache, with no new run: the outcome matrix and
+  the fits are the local ones, bit for bit. An interrupted study, or one whose worker died,
+  resumes from the cache: finished runs are never run again.
+- ``run_many(scenes_or_study, ...)``: many runs as a DataFrame; a study file gives its stripes'
+  runs (through the same cache), a list of scenes one run per scene and engine.
+
+MuJoCo and PyBullet runs execute in the Dask worker's own Python: the worker code of
+``python -m rockbench.worker`` (``rockbench.worker.run``) is called in-process, and its outputs
+are read by the same Rust code that reads the worker process's outputs. (Inside IDA hunts,
+which the Rust core drives, they run as worker processes of the Dask worker's interpreter.)
+
+The cluster's workers need ``rockbench`` installed and the study's record files at the same
+paths as the client; a run cache they share with the client (a shared filesystem) also lets a
+task skip runs another finished; see docs/cluster.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any, TypeVar
+
+import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for 3.x
+
+from rockbench._native import (
+    Scene,
+    fragility_cache_dir,
+    fragility_cache_has,
+    fragility_ida_batch,
+    fragility_ida_jobs,
+    fragility_is_python_worker,
+    fragility_run_batch,
+    fragility_run_specs,
+    fragility_store,
+    fragility_study,
+    fragility_worker_outcome,
+    fragility_worker_scene,
+    run,
+)
+from rockbench.results import FragilityResult, outcome_row
+
+T = TypeVar("T")
+PathLike = str | os.PathLike[str]
+
+#: Default wall time of one task, s: long enough that the cost of a task to the scheduler,
+#: client and worker (6-8 ms measured on a loaded 2-core machine, docs/cluster.md) stays far
+#: below 5 %, short enough to balance the load.
+TASK_SECONDS = 2.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Tasks (module-level functions: they run in the Dask workers).
+
+
+def run_specs_task(items: list[tuple[str, str]], cache: str) -> dict[str, Any]:
+    """Run `(key, spec_json)` runs through the run cache `cache`: Rust engines in one call to
+    the core (GIL released), MuJoCo and PyBullet in this Python. Returns the outcomes, how many
+    runs were made, and the task's working time."""
+    start = time.perf_counter()
+    rust: list[tuple[int, str]] = []
+    py: list[tuple[int, str, str]] = []
+    for i, (key, spec) in enumerate(items):
+        engine = json.loads(spec)["engine"]
+        if fragility_is_python_worker(engine):
+            py.append((i, key, spec))
+        else:
+            rust.append((i, spec))
+    out: list[tuple[str, bool, str] | None] = [None] * len(items)
+    if rust:
+        for (i, _), r in zip(rust, fragility_run_batch([s for _, s in rust], cache)):
+            out[i] = r
+    for i, key, spec in py:
+        out[i] = _python_worker_run(key, spec, cache)
+    results = [r for r in out if r is not None]
+    return {
+        "results": results,
+        "made": sum(1 for r in results if r[1]),
+        "work_s": time.perf_counter() - start,
+        "pid": os.getpid(),
+    }
+
+
+def _python_worker_run(key: str, spec: str, cache: str) -> tuple[str, bool, str]:
+    """One MuJoCo or PyBullet run in this process (the code of ``python -m rockbench.worker``),
+    its outcome made and stored by the Rust core."""
+    from rockbench import worker
+
+    if fragility_cache_has(cache, [key])[0]:
+        ((_, _, text),) = fragility_run_batch([spec], cache)
+        return key, False, text
+    s = json.loads(spec)
+    engine = s["engine"]
+    with tempfile.TemporaryDirectory(prefix=f"rockbench-{engine}-") as d:
+        scene_json = os.path.join(d, "scene.json")
+        with open(scene_json, "w") as f:
+            f.write(fragility_worker_scene(spec))
+        start = time.perf_counter()
+        try:
+            worker.run(engine, scene_json, os.path.join(d, "out"), s["scene"].get("source"))
+        except worker.WorkerError as e:
+            raise RuntimeError(f"{engine}: record {s['record_id']} x{s['scale']}: {e}") from None
+        wall = time.perf_counter() - start
+        text = fragility_worker_outcome(spec, os.path.join(d, "out"), wall, cache)
+    return key, True, text
+
+
+def ida_task(jobs: list[tuple[int, str, str]], study: str, cache: str) -> dict[str, Any]:
+    """Hunt and fill the IDA of `jobs` (scene index, engine, record id) through the cache. The
+    Rust core drives the hunt; MuJoCo and PyBullet runs in it are worker processes of this
+    worker's own interpreter (``ROCKBENCH_PYTHON``, unless set)."""
+    os.environ.setdefault("ROCKBENCH_PYTHON", sys.executable)
+    start = time.perf_counter()
+    made, cached, runs = fragility_ida_batch(study, jobs, cache)
+    return {
+        "results": [None] * len(jobs),
+        "runs": runs,
+        "made": made,
+        "cached": cached,
+        "work_s": time.perf_counter() - start,
+        "pid": os.getpid(),
+    }
+
+
+def scenes_task(items: list[tuple[Any, str]]) -> dict[str, Any]:
+    """Run `(scene, engine)` pairs; per pair, one row per block of the run (a failed run: one
+    row with its reason)."""
+    start = time.perf_counter()
+    rows = [_scene_rows(scene, engine) for scene, engine in items]
+    return {"results": rows, "made": len(items), "work_s": time.perf_counter() - start, "pid": os.getpid()}
+
+
+def _scene_rows(scene: Any, engine: str) -> list[dict[str, Any]]:
+    name = scene if isinstance(scene, str) else scene.get("name", "<dict>")
+    try:
+        r = run(scene, engine=engine)
+    except (RuntimeError, ValueError) as e:
+        return [{"scene": name, "engine": engine, "status": f"failed: {e}"}]
+    s = r.summary
+    rows = []
+    for b in s["blocks"]:
+        rows.append(
+            {
+                "scene": s["scene"],
+                "engine": engine,
+                "status": s["status"],
+                "engine_version": s["engine_version"],
+                "wall_time_s": s["wall_time_s"],
+                "block": b["name"],
+                "max_abs_phi": b["max_abs_phi"],
+                "overturned": b["overturned"],
+                "overturn_time": b["overturn_time"],
+                "rest_time": b["rest_time"],
+                "impacts": len(b["impacts"]),
+            }
+        )
+    return rows
+
+
+# ---------------------------------------------------------------------------------------------
+# Cutting work into tasks.
+
+
+def task_size(per_item_s: float, remaining: int, slots: int, task_seconds: float = TASK_SECONDS) -> int:
+    """Items per task: enough for `task_seconds` of work at `per_item_s` each, but no more
+    than leaves every one of `slots` worker threads about three tasks (load balance, and a
+    worker's death loses little)."""
+    if remaining <= 0:
+        return 1
+    want = math.ceil(task_seconds / per_item_s) if per_item_s > 0 else remaining
+    cap = max(1, math.ceil(remaining / (3 * max(1, slots))))
+    return max(1, min(want, cap))
+
+
+def _chunks(items: Sequence[T], size: int) -> list[list[T]]:
+    return [list(items[i : i + size]) for i in range(0, len(items), size)]
+
+
+def spread(n: int, parts: int) -> list[list[int]]:
+    """Indices 0..n-1 dealt into `parts` groups like cards (group j: j, j + parts, ...): a
+    study lists its runs record by record and level by level, and run costs follow the level,
+    so dealt groups cost about the same and a sample of a few groups measures the average."""
+    parts = max(1, min(parts, n))
+    return [list(range(j, n, parts)) for j in range(parts)]
+
+
+def distribute(
+    client: Any,
+    fn: Callable[..., dict[str, Any]],
+    items: Sequence[Any],
+    args: tuple[Any, ...] = (),
+    *,
+    probe: int = 2,
+    task_seconds: float = TASK_SECONDS,
+    per_task: int | None = None,
+    window: int = 4,
+    label: str = "runs",
+    progress: Callable[[str], None] | None = None,
+    on_result: Callable[[dict[str, Any]], None] | None = None,
+) -> tuple[list[Any], dict[str, Any]]:
+    """Run `fn(batch, *args)` over `items` on a Dask client; `fn` returns a dict with
+    ``results`` (one per item of its batch), ``made`` and ``work_s``. Tasks take items dealt
+    across the list (:func:`spread`). Unless `per_task` is given, probe tasks of `probe` items
+    (one per worker thread, at least 8 items in all, evenly spaced over the list) measure an
+    item's cost, then the rest is cut into tasks of :func:`task_size`. At most `window` tasks per worker thread are submitted at a time (the
+    scheduler holds a bounded amount of work; a new task goes out as one ends). `on_result` is
+    called with each task's result as it arrives. Returns the results in item order and
+    statistics."""
+    from distributed import as_completed
+
+    start = time.perf_counter()
+    slots = max(1, sum(client.nthreads().values()))
+    items = list(items)
+    batches: list[list[int]] = []
+    results: dict[int, dict[str, Any]] = {}
+    index: dict[Any, int] = {}
+    done_items = 0
+    last = [0.0]  # when the last progress line was printed (at most one a second)
+
+    def submit(batch: list[int]) -> Any:
+        batches.append(batch)
+        key = f"rockbench-{label}-{os.getpid()}-{time.time_ns()}-{len(batches)}"
+        f = client.submit(fn, [items[i] for i in batch], *args, pure=False, key=key)
+        index[f.key] = len(batches) - 1
+        return f
+
+    def run_all(todo: list[list[int]]) -> None:
+        nonlocal done_items
+        pending = iter(todo)
+        first = [submit(b) for _, b in zip(range(window * slots), pending)]
+        queue = as_completed(first)  # type: ignore[no-untyped-call]
+        for fut in queue:
+            r = fut.result()
+            if on_result:
+                on_result(r)
+            i = index[fut.key]
+            results[i] = r
+            done_items += len(batches[i])
+            fut.release()
+            nxt = next(pending, None)
+            if nxt is not None:
+                queue.add(submit(nxt))  # type: ignore[no-untyped-call]
+            if progress and (time.perf_counter() - last[0] >= 1.0 or done_items == len(items)):
+                last[0] = time.perf_counter()
+                progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
+
+    left = list(range(len(items)))
+    size = per_task
+    if size is None and items:
+        n = min(len(items), max(probe * slots, 8))
+        probes = [left[(k * len(left)) // n] for k in range(n)]
+        run_all([probes[k : k + max(1, probe)] for k in range(0, n, max(1, probe))])
+        work = sum(r["work_s"] for r in results.values())
+        taken = set(probes)
+        left = [i for i in left if i not in taken]
+        size = task_size(work / n, len(left), slots, task_seconds)
+    if left:
+        groups = spread(len(left), math.ceil(len(left) / (size or 1)))
+        run_all([[left[k] for k in g] for g in groups])
+    wall = time.perf_counter() - start
+    per_item: list[Any] = [None] * len(items)
+    for i, r in results.items():
+        for item, x in zip(batches[i], r["results"]):
+            per_item[item] = x
+    tasks = [results[i] for i in range(len(batches))]
+    work = sum(r["work_s"] for r in tasks)
+    stats = {
+        "items": len(items),
+        "tasks": len(batches),
+        "task_size": size,
+        "made": sum(int(r["made"]) for r in tasks),
+        "work_s": work,
+        "wall_s": wall,
+        "slots": slots,
+        "pids": sorted({int(r["pid"]) for r in tasks}),
+    }
+    return per_item, stats
+
+
+# ---------------------------------------------------------------------------------------------
+# The API.
+
+
+def _paths(study: PathLike, cache: PathLike | None) -> tuple[Path, Path]:
+    path = Path(study).resolve()
+    cache_dir = Path(cache).resolve() if cache is not None else Path(fragility_cache_dir(path))
+    return path, cache_dir
+
+
+def fragility(
+    study: PathLike,
+    client: Any = None,
+    *,
+    out: PathLike | None = None,
+    cache: PathLike | None = None,
+    worker_cache: PathLike | None = None,
+    task_seconds: float = TASK_SECONDS,
+    runs_per_task: int | None = None,
+    quiet: bool = True,
+) -> FragilityResult:
+    """Run the fragility study `study` (a study TOML file) and return its results; with `out`,
+    also write outcomes.csv, fits.csv, ..., report.html there. `client`: a
+    ``distributed.Client`` (None: run here). `cache`: the run cache, the store of results
+    (default: the study's). `worker_cache`: the cache path the workers use (default `cache`;
+    another path when workers do not share the client's filesystem: their runs come back with
+    the tasks and are stored in `cache` as each task ends). `task_seconds` / `runs_per_task`
+    size the tasks (``runs_per_task`` also sizes IDA tasks, in records)."""
+    path, cache_dir = _paths(study, cache)
+    if client is None:
+        return FragilityResult(fragility_study(path, out, quiet, cache_dir))
+    wcache = str(Path(worker_cache).resolve()) if worker_cache is not None else str(cache_dir)
+    say = None if quiet else (lambda m: print(f"study: {m}", file=sys.stderr))
+    stored = [0]
+
+    def store(r: dict[str, Any]) -> None:
+        runs = r["runs"] if "runs" in r else [(k, text) for k, made, text in r["results"] if made]
+        stored[0] += fragility_store(cache_dir, runs)
+
+    specs = fragility_run_specs(path)
+    have = fragility_cache_has(cache_dir, [k for k, _ in specs])
+    missing = [(k, s) for (k, s), h in zip(specs, have) if not h]
+    _, stripes = distribute(
+        client, run_specs_task, missing, (wcache,),
+        task_seconds=task_seconds, per_task=runs_per_task, label="stripes", progress=say,
+        on_result=store,
+    )
+    jobs = fragility_ida_jobs(path)
+    _, ida = distribute(
+        client, ida_task, jobs, (str(path), wcache), probe=1,
+        task_seconds=task_seconds, per_task=runs_per_task, label="ida", progress=say,
+        on_result=store,
+    )
+    data = fragility_study(path, out, quiet, cache_dir)
+    info = {
+        "stripes": stripes,
+        "ida": ida,
+        "tasks": stripes["tasks"] + ida["tasks"],
+        "made": stripes["made"] + ida["made"],
+        "stored_by_client": stored[0],
+        "already_cached": len(specs) - len(missing),
+    }
+    return FragilityResult(data, distributed=info)
+
+
+def _is_study(x: Any) -> bool:
+    if not isinstance(x, (str, os.PathLike)) or not str(x).endswith(".toml"):
+        return False
+    import tomllib
+
+    try:
+        with open(x, "rb") as f:
+            return "suite" in tomllib.load(f)
+    except (OSError, tomllib.TOMLDecodeError):
+        return False
+
+
+def run_many(
+    scenes_or_study: PathLike | Sequence[Any],
+    engines: Sequence[str] = ("native",),
+    client: Any = None,
+    *,
+    cache: PathLike | None = None,
+    task_seconds: float = TASK_SECONDS,
+    runs_per_task: int | None = None,
+) -> pd.DataFrame:
+    """Many runs, locally or on a Dask client, as a DataFrame.
+
+    - A study file: its stripes' runs (scene x engine x record x level) through the run cache;
+      one row per run (scene, engine, record, scale, key, made, then the outcome's columns).
+      `engines` is ignored: the study names them.
+    - Scenes (paths, dicts or Scenes): one run per scene and engine; one row per block."""
+    if _is_study(scenes_or_study):
+        assert isinstance(scenes_or_study, (str, os.PathLike))
+        path, cache_dir = _paths(scenes_or_study, cache)
+        specs = fragility_run_specs(path)
+        if client is None:
+            n = max(1, os.cpu_count() or 1)
+            chunks = _chunks(specs, max(1, math.ceil(len(specs) / n)))
+            with ThreadPoolExecutor(n) as pool:
+                parts = list(pool.map(lambda c: run_specs_task(c, str(cache_dir)), chunks))
+            per_item = [r for p in parts for r in p["results"]]
+        else:
+            per_item, _ = distribute(
+                client, run_specs_task, specs, (str(cache_dir),),
+                task_seconds=task_seconds, per_task=runs_per_task,
+            )
+        rows = []
+        for (key, spec), (k2, made, text) in zip(specs, per_item):
+            assert k2 == key, "a run came back under another key"
+            s = json.loads(spec)
+            row = {
+                "scene": s["scene"]["name"],
+                "engine": s["engine"],
+                "record": s["record_id"],
+                "scale": s["scale"],
+                "key": key,
+                "made": made,
+            }
+            row.update(outcome_row(json.loads(text)))
+            rows.append(row)
+        return pd.DataFrame(rows)
+    if isinstance(scenes_or_study, (str, os.PathLike, dict, Scene)):
+        scenes: list[Any] = [scenes_or_study]
+    else:
+        scenes = list(scenes_or_study)
+    items = [
+        (s.to_dict() if isinstance(s, Scene) else (os.fspath(s) if isinstance(s, os.PathLike) else s), e)
+        for s in scenes
+        for e in engines
+    ]
+    if client is None:
+        per_item = scenes_task(items)["results"]
+    else:
+        per_item, _ = distribute(
+            client, scenes_task, items, probe=1, task_seconds=task_seconds, per_task=runs_per_task
+        )
+    return pd.DataFrame([row for rows in per_item for row in rows])
+
+
+# ---------------------------------------------------------------------------------------------
+# The command.
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m rockbench.study",
+        description="Run a fragility study, on a Dask cluster with --scheduler, else here.",
+    )
+    ap.add_argument("study", help="the study file (TOML)")
+    ap.add_argument("--scheduler", help="address of a Dask scheduler (tcp://HOST:8786)")
+    ap.add_argument("--out", default="out/fragility", help="output folder (default out/fragility)")
+    ap.add_argument("--cache", help="run cache folder, the store of results (default: the study's)")
+    ap.add_argument("--worker-cache", help="the workers' cache folder when they do not share --cache")
+    ap.add_argument("--task-seconds", type=float, default=TASK_SECONDS, help="target wall time of a task, s")
+    ap.add_argument("--runs-per-task", type=int, help="fixed task size (runs; IDA: records)")
+    ap.add_argument("--timeout", type=float, default=20.0, help="seconds to wait for the scheduler (default 20)")
+    ap.add_argument("--quiet", action="store_true", help="no progress lines")
+    a = ap.parse_args(argv)
+    if not os.path.isfile(a.study):
+        print(f"{a.study}: no such study file", file=sys.stderr)
+        return 2
+    if a.task_seconds <= 0 or (a.runs_per_task is not None and a.runs_per_task < 1):
+        print("--task-seconds must be positive and --runs-per-task at least 1", file=sys.stderr)
+        return 2
+    try:
+        fragility_run_specs(a.study)  # read and check everything before connecting or running
+    except ValueError as e:
+        print(str(e).replace("\n", " "), file=sys.stderr)
+        return 2
+    client = None
+    try:
+        if a.scheduler:
+            try:
+                from distributed import Client
+            except ImportError:
+                print("--scheduler needs Dask: pip install 'rockbench[dask]'", file=sys.stderr)
+                return 2
+            try:
+                client = Client(a.scheduler, timeout=f"{a.timeout}s")  # type: ignore[no-untyped-call]
+            except (OSError, TimeoutError, ValueError) as e:
+                print(f"--scheduler {a.scheduler}: cannot connect: {e}".replace("\n", " "), file=sys.stderr)
+                return 1
+        res = fragility(
+            a.study, client, out=a.out, cache=a.cache, worker_cache=a.worker_cache,
+            task_seconds=a.task_seconds,
+            runs_per_task=a.runs_per_task, quiet=a.quiet,
+        )
+    except (RuntimeError, ValueError, OSError) as e:
+        print(f"{a.study}: {e}".replace("\n", " "), file=sys.stderr)
+        return 1
+    finally:
+        if client is not None:
+            client.close()  # type: ignore[no-untyped-call]
+    c = res.counts
+    where = f"on {a.scheduler}" if a.scheduler else "here"
+    extra = ""
+    if res.distributed:
+        d = res.distributed
+        extra = f"; {d['made']} runs made in {d['tasks']} tasks {where}"
+    print(f"{res.name}: {c['runs']} runs ({c['cached']} from the cache){extra}; wrote {a.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
