@@ -10,6 +10,7 @@
 //! - [`fit`]: probit and censored lognormal maximum likelihood.
 //! - [`report`]: CSV, JSON, the HTML report and `--paper`.
 
+pub mod early;
 pub mod fit;
 pub mod report;
 pub mod run;
