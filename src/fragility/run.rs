@@ -20,7 +20,7 @@
 //! PyBullet) stop on their side or at rest by the same rules with a rest test adapted to
 //! compliant contact ([`super::early`]). Other engines run their whole duration.
 
-use super::early::{EarlyStopSpec, Monitor};
+use super::early::EarlyStopSpec;
 use crate::engines::auto::not_housner;
 use crate::engines::external::ExternalEngine;
 use crate::engines::native::REST_WINDOW;
@@ -334,6 +334,7 @@ fn soft_early(engine: &str, scene: &Scene) -> Result<Simulated, EngineError> {
 
 #[cfg(feature = "rapier")]
 fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineError> {
+    use super::early::Monitor;
     use crate::engines::rapier::{RAPIER_VERSION, RapierSim};
     use crate::engines::rapier_settings::RapierSettings;
     let dt = RapierSettings::of(scene)?.dt;
