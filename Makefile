@@ -14,7 +14,8 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic \
 	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
-	validate-siconos fragility fragility-rapier
+	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
+	fragility-engines
 
 all: build
 
@@ -34,10 +35,22 @@ demo: build .venv ffmpeg siconos records
 fragility: build records
 	$(BIN) fragility validation/studies/statue-farfield.toml --out out/fragility/statue-farfield
 
-# The same study on native and rapier, their medians compared (rapier runs every record to its
-# end: about 15 min of CPU on this machine).
+# The same study on native and one other engine, their medians compared (early stops on every
+# engine; times measured in docs/fragility.md). MuJoCo and PyBullet run in the Python worker.
+# Every study resumes from the run cache where an interrupted one stopped.
 fragility-rapier: build records
 	$(BIN) fragility validation/studies/statue-farfield-rapier.toml --out out/fragility/statue-farfield-rapier
+
+fragility-mujoco: build records .venv
+	$(BIN) fragility validation/studies/statue-farfield-mujoco.toml --out out/fragility/statue-farfield-mujoco
+
+fragility-pybullet: build records .venv
+	$(BIN) fragility validation/studies/statue-farfield-pybullet.toml --out out/fragility/statue-farfield-pybullet
+
+# The four engines in one report (every engine's curve, medians against native's); after the
+# three studies above it takes every run from the cache.
+fragility-engines: fragility-rapier fragility-mujoco fragility-pybullet
+	$(BIN) fragility validation/studies/statue-farfield-engines.toml --out out/fragility/statue-farfield-engines
 
 # Every test, numerical ones in release mode: the build without optional engines, cargo's
 # tests, pytest (warnings are errors, see pyproject.toml) including the stub check, and the wheel

@@ -3,6 +3,7 @@
 fn main() {
     println!("cargo:rerun-if-changed=Cargo.lock");
     source_hash();
+    worker_hash();
     let lock = std::fs::read_to_string("Cargo.lock").unwrap_or_default();
     let mut found = Vec::new();
     let mut name: Option<String> = None;
@@ -46,6 +47,31 @@ fn source_hash() {
             }
         }
     }
+    println!("cargo:rustc-env=RB_SOURCE_HASH={}", fnv(files));
+}
+
+/// `RB_WORKER_HASH`: FNV-1a of the Python sources of the MuJoCo and PyBullet worker
+/// (python/rockbench/worker.py and python/rockbench/engines/*.py), part of the run cache's
+/// keys of those engines.
+fn worker_hash() {
+    let mut files = vec![std::path::PathBuf::from("python/rockbench/worker.py")];
+    println!("cargo:rerun-if-changed=python/rockbench/engines");
+    if let Ok(rd) = std::fs::read_dir("python/rockbench/engines") {
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "py") {
+                files.push(p);
+            }
+        }
+    }
+    for f in &files {
+        println!("cargo:rerun-if-changed={}", f.display());
+    }
+    println!("cargo:rustc-env=RB_WORKER_HASH={}", fnv(files));
+}
+
+/// FNV-1a of the files' paths and contents, in sorted order.
+fn fnv(mut files: Vec<std::path::PathBuf>) -> String {
     files.sort();
     let mut h: u64 = 0xcbf29ce484222325;
     for f in files {
@@ -55,5 +81,5 @@ fn source_hash() {
             h = h.wrapping_mul(0x100000001b3);
         }
     }
-    println!("cargo:rustc-env=RB_SOURCE_HASH={h:016x}");
+    format!("{h:016x}")
 }

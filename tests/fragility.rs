@@ -234,6 +234,23 @@ fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
     assert_eq!(j["capacities"].as_array().unwrap().len(), 2 * 6 * 3);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("native") && html.contains("auto"));
+    // Runs per engine: every row of the matrix counted once, by how it ended.
+    assert!(html.contains("<h2>Runs per engine</h2>"), "{html}");
+    let rows = j["rows"].as_array().unwrap();
+    for e in ["auto", "native"] {
+        let mine: Vec<_> = rows.iter().filter(|r| r["engine"] == e).collect();
+        let stopped = |s: &str| mine.iter().filter(|r| r["outcome"]["stop"] == s).count();
+        let row = format!(
+            "<tr><td>{e}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+            mine.len(),
+            mine.iter().filter(|r| r["cached"] == true).count(),
+            stopped("overturned"),
+            stopped("at-rest"),
+            stopped("below-tipping-energy"),
+            stopped("end")
+        );
+        assert!(html.contains(&row), "{row} not in the report");
+    }
 
     // Second run: every run from the cache, the same fits; with the paper outputs.
     run_ok(

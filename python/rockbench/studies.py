@@ -19,8 +19,9 @@
   runs (through the same cache), a list of scenes one run per scene and engine.
 
 MuJoCo and PyBullet runs execute in the Dask worker's own Python: the worker code of
-``python -m rockbench.worker`` (``rockbench.worker.run``) is called in-process, and its outputs
-are read by the same Rust code that reads the worker process's outputs. (Inside IDA hunts,
+``python -m rockbench.worker`` (``rockbench.worker.run``) is called in-process with the study's
+early-stop rule (``fragility_worker_early_stop``, the rule the harness gives a worker process),
+and its outputs are read by the same Rust code that reads the worker process's outputs. (Inside IDA hunts,
 which the Rust core drives, they run as worker processes of the Dask worker's interpreter.)
 
 The cluster's workers need ``rockbench`` installed and the study's record files at the same
@@ -55,6 +56,7 @@ from rockbench._native import (
     fragility_run_specs,
     fragility_store,
     fragility_study,
+    fragility_worker_early_stop,
     fragility_worker_outcome,
     fragility_worker_scene,
     run,
@@ -116,9 +118,18 @@ def _python_worker_run(key: str, spec: str, cache: str) -> tuple[str, bool, str]
         scene_json = os.path.join(d, "scene.json")
         with open(scene_json, "w") as f:
             f.write(fragility_worker_scene(spec))
+        # The study's early-stop rule, as the harness gives it to a worker process.
+        rule = fragility_worker_early_stop(spec)
+        rule_json = None
+        if rule is not None:
+            rule_json = os.path.join(d, "early_stop.json")
+            with open(rule_json, "w") as f:
+                f.write(rule)
         start = time.perf_counter()
         try:
-            worker.run(engine, scene_json, os.path.join(d, "out"), s["scene"].get("source"))
+            worker.run(
+                engine, scene_json, os.path.join(d, "out"), s["scene"].get("source"), rule_json
+            )
         except worker.WorkerError as e:
             raise RuntimeError(f"{engine}: record {s['record_id']} x{s['scale']}: {e}") from None
         wall = time.perf_counter() - start

@@ -1,11 +1,18 @@
 """Worker process of the external engines.
 
-    python -m rockbench.worker --engine mujoco|pybullet --scene S.json --out DIR [--source NAME]
+    python -m rockbench.worker [--early-stop RULE.json] --engine mujoco|pybullet --scene S.json
+        --out DIR [--source NAME]
 
 reads a scene (the JSON of ``Scene::to_json()``, or any scene file), runs the engine and
 writes ``DIR/trajectory.csv`` (the columns of ``src/trajectory.rs``) and ``DIR/summary.json``
 (engine, engine_version, settings, steps, wall_time_s, samples, notes). The Rust harness
 (``src/engines/external.rs``) runs it with a timeout and computes events from the trajectory.
+
+``--early-stop`` (fragility studies) names the JSON of an early-stop rule
+(``EarlyStopSpec`` in ``src/fragility/early.rs``, checked by ``engines.common.EarlyStop``):
+the run ends when a block overturns or the stack is at rest for good, the trajectory ends
+at that instant, and the summary's ``early_stop`` is ``{"stop": "overturned" | "at-rest" |
+"end", "t": seconds}``.
 
 On failure it writes one line to stderr and exits non-zero: 2 for a bad scene or setting,
 3 for a missing Python package (the message names it and how to install it), 4 for an
@@ -63,7 +70,25 @@ def load(scene_path: str, source: str | None) -> tuple[Any, dict[str, Any]]:
     return scene, spec
 
 
-def run(engine: str, scene_path: str, out: str, source: str | None) -> dict[str, Any]:
+def read_early_stop(path: str | None) -> dict[str, Any] | None:
+    if path is None:
+        return None
+    keys = ("rest_speed", "upright", "rest_window", "on_side", "record_end", "gravity",
+            "supports", "size", "upright_x", "stack", "load")
+    try:
+        with open(path) as f:
+            rule = json.load(f)
+    except (OSError, json.JSONDecodeError) as e:
+        raise WorkerError(2, f"{path}: cannot read the early-stop rule: {e}") from None
+    if not isinstance(rule, dict) or any(k not in rule for k in keys):
+        raise WorkerError(2, f"{path}: an early-stop rule needs {', '.join(keys)}")
+    return rule
+
+
+def run(
+    engine: str, scene_path: str, out: str, source: str | None, early_stop: str | None = None
+) -> dict[str, Any]:
+    rule = read_early_stop(early_stop)
     scene, spec = load(scene_path, source)
     try:
         mod = importlib.import_module(f"rockbench.engines.{engine}_engine")
@@ -75,7 +100,7 @@ def run(engine: str, scene_path: str, out: str, source: str | None) -> dict[str,
 
     start = time.perf_counter()
     try:
-        res = mod.run(scene, spec)
+        res = mod.run(scene, spec) if rule is None else mod.run(scene, spec, rule)
     except SettingsError as e:
         raise WorkerError(2, f"{source or scene_path}: {e}") from None
     except FloatingPointError as e:
@@ -108,9 +133,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scene", required=True, help="scene JSON (Scene::to_json) or scene file")
     ap.add_argument("--out", required=True, help="output directory")
     ap.add_argument("--source", help="scene file named in error messages")
+    ap.add_argument("--early-stop", help="early-stop rule (JSON, src/fragility/early.rs)")
     a = ap.parse_args(argv)
     try:
-        run(a.engine, a.scene, a.out, a.source)
+        run(a.engine, a.scene, a.out, a.source, a.early_stop)
     except WorkerError as e:
         print(str(e).replace("\n", " "), file=sys.stderr)
         return e.code

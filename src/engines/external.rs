@@ -7,6 +7,11 @@
 //! count from the worker's summary. Events are then computed here, by
 //! [`Summary::build`](crate::summary::Summary::build), as for every engine.
 //!
+//! With an early-stop rule ([`ExternalEngine::run_with_early_stop`], fragility studies) the
+//! rule ([`crate::fragility::early::EarlyStopSpec`]) is written as JSON next to the scene and
+//! passed as `--early-stop FILE`; the worker ends the run at the stop and records it and its
+//! instant in the summary's `early_stop` (`{"stop": "overturned" | "at-rest" | "end", "t": s}`).
+//!
 //! The interpreter is `$ROCKBENCH_PYTHON`, else `./.venv/bin/python`, else the `.venv` of
 //! this source tree (made by `make .venv`). The worker gets `timeout` seconds of wall time
 //! (the engine table's `timeout` setting, default [`DEFAULT_TIMEOUT_S`]); past it the worker is
@@ -205,7 +210,31 @@ impl ExternalEngine {
         }
     }
 
-    fn run_in(&self, scene: &Scene, dir: &Path) -> Result<RunOutput, EngineError> {
+    /// Run with an early-stop rule: the worker checks it as it steps and stops there
+    /// (`--early-stop FILE`); returns the output and the stop the worker recorded (`end`,
+    /// `overturned`, `at-rest`; `None` from a worker that does not stop early).
+    pub fn run_with_early_stop(
+        &self,
+        scene: &Scene,
+        early_stop: &crate::fragility::early::EarlyStopSpec,
+    ) -> Result<(RunOutput, Option<String>), EngineError> {
+        if self.spec.script.is_some() {
+            return Err(self.failed("this worker has no early stops"));
+        }
+        let dir = temp_dir(self.engine)
+            .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
+        let value = serde_json::to_value(early_stop).expect("early-stop specs serialise");
+        let result = self.run_in(scene, &dir, Some(&value));
+        let _ = std::fs::remove_dir_all(&dir);
+        result
+    }
+
+    fn run_in(
+        &self,
+        scene: &Scene,
+        dir: &Path,
+        early_stop: Option<&serde_json::Value>,
+    ) -> Result<(RunOutput, Option<String>), EngineError> {
         let spec = self.spec;
         let input = match spec.input {
             Some(f) => Some(f(scene)?),
@@ -233,7 +262,18 @@ impl ExternalEngine {
                 .map_err(|e| self.failed(format!("cannot write {}: {e}", script.display())))?;
             cmd.arg(&script).arg("--input");
         } else {
-            cmd.args(["-m", "rockbench.worker", "--engine", self.engine, "--scene"]);
+            if let Some(v) = early_stop {
+                let path = dir.join("early_stop.json");
+                std::fs::write(&path, v.to_string())
+                    .map_err(|e| self.failed(format!("cannot write {}: {e}", path.display())))?;
+                cmd.arg("-m")
+                    .arg("rockbench.worker")
+                    .arg("--early-stop")
+                    .arg(&path);
+            } else {
+                cmd.args(["-m", "rockbench.worker"]);
+            }
+            cmd.args(["--engine", self.engine, "--scene"]);
         }
         cmd.arg(&scene_json)
             .arg("--out")
@@ -317,9 +357,41 @@ impl ExternalEngine {
     }
 
     /// What a worker wrote to `out` (trajectory.csv, summary.json), read and checked against
-    /// the scene: the harness after its worker process, and callers that ran the worker's
-    /// code in their own Python (a study's runs in a Dask worker).
-    pub fn read_outputs(&self, scene: &Scene, out: &Path) -> Result<RunOutput, EngineError> {
+    /// the scene, with the early stop the worker reports (`None`: it ran to the end): the
+    /// harness after its worker process, and callers that ran the worker's code in their own
+    /// Python (a study's runs in a Dask worker).
+    pub fn read_outputs(
+        &self,
+        scene: &Scene,
+        out: &Path,
+    ) -> Result<(RunOutput, Option<String>), EngineError> {
+        let path = out.join("summary.json");
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| self.failed(format!("worker output: {}: {e}", path.display())))?;
+        let summary: serde_json::Value = serde_json::from_str(&text)
+            .map_err(|e| self.failed(format!("worker output: {}: {e}", path.display())))?;
+        let field = |k: &str| {
+            summary.get(k).ok_or_else(|| {
+                self.failed(format!("worker output: {} has no `{k}`", path.display()))
+            })
+        };
+        // A run the worker stopped early ends at the stop's instant.
+        let stopped = match summary.get("early_stop") {
+            None | Some(serde_json::Value::Null) => None,
+            Some(v) => {
+                let stop = v.get("stop").and_then(|s| s.as_str());
+                let t = v.get("t").and_then(|t| t.as_f64());
+                match (stop, t) {
+                    (Some(s), Some(t)) if t.is_finite() => Some((s.to_string(), t)),
+                    _ => {
+                        return Err(self.failed(format!(
+                            "worker output: {}: `early_stop` needs `stop` and `t` (got {v})",
+                            path.display()
+                        )));
+                    }
+                }
+            }
+        };
         let trajectory = Trajectory::read_csv(&out.join("trajectory.csv"))
             .map_err(|e| self.failed(format!("worker output: {e}")))?;
         let names: Vec<&str> = trajectory.blocks.iter().map(|b| b.name.as_str()).collect();
@@ -333,22 +405,15 @@ impl ExternalEngine {
             return Err(self.failed("worker output: the trajectory contains NaN or infinity"));
         }
         let last = *trajectory.t.last().expect("read_csv rejects empty files");
-        if last < scene.duration - 0.5 * scene.output_interval.min(scene.duration) {
+        let end = match &stopped {
+            Some((s, t)) if s != "end" => *t,
+            _ => scene.duration,
+        };
+        if last < end - 0.5 * scene.output_interval.min(end) {
             return Err(self.failed(format!(
-                "worker output: the trajectory is truncated: it ends at t = {last} s of {} s",
-                scene.duration
+                "worker output: the trajectory is truncated: it ends at t = {last} s of {end} s"
             )));
         }
-        let path = out.join("summary.json");
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| self.failed(format!("worker output: {}: {e}", path.display())))?;
-        let summary: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| self.failed(format!("worker output: {}: {e}", path.display())))?;
-        let field = |k: &str| {
-            summary.get(k).ok_or_else(|| {
-                self.failed(format!("worker output: {} has no `{k}`", path.display()))
-            })
-        };
         let engine_version = field("engine_version")?
             .as_str()
             .unwrap_or_default()
@@ -370,15 +435,23 @@ impl ExternalEngine {
         if let Some(r) = summary.get("max_out_of_plane_rad").and_then(|w| w.as_f64()) {
             notes.push(format!("max out-of-plane rotation: {r:.3e} rad"));
         }
-        Ok(RunOutput {
-            trajectory,
-            settings,
-            engine_version,
-            steps,
-            solver_iterations: None,
-            exact_impacts: None,
-            notes,
-        })
+        if let Some((s, t)) = &stopped
+            && s != "end"
+        {
+            notes.push(format!("stopped early at t = {t} s: {s}"));
+        }
+        Ok((
+            RunOutput {
+                trajectory,
+                settings,
+                engine_version,
+                steps,
+                solver_iterations: None,
+                exact_impacts: None,
+                notes,
+            },
+            stopped.map(|(s, _)| s),
+        ))
     }
 }
 
@@ -434,7 +507,7 @@ impl Engine for ExternalEngine {
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
         let dir = temp_dir(self.engine)
             .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
-        let result = self.run_in(scene, &dir);
+        let result = self.run_in(scene, &dir, None).map(|(out, _)| out);
         let _ = std::fs::remove_dir_all(&dir);
         result
     }

@@ -3,6 +3,7 @@
 //! fragility curves per engine and limit state. See docs/fragility.md.
 //!
 //! - [`study`]: the study file and its checks (everything is read before anything runs).
+//! - [`early`]: the early stops of rapier, MuJoCo and PyBullet (the soft-contact rule).
 //! - [`run`]: one run as data ([`run::RunSpec`]) -> [`run::RunOutcome`]; the one place where
 //!   an engine is called.
 //! - this module: scaling records to levels, the run cache, parallel runs, hunt and fill, the
@@ -10,6 +11,7 @@
 //! - [`fit`]: probit and censored lognormal maximum likelihood.
 //! - [`report`]: CSV, JSON, the HTML report and `--paper`.
 
+pub mod early;
 pub mod fit;
 pub mod report;
 pub mod run;

@@ -3,8 +3,9 @@
 //! report.html (every engine's and limit state's curve on one plot, stripe fractions as
 //! points, bootstrap bands; the paired differences of medians) and `--paper`.
 
+use super::run::Stop;
 use super::study::Study;
-use super::{Method, Results};
+use super::{Method, Results, Row};
 use crate::paper::{PaperDir, booktabs, latex_escape, tex_num};
 use crate::report::svg::{Curve, Marker, Plot};
 use std::collections::BTreeMap;
@@ -322,6 +323,34 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// Runs per engine: how they ended and what they cost when computed (a cached run keeps the
+/// wall time of the run that computed it).
+fn engine_table(study: &Study, res: &Results) -> String {
+    let mut s = String::from(
+        "<h2>Runs per engine</h2>\n<table><tr><th>engine</th><th>runs</th><th>from the cache</th><th>overturned (stopped)</th><th>at rest (stopped)</th><th>below tipping energy (stopped)</th><th>full length</th><th>simulated, s</th><th>run wall time, s</th><th>per run, s</th></tr>\n",
+    );
+    for e in &study.file.engines {
+        let rows: Vec<&Row> = res.rows.iter().filter(|r| &r.engine == e).collect();
+        let count = |stop: Stop| rows.iter().filter(|r| r.outcome.stop == stop).count();
+        let wall: f64 = rows.iter().map(|r| r.outcome.wall_s).sum();
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.0}</td><td>{wall:.0}</td><td>{:.2}</td></tr>",
+            esc(e),
+            rows.len(),
+            rows.iter().filter(|r| r.cached).count(),
+            count(Stop::Overturned),
+            count(Stop::AtRest),
+            count(Stop::BelowTippingEnergy),
+            count(Stop::End),
+            rows.iter().map(|r| r.outcome.t_end).sum::<f64>(),
+            wall / rows.len().max(1) as f64
+        );
+    }
+    s += "</table>\n";
+    s
+}
+
 pub fn html(study: &Study, res: &Results, command: &str) -> String {
     let mut s = format!(
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>fragility: {n}</title><style>body{{font-family:sans-serif;max-width:1000px;margin:1em auto}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;font-size:13px}}</style></head><body>\n<h1>Fragility: {n}</h1>\n<p>Suite <b>{suite}</b> ({nrec} components), intensity {im}, levels {lv}; engines {eng}; {runs} runs ({cached} from the cache, {early} stopped early) in {wall:.1} s.</p>\n",
@@ -343,6 +372,7 @@ pub fn html(study: &Study, res: &Results, command: &str) -> String {
         early = res.counts.early_stopped,
         wall = res.counts.wall_s,
     );
+    s += &engine_table(study, res);
     s += "<p>Curves: P = Phi(ln(IM/theta)/beta) fitted by maximum likelihood (probit on ln IM for stripes, censored lognormal for IDA capacities); shaded: pointwise 95 % bootstrap band over record pairs; points: fraction of records exceeding at each stripe. An overturn exceeds every limit state.</p>\n";
     for scene in &study.scenes {
         for m in [Method::Stripes, Method::Ida] {

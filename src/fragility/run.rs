@@ -16,9 +16,13 @@
 //! loses energy: it cannot overturn, and its largest later rotation is bounded by the angle
 //! where that energy is all potential, which is added to the maximum rotation). The Housner
 //! engine (single blocks) integrates the record, then free rocking in chunks with the same
-//! stops ([`crate::spectrum::housner_early_stop`]). Other engines run their whole duration.
+//! stops ([`crate::spectrum::housner_early_stop`]). The soft-contact engines (rapier, MuJoCo,
+//! PyBullet) stop on their side or at rest by the same rules with a rest test adapted to
+//! compliant contact ([`super::early`]). Other engines run their whole duration.
 
+use super::early::EarlyStopSpec;
 use crate::engines::auto::not_housner;
+use crate::engines::external::ExternalEngine;
 use crate::engines::native::REST_WINDOW;
 use crate::engines::{EngineError, engine_by_name};
 use crate::events;
@@ -131,7 +135,8 @@ pub fn check_engine(name: &str) -> Result<(), String> {
 
 impl RunSpec {
     /// The content hash: scene (engine settings included), record bytes, scale, engine,
-    /// early stop, rockbench version and cache format.
+    /// early stop, rockbench version, source hash (and the worker's, for MuJoCo and
+    /// PyBullet) and cache format.
     pub fn key(&self) -> String {
         let key = serde_json::json!({
             "format": CACHE_FORMAT,
@@ -142,6 +147,7 @@ impl RunSpec {
             "early_stop": self.early_stop,
             "rockbench": env!("CARGO_PKG_VERSION"),
             "build": build_id(),
+            "worker": worker_id(&self.engine),
         });
         let text = serde_json::to_string(&key).expect("keys serialise");
         Sha256::digest(text.as_bytes())
@@ -156,6 +162,15 @@ impl RunSpec {
 /// an old outcome.
 fn build_id() -> &'static str {
     env!("RB_SOURCE_HASH")
+}
+
+/// The Python worker's sources (`RB_WORKER_HASH`) for the engines it runs, as compiled with
+/// this program (the worker of this source tree's `.venv`), so a changed worker never reuses
+/// an old outcome; `None` for the other engines.
+fn worker_id(engine: &str) -> Option<&'static str> {
+    ["mujoco", "pybullet"]
+        .contains(&engine)
+        .then_some(env!("RB_WORKER_HASH"))
 }
 
 /// Run one unit of work.
@@ -188,10 +203,10 @@ pub fn outcome_from_worker_output(
 ) -> Result<RunOutcome, EngineError> {
     let eng = crate::engines::external::ExternalEngine::new(&spec.engine)
         .ok_or_else(|| EngineError::Unknown(spec.engine.clone()))?;
-    let out = eng.read_outputs(&spec.scene, dir)?;
+    let (out, stop) = eng.read_outputs(&spec.scene, dir)?;
     let sim = Simulated {
         trajectory: out.trajectory,
-        stop: Stop::End,
+        stop: worker_stop(eng.engine, stop.as_deref())?,
         rotation_bound: None,
         engine_version: out.engine_version,
         ran: crate::engines::Engine::name(&eng).to_string(),
@@ -251,6 +266,9 @@ pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulat
             engine_version: format!("rockbench {} (housner)", env!("CARGO_PKG_VERSION")),
             ran: "housner".into(),
         });
+    }
+    if early_stop && SOFT_STOP_ENGINES.contains(&engine) {
+        return soft_early(engine, scene);
     }
     let e = engine_by_name(engine)?;
     let out = e.run(scene)?;
@@ -345,6 +363,96 @@ fn reachable_angle(s: &[f64; 6], b: &crate::scene::BlockSpec, g: f64, z_rest: f6
     let alpha = (b.width / b.height).atan();
     let c = ((e / g + 0.5 * b.height) / r).clamp(-1.0, 1.0);
     (alpha - c.acos()).max(s[2].abs())
+}
+
+/// The engines whose runs stop early by the soft-contact rule ([`super::early`]).
+pub const SOFT_STOP_ENGINES: [&str; 3] = ["rapier", "mujoco", "pybullet"];
+
+/// A run of a soft-contact engine with early stops ([`super::early`]).
+fn soft_early(engine: &str, scene: &Scene) -> Result<Simulated, EngineError> {
+    let spec = EarlyStopSpec::soft(scene)?;
+    if engine == "rapier" {
+        return rapier_early(scene, spec);
+    }
+    let e = ExternalEngine::new(engine).ok_or_else(|| EngineError::Failed {
+        engine: "fragility",
+        message: format!("`{engine}` is not a worker engine"),
+    })?;
+    let (out, stop) = e.run_with_early_stop(scene, &spec)?;
+    Ok(Simulated {
+        trajectory: out.trajectory,
+        stop: worker_stop(e.engine, stop.as_deref())?,
+        rotation_bound: None,
+        engine_version: out.engine_version,
+        ran: e.engine.to_string(),
+    })
+}
+
+/// The stop a Python worker recorded in its summary (`None`: it ran to the end).
+fn worker_stop(engine: &'static str, stop: Option<&str>) -> Result<Stop, EngineError> {
+    match stop {
+        None | Some("end") => Ok(Stop::End),
+        Some("overturned") => Ok(Stop::Overturned),
+        Some("at-rest") => Ok(Stop::AtRest),
+        Some(other) => Err(EngineError::Failed {
+            engine,
+            message: format!("worker output: unknown early stop `{other}`"),
+        }),
+    }
+}
+
+/// The early-stop rule a Python worker is given for a run (`None`: the run goes to its end),
+/// as the harness passes it to its worker process (`--early-stop`); for callers that run the
+/// worker's code in their own Python (a study's runs in a Dask worker).
+pub fn worker_early_stop(spec: &RunSpec) -> Result<Option<EarlyStopSpec>, EngineError> {
+    if spec.early_stop && is_python_worker(&spec.engine) {
+        EarlyStopSpec::soft(&spec.scene).map(Some)
+    } else {
+        Ok(None)
+    }
+}
+
+#[cfg(feature = "rapier")]
+fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineError> {
+    use super::early::Monitor;
+    use crate::engines::rapier::{RAPIER_VERSION, RapierSim};
+    use crate::engines::rapier_settings::RapierSettings;
+    let dt = RapierSettings::of(scene)?.dt;
+    let mut sim = RapierSim::new(scene)?;
+    let n_steps = (scene.duration / dt - 1e-9).ceil() as u64;
+    let every = ((scene.output_interval / dt).round() as u64).max(1);
+    let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
+    let mut tr = Trajectory::new(&names);
+    tr.push(0.0, &sim.relative_states()?);
+    let mut monitor = Monitor::new(spec);
+    let mut stop = Stop::End;
+    for k in 1..=n_steps {
+        sim.step()?;
+        let states = sim.relative_states()?;
+        let s = monitor.check(sim.t, &states);
+        if k % every == 0 || k == n_steps || s.is_some() {
+            tr.push(sim.t, &states);
+        }
+        if let Some(s) = s {
+            stop = s;
+            break;
+        }
+    }
+    Ok(Simulated {
+        trajectory: tr,
+        stop,
+        rotation_bound: None,
+        engine_version: format!(
+            "rockbench {} (rapier2d-f64 {RAPIER_VERSION}, enhanced-determinism)",
+            env!("CARGO_PKG_VERSION")
+        ),
+        ran: "rapier".into(),
+    })
+}
+
+#[cfg(not(feature = "rapier"))]
+fn rapier_early(_: &Scene, _: EarlyStopSpec) -> Result<Simulated, EngineError> {
+    engine_by_name("rapier").map(|_| unreachable!("rapier is not built in"))
 }
 
 fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {

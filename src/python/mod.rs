@@ -467,6 +467,16 @@ fn fragility_worker_scene(spec: &str) -> PyResult<String> {
     Ok(serde_json::to_string_pretty(&spec.scene.to_json()).expect("scenes serialise"))
 }
 
+/// The early-stop rule of a Python worker run as JSON (the file `python -m rockbench.worker
+/// --early-stop` reads), or None when the run goes to its end.
+#[pyfunction]
+fn fragility_worker_early_stop(spec: &str) -> PyResult<Option<String>> {
+    let spec = parse_spec(spec)?;
+    let rule = crate::fragility::run::worker_early_stop(&spec)
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(rule.map(|r| serde_json::to_string(&r).expect("early-stop rules serialise")))
+}
+
 /// Finish a Python worker run: read the outputs the worker code wrote to `out_dir`, make the
 /// outcome as a run of the harness does, store it in the run cache `cache` and return it as
 /// JSON.
@@ -537,6 +547,7 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fragility_cache_has, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_is_python_worker, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_worker_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(fragility_worker_early_stop, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_worker_outcome, m)?)?;
     Ok(())
 }

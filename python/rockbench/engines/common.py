@@ -188,3 +188,90 @@ def first_non_finite(t: npt.NDArray[np.float64], states: npt.NDArray[np.float64]
     """Time of the first sample with a NaN or infinite value, if any."""
     bad = ~np.isfinite(states.reshape(len(t), -1)).all(axis=1)
     return float(t[np.argmax(bad)]) if bad.any() else None
+
+
+class EarlyStop:
+    """The early-stop rule of a fragility run (``src/fragility/early.rs``, ``EarlyStopSpec``,
+    read from the worker's ``--early-stop`` JSON), checked by the engine after every excitation
+    update with the blocks' states relative to the ground.
+
+    Overturned: a block's rotation relative to its support reaches ``on_side``. At rest: every
+    block still (``|vx|``, ``|vz|``, ``|omega| size`` below ``rest_speed``) and upright (rotation
+    relative to its support below ``upright``) for ``rest_window`` without a break, and the rest of
+    the record below the static threshold of the stack where it rests (``stack``; without one,
+    the end of the record). ``Monitor`` in ``src/fragility/early.rs`` is the same rule.
+    """
+
+    def __init__(self, spec: dict[str, Any]) -> None:
+        self.spec = spec
+        self.supports = [-1 if s is None else int(s) for s in spec["supports"]]
+        self.size = np.asarray(spec["size"], dtype=float)
+        self.quiet_from = self.quiet(spec["upright_x"])
+        self.moving_at = 0.0
+        self.rested = False
+
+    def threshold(self, xs: Any) -> float:
+        """Static threshold (fraction of g) of the column stack with centres ``xs``."""
+        st = self.spec["stack"]
+        w, h, m, mu = st["width"], st["height"], st["mass"], st["friction"]
+        n = len(w)
+        base = [0.0] * n
+        for i in range(1, n):
+            base[i] = base[i - 1] + h[i - 1]
+        thr = math.inf
+        for i in range(n):
+            lo, hi = xs[i] - 0.5 * w[i], xs[i] + 0.5 * w[i]
+            if i > 0:
+                lo = max(lo, xs[i - 1] - 0.5 * w[i - 1])
+                hi = min(hi, xs[i - 1] + 0.5 * w[i - 1])
+            mt = mx = mz = 0.0
+            for k in range(i, n):
+                mt += m[k]
+                mx += m[k] * xs[k]
+                mz += m[k] * (base[k] + 0.5 * h[k] - base[i])
+            xc, zc = mx / mt, mz / mt
+            d = min(xc - lo, hi - xc)
+            if d <= 0.0:
+                return 0.0
+            thr = min(thr, d / zc, mu[i])
+        return thr
+
+    def quiet_after(self, a: float) -> float:
+        """The time after which the rest of the record stays below ``a`` (m/s^2)."""
+        for peak, t in self.spec["load"]:
+            if peak >= a:
+                return float(t)
+        return 0.0
+
+    def quiet(self, xs: Any) -> float:
+        s = self.spec
+        if s["stack"] is None:
+            return float(s["record_end"])
+        return min(self.quiet_after(self.threshold(xs) * s["gravity"]), float(s["record_end"]))
+
+    def check(self, t: float, states: npt.NDArray[np.float64]) -> str | None:
+        """``"overturned"``, ``"at-rest"`` or None for the states (blocks x 6) at time ``t``."""
+        s = self.spec
+        phi = states[:, 2]
+        rel = np.array([phi[i] - (0.0 if j < 0 else phi[j]) for i, j in enumerate(self.supports)])
+        if (np.abs(rel) >= s["on_side"]).any():
+            return "overturned"
+        v = s["rest_speed"]
+        calm = (
+            (np.abs(states[:, 3]) < v).all()
+            and (np.abs(states[:, 4]) < v).all()
+            and (np.abs(states[:, 5] * self.size) < v).all()
+            and (np.abs(rel) < s["upright"]).all()
+        )
+        if not calm:
+            self.moving_at = t
+            self.rested = False
+            return None
+        if t - self.moving_at >= s["rest_window"] - 1e-9:
+            if not self.rested and t <= s["record_end"]:
+                # Resting where it is now (it may have slid): the threshold of that layout.
+                self.quiet_from = self.quiet(states[:, 0])
+            self.rested = True
+            if t > self.quiet_from:
+                return "at-rest"
+        return None

@@ -27,6 +27,7 @@ import numpy as np
 
 from rockbench.engines.common import (
     HARNESS_SETTINGS,
+    EarlyStop,
     EngineResult,
     Setting,
     SettingsError,
@@ -121,8 +122,10 @@ def build_xml(scene: Any, spec: dict[str, Any], s: dict[str, Any]) -> str:
     )
 
 
-def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
-    """Run a checked scene (``rockbench.Scene``) whose dict form is ``spec``."""
+def run(scene: Any, spec: dict[str, Any], early_stop: dict[str, Any] | None = None) -> EngineResult:
+    """Run a checked scene (``rockbench.Scene``) whose dict form is ``spec``; with an
+    ``early_stop`` rule (``common.EarlyStop``) the run ends at its stop, checked after every
+    excitation update."""
     s = read_settings("mujoco", spec.get("mujoco"), SETTINGS)
     mujoco = import_mujoco()
     model = mujoco.MjModel.from_xml_string(build_xml(scene, spec, s))
@@ -142,14 +145,18 @@ def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
         ax, az = mean_ground_acceleration(scene, bounds * h)
     g = spec["gravity"]
     sample_at = set(grid.sample_steps)
-    states = np.empty((len(grid.sample_steps), n, 6))
+    states = np.empty((len(grid.sample_steps) + 1, n, 6))
+    times: list[float] = []
+    monitor = EarlyStop(early_stop) if early_stop is not None else None
+    stop = "end"
     body_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"b{i}") for i in range(n)]
     out_of_plane = 0.0
     k = 0
     bad = mujoco.mjtWarning.mjWARN_BADQACC
 
-    def record() -> None:
+    def record(t: float) -> None:
         nonlocal k, out_of_plane
+        times.append(t)
         states[k, :, :3] = data.qpos.reshape(n, 3)
         states[k, :, 3:] = data.qvel.reshape(n, 3)
         # Angle between each block's own y axis and the world's y axis.
@@ -158,7 +165,7 @@ def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
             out_of_plane = max(out_of_plane, math.atan2(math.hypot(r[1], r[7]), abs(r[4])))
         k += 1
 
-    record()
+    record(0.0)
     for c in range(len(bounds) - 1):
         if excited:
             model.opt.gravity[:] = (-ax[c], 0.0, -(g + az[c]))
@@ -169,8 +176,17 @@ def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
                     f"MuJoCo reported an unstable simulation ({mujoco.mjtWarning(w).name}) "
                     f"before t = {bounds[c + 1] * h:.6g} s"
                 )
-        if int(bounds[c + 1]) in sample_at:
-            record()
+        t = float(bounds[c + 1]) * h
+        hit = None
+        if monitor is not None:
+            now = np.column_stack([data.qpos.reshape(n, 3), data.qvel.reshape(n, 3)])
+            hit = monitor.check(t, now)
+        if int(bounds[c + 1]) in sample_at or hit is not None:
+            record(t)
+        if hit is not None:
+            stop = hit
+            break
+    steps = round(times[-1] / h)
 
     settings = dict(s)
     settings["excitation"] = (
@@ -182,15 +198,18 @@ def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
     settings["ground"] = "plane"
     settings["friction"] = "scene interface friction on explicit contact pairs, condim 3"
     settings["restitution"] = "none (contact damping ratio from solref)"
+    extra: dict[str, Any] = {"max_out_of_plane_rad": out_of_plane}
+    if monitor is not None:
+        extra["early_stop"] = {"stop": stop, "t": times[-1]}
     return EngineResult(
-        t=grid.sample_times,
+        t=np.array(times),
         names=[b["name"] for b in spec["blocks"]],
-        states=states,
+        states=states[:k],
         settings=settings,
         engine_version=f"mujoco {mujoco.__version__}",
-        steps=int(bounds[-1]),
+        steps=steps,
         notes=excitation_notes(spec),
-        extra={"max_out_of_plane_rad": out_of_plane},
+        extra=extra,
     )
 
 

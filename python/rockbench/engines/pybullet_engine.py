@@ -36,6 +36,7 @@ import numpy as np
 
 from rockbench.engines.common import (
     HARNESS_SETTINGS,
+    EarlyStop,
     EngineResult,
     Setting,
     SettingsError,
@@ -111,18 +112,27 @@ def frictions(scene: Any, layout: list[dict[str, Any]], s: dict[str, Any]) -> tu
     return ground, per
 
 
-def run(scene: Any, spec: dict[str, Any]) -> EngineResult:
-    """Run a checked scene (``rockbench.Scene``) whose dict form is ``spec``."""
+def run(scene: Any, spec: dict[str, Any], early_stop: dict[str, Any] | None = None) -> EngineResult:
+    """Run a checked scene (``rockbench.Scene``) whose dict form is ``spec``; with an
+    ``early_stop`` rule (``common.EarlyStop``) the run ends at its stop, checked after every
+    ``stepSimulation`` call."""
     s = read_settings("pybullet", spec.get("pybullet"), SETTINGS)
     p = import_pybullet()
     client = p.connect(p.DIRECT)
     try:
-        return _run(p, client, scene, spec, s)
+        return _run(p, client, scene, spec, s, early_stop)
     finally:
         p.disconnect(physicsClientId=client)
 
 
-def _run(p: Any, cid: int, scene: Any, spec: dict[str, Any], s: dict[str, Any]) -> EngineResult:
+def _run(
+    p: Any,
+    cid: int,
+    scene: Any,
+    spec: dict[str, Any],
+    s: dict[str, Any],
+    early_stop: dict[str, Any] | None,
+) -> EngineResult:
     h = s["fixed_time_step"]
     g = spec["gravity"]
     p.setGravity(0, 0, -g, physicsClientId=cid)
@@ -206,30 +216,50 @@ def _run(p: Any, cid: int, scene: Any, spec: dict[str, Any], s: dict[str, Any]) 
     if excited:
         ax, az = mean_ground_acceleration(scene, bounds * h)
     sample_at = set(grid.sample_steps)
-    states = np.empty((len(grid.sample_steps), n, 6))
+    states = np.empty((len(grid.sample_steps) + 1, n, 6))
+    times: list[float] = []
+    monitor = EarlyStop(early_stop) if early_stop is not None else None
+    stop = "end"
+    now = np.empty((n, 6))
     out_of_plane = 0.0
     k = 0
 
-    def record() -> None:
-        nonlocal k, out_of_plane
+    def read() -> None:
         for i, body in enumerate(bodies):
             js = p.getJointStates(body, [0, 1, 2], physicsClientId=cid)
-            states[k, i, :3] = [j[0] for j in js]
-            states[k, i, 3:] = [j[1] for j in js]
+            now[i, :3] = [j[0] for j in js]
+            now[i, 3:] = [j[1] for j in js]
+
+    def record(t: float) -> None:
+        nonlocal k, out_of_plane
+        times.append(t)
+        states[k] = now
+        for body in bodies:
             orn = p.getLinkState(body, 2, physicsClientId=cid)[5]
             m = p.getMatrixFromQuaternion(orn)
             # Angle between the block's own y axis and the world's y axis.
             out_of_plane = max(out_of_plane, math.atan2(math.hypot(m[1], m[7]), abs(m[4])))
         k += 1
 
-    record()
+    read()
+    record(0.0)
     for c in range(len(bounds) - 1):
         if excited:
             p.setGravity(-ax[c], 0, -(g + az[c]), physicsClientId=cid)
         for _ in range(int(bounds[c + 1] - bounds[c])):
             p.stepSimulation(physicsClientId=cid)
-        if int(bounds[c + 1]) in sample_at:
-            record()
+        t = float(bounds[c + 1]) * h
+        sample = int(bounds[c + 1]) in sample_at
+        hit = None
+        if monitor is not None or sample:
+            read()
+        if monitor is not None:
+            hit = monitor.check(t, now)
+        if sample or hit is not None:
+            record(t)
+        if hit is not None:
+            stop = hit
+            break
 
     params = p.getPhysicsEngineParameters(physicsClientId=cid)
     settings = dict(s)
@@ -252,15 +282,18 @@ def _run(p: Any, cid: int, scene: Any, spec: dict[str, Any], s: dict[str, Any]) 
     )
     settings["restitution"] = 0.0
     settings["damping"] = 0.0
+    extra: dict[str, Any] = {"max_out_of_plane_rad": out_of_plane}
+    if monitor is not None:
+        extra["early_stop"] = {"stop": stop, "t": times[-1]}
     return EngineResult(
-        t=grid.sample_times,
+        t=np.array(times),
         names=[b["name"] for b in spec["blocks"]],
-        states=states,
+        states=states[:k],
         settings=settings,
         engine_version=f"pybullet {importlib.metadata.version('pybullet')} (API {p.getAPIVersion()})",
-        steps=int(bounds[-1]) * s["num_sub_steps"],
+        steps=round(times[-1] / h) * s["num_sub_steps"],
         notes=excitation_notes(spec),
-        extra={"max_out_of_plane_rad": out_of_plane},
+        extra=extra,
     )
 
 
