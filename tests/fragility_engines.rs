@@ -144,6 +144,7 @@ fn check_engine(engine: &str) {
     }
 }
 
+#[cfg(feature = "rapier")]
 #[test]
 fn rapier_early_stops_change_no_outcome() {
     check_engine("rapier");

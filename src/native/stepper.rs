@@ -631,19 +631,20 @@ impl Stepper {
         if rows.is_empty() {
             return Ok(0);
         }
-        let iterations = self.closest_admissible_velocity(s, rows)?;
+        let iterations = self.closest_admissible_velocity(s, rows, self.settings.friction_law)?;
         self.iterations += iterations as u64;
         Ok(iterations)
     }
 
     /// The velocities become the closest ones (kinetic-energy norm) that satisfy the
     /// velocity-level law `(n ± mu t)·v >= 0` on the given rows: the step problem with
-    /// theta = dt = 1, no force and `v0 = v`. Positions do not change. Returns the solver
-    /// iterations.
+    /// theta = dt = 1, no force and `v0 = v`, under the friction law `law`. Positions do not
+    /// change. Returns the solver iterations.
     fn closest_admissible_velocity(
         &mut self,
         s: &mut NativeState,
         rows: Vec<ContactRows>,
+        law: FrictionLaw,
     ) -> Result<u32, SolveFailure> {
         let pr = StepProblem {
             theta: 1.0,
@@ -653,7 +654,7 @@ impl Stepper {
             v0: s.v.clone(),
             contacts: rows,
         };
-        let sol = match self.settings.friction_law {
+        let sol = match law {
             FrictionLaw::Associative => self.velocity_solver.solve(&pr),
             FrictionLaw::Coulomb => self.coulomb.solve(self.velocity_solver.as_mut(), &pr),
         }?;
@@ -861,22 +862,8 @@ impl Stepper {
             return Ok(0);
         }
         self.settled_velocities += 1;
-        if coulomb {
-            // The associative back-end: each row carries its own friction.
-            let pr = StepProblem {
-                theta: 1.0,
-                dt: 1.0,
-                mass: self.bodies.mass.clone(),
-                force: vec![0.0; s.v.len()],
-                v0: s.v.clone(),
-                contacts: rows,
-            };
-            let sol = self.velocity_solver.solve(&pr)?;
-            s.v.copy_from_slice(&sol.dq);
-            self.iterations += sol.iterations as u64;
-            return Ok(sol.iterations);
-        }
-        self.closest_admissible_velocity(s, rows)
+        // Under Coulomb too the rows are solved as they are: each carries its own friction.
+        self.closest_admissible_velocity(s, rows, FrictionLaw::Associative)
     }
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
