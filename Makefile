@@ -57,13 +57,14 @@ fragility-engines: fragility-rapier fragility-mujoco fragility-pybullet
 # installed in a fresh virtual environment (wheel-test, about 2-2.5 min).
 test: test-no-default-features test-rust test-python wheel-test
 
-# The validation tests load the earthquake case, whose record `make records` downloads.
-test-no-default-features: chromium ffmpeg records siconos
+# The validation tests load the earthquake case, whose record `make records` downloads; the
+# MuJoCo and PyBullet tests run the worker of the `.venv`.
+test-no-default-features: chromium ffmpeg records siconos .venv
 	$(CARGO) test --release --no-default-features
 
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
 # 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
-test-rust: chromium ffmpeg records paper-tools siconos
+test-rust: chromium ffmpeg records paper-tools siconos .venv
 	$(CARGO) test --release
 	$(MAKE) gates
 	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
