@@ -19,9 +19,32 @@ from rockbench._native import (
     load_scene,
     run,
 )
-from rockbench.compare import compare
-from rockbench.results import Comparison, FragilityResult, trajectory
-from rockbench.studies import fragility, run_many
+# The pandas-backed names are imported on first use (PEP 562), so the engine workers
+# (`python -m rockbench.worker`, one process per run) do not pay for pandas.
+_LAZY = {
+    "compare": "rockbench.compare",
+    "Comparison": "rockbench.results",
+    "FragilityResult": "rockbench.results",
+    "trajectory": "rockbench.results",
+    "fragility": "rockbench.studies",
+    "run_many": "rockbench.studies",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'rockbench' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
 
 __all__ = [
     "Comparison",
