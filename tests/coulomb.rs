@@ -347,6 +347,8 @@ friction = 1.2054895718611291e0
 friction = 2.99554731989464e-1
 
 [native]
+# found by `make proptest` under the paper's stepper, whose step problems these tests solve
+stepper = "paper"
 solver = "auto"
 theta = 1e0
 dt = 5.725058733987224e-4
@@ -477,6 +479,8 @@ vx = -9.16260646083452e-2
 friction = 1.6078953530464082e0
 
 [native]
+# found by `make proptest` under the paper's stepper, whose step problems these tests solve
+stepper = "paper"
 solver = "auto"
 theta = 8.289334362928629e-1
 dt = 1.114957184526186e-3
@@ -550,6 +554,8 @@ friction = 3.9979342028590936e-1
 friction = 1.2502443177507454e0
 
 [native]
+# found by `make proptest` under the paper's stepper, whose step problems these tests solve
+stepper = "paper"
 solver = "auto"
 theta = 5e-1
 dt = 1.2376387660026395e-3

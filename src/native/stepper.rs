@@ -85,26 +85,34 @@ fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
     row.iter().map(|&(i, c)| c * x[i]).sum()
 }
 
-/// Normal forces below this fraction of a solution's largest count as zero when deciding
-/// which points carry a force (an interior-point solution leaves ~1e-10 relative on open
-/// points).
-pub const LOADED_FRACTION: f64 = 1e-6;
-
-/// Whether each point carries a normal force in a solution (see `LOADED_FRACTION`).
-fn loaded(sol: &StepSolution) -> Vec<bool> {
-    let max = sol.normal.iter().fold(0.0f64, |m, n| m.max(*n));
-    sol.normal
+/// Whether each point of a step problem is closed at the end of its solution: its gap,
+/// `g_n + n·dq` (under the associative law the lower edge row, `g_n + n·dq - mu |g_t + t·dq|`,
+/// whose dilatancy lifts a sliding point by exactly `mu |slip|`) within `CLOSED_GAP`. The
+/// impact stepper decides by this, not by which points carry a force: the displacement of a
+/// solution is unique, its forces are not (a flat interface has four rows on three relative
+/// DOFs, and each back-end splits the load between its two points its own way; deciding by
+/// force, Clarabel and the active-set back-end gave the two-block case's first crossing of the
+/// statue 7 ms apart).
+fn closed(pr: &StepProblem, sol: &StepSolution, law: FrictionLaw) -> Vec<bool> {
+    pr.contacts
         .iter()
-        .map(|&n| n > 0.0 && n > LOADED_FRACTION * max)
+        .map(|c| {
+            let n = c.g_n + row_dot(&c.nrow, &sol.dq);
+            let gap = match law {
+                FrictionLaw::Associative => n - c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs(),
+                FrictionLaw::Coulomb => n,
+            };
+            gap <= CLOSED_GAP
+        })
         .collect()
 }
 
-/// Sorted keys of the points that carry a normal force in a solution.
-fn loaded_keys(pr: &StepProblem, sol: &StepSolution) -> Vec<u64> {
+/// Sorted keys of the points closed at the end of a solution (see [`closed`]).
+fn closed_keys(pr: &StepProblem, sol: &StepSolution, law: FrictionLaw) -> Vec<u64> {
     let mut k: Vec<u64> = pr
         .contacts
         .iter()
-        .zip(loaded(sol))
+        .zip(closed(pr, sol, law))
         .filter(|(_, l)| *l)
         .map(|(c, _)| c.key)
         .collect();
@@ -495,7 +503,7 @@ impl Stepper {
             let h = t_end - s.t;
             let s0 = s.clone();
             let (mut sol, pr) = self.sub_step(s, &contacts, h, true)?;
-            let carries = loaded(&sol);
+            let carries = closed(&pr, &sol, self.settings.friction_law);
             let fresh: Vec<usize> = (0..contacts.len())
                 .filter(|&k| {
                     contacts[k].gap > CLOSED_GAP
@@ -531,7 +539,7 @@ impl Stepper {
                 // The located points have just closed: not a new impact in the next step even if
                 // the short rest of this one left them without a force (gap within the fall of
                 // `g h^2/2`).
-                self.loaded = loaded_keys(&pr, &sol);
+                self.loaded = closed_keys(&pr, &sol, self.settings.friction_law);
                 self.loaded.extend(&located_here);
                 self.loaded.sort_unstable();
                 self.loaded.dedup();
@@ -549,7 +557,7 @@ impl Stepper {
             if tau > 1e-9 * h {
                 let (first, pr) = self.sub_step(s, &free, tau, true)?;
                 iterations += first.iterations;
-                self.loaded = loaded_keys(&pr, &first);
+                self.loaded = closed_keys(&pr, &first, self.settings.friction_law);
             }
             let at = self.detect(s);
             iterations += self
@@ -754,7 +762,7 @@ impl Stepper {
             let mut sol = self.solve_law(pr)?;
             iterations += sol.iterations;
             dq.copy_from_slice(&sol.dq);
-            let carries = loaded(&sol);
+            let carries = closed(pr, &sol, self.settings.friction_law);
             let drift = points
                 .iter()
                 .zip(&pr.contacts)
@@ -796,7 +804,7 @@ impl Stepper {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
-        let carries = loaded(sol);
+        let carries = closed(pr, sol, self.settings.friction_law);
         let coulomb = self.settings.friction_law == FrictionLaw::Coulomb;
         let ps = poses(&s.q);
         let mut rows = Vec::new();

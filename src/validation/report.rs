@@ -277,7 +277,14 @@ fn paper_section(d: &mut Doc, r: &CaseResult, claims: &PaperClaims) {
         })
         .collect();
     if let Some(tr) = &claims.converged {
-        evs.push(stack_events(c, "native, dt = 1e-4 s (reference-data)", tr));
+        evs.push(stack_events(
+            c,
+            &format!(
+                "native, dt = {:e} s (reference-data)",
+                crate::validation::references::CONVERGED_DT
+            ),
+            tr,
+        ));
     }
     let mut head = vec![
         "engine".to_string(),
