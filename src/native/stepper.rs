@@ -443,7 +443,12 @@ impl Stepper {
     /// parts: a sub-step to the closing instant, a plastic impact there, and the rest of the
     /// step (see `step_locating`).
     pub fn step(&mut self, s: &mut NativeState) -> Result<StepSolution, StepError> {
-        let dt = self.settings.dt;
+        self.step_by(s, self.settings.dt)
+    }
+
+    /// One step of length `dt` (the impact stepper takes any length: a run's last step is
+    /// shortened to end at the duration; the paper's stepper is only ever given its own).
+    pub fn step_by(&mut self, s: &mut NativeState, dt: f64) -> Result<StepSolution, StepError> {
         let mut contacts = self.detect(s);
         let t_end = s.t + dt;
         if self.settings.stepper == StepperKind::Impact && self.approaching(s, &contacts) {
