@@ -247,8 +247,8 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
                 .is_ok_and(|n| n.stepper == rockbench::native::StepperKind::Impact)
                 && s.blocks.len() > 1
         },
-        reason: "impact-consistent stepper (an option, not drawn by the generator above; measured \
-                 with it forced on): the earlier loss of mirror symmetry on stacks (1e-3 to \
+        reason: "impact-consistent stepper (the default; measured when it was an option forced \
+                 on): the earlier loss of mirror symmetry on stacks (1e-3 to \
                  4e-2 rad) came from the choice between the velocity- and position-level law, \
                  decided by round-off for a persistent contact (gap and normal velocity \
                  ~1e-16), where for a sliding contact the two laws differ; fixed (a gap within \
