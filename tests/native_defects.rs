@@ -93,16 +93,20 @@ fn native_dual_frictionless_block_does_not_gain_energy() {
 }
 
 /// The native trajectory ends exactly at the duration (docs/scene-format.md): 0.4005 s at
-/// dt = 1e-3 is 401 whole steps, and the last sample is interpolated half-way within the last
-/// one. Up to 0.400 s the run is bit for bit the one of 0.401 s; its last sample is the
-/// mid-point of that run's states at 0.400 and 0.401 s.
+/// dt = 1e-3 is 401 steps. Under the paper's stepper the last one is whole and the last sample
+/// is interpolated half-way within it: up to 0.400 s the run is bit for bit the one of 0.401
+/// s, and its last sample is the mid-point of that run's states at 0.400 and 0.401 s.
 #[test]
 fn native_trajectory_ends_at_the_duration() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let load = |duration: &str| {
         rockbench::scene::load_scene_with_overrides(
             &root.join("validation/scenes/housner-slender.toml"),
-            &[format!("duration={duration}"), "native.dt=1e-3".into()],
+            &[
+                format!("duration={duration}"),
+                "native.dt=1e-3".into(),
+                "native.stepper=\"paper\"".into(),
+            ],
         )
         .unwrap()
     };
@@ -200,4 +204,40 @@ dt = 5e-3
     let tol = rockbench::invariants::Tolerances::default();
     let c = rockbench::invariants::check_energy(&scene, &out.trajectory, &tol);
     assert!(!c.violated(), "{}", c.detail);
+}
+
+/// Under the impact stepper (the default) the last of those 401 steps is shortened to end at
+/// 0.4005 s: up to 0.400 s the run is bit for bit the one of 0.401 s, and its last sample is as
+/// accurate as the others against Housner (the interpolated one would cut the chord of the
+/// arc: for a corner on its face, a penetration).
+#[test]
+fn impact_stepper_ends_at_the_duration_with_a_shortened_step() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let load = |duration: &str| {
+        rockbench::scene::load_scene_with_overrides(
+            &root.join("validation/scenes/housner-slender.toml"),
+            &[format!("duration={duration}"), "native.dt=1e-3".into()],
+        )
+        .unwrap()
+    };
+    let native = engine_by_name("native").unwrap();
+    let housner = engine_by_name("housner").unwrap();
+    let short = native.run(&load("0.4005")).unwrap();
+    let long = native.run(&load("0.401")).unwrap();
+    let exact = housner.run(&load("0.4005")).unwrap();
+    let (ts, tl, te) = (&short.trajectory, &long.trajectory, &exact.trajectory);
+    assert_eq!(*ts.t.last().unwrap(), 0.4005);
+    assert_eq!(ts.len(), 402);
+    assert_eq!(short.steps, 401);
+    assert_eq!(ts.blocks[0].phi[..401], tl.blocks[0].phi[..401]);
+    assert_eq!(*te.t.last().unwrap(), 0.4005);
+    let err = |k: usize| (ts.blocks[0].phi[k] - te.blocks[0].phi[k]).abs();
+    let (at_400, at_end) = (err(400), err(401));
+    eprintln!("error against Housner: {at_400:.2e} rad at 0.400 s, {at_end:.2e} at 0.4005 s");
+    assert!(at_end <= 2.0 * at_400 + 1e-12, "{at_end} vs {at_400}");
+    let mid = tl.blocks[0].phi[400] + 0.5 * (tl.blocks[0].phi[401] - tl.blocks[0].phi[400]);
+    assert!(
+        ts.blocks[0].phi[401] != mid,
+        "the last sample is not interpolated"
+    );
 }
