@@ -21,6 +21,13 @@ from rockbench._native import (
 )
 # The pandas-backed names are imported on first use (PEP 562), so the engine workers
 # (`python -m rockbench.worker`, one process per run) do not pay for pandas.
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from rockbench.compare import compare
+    from rockbench.results import Comparison, FragilityResult, trajectory
+    from rockbench.studies import fragility, run_many
+
 _LAZY = {
     "compare": "rockbench.compare",
     "Comparison": "rockbench.results",
@@ -31,7 +38,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'rockbench' has no attribute {name!r}")
