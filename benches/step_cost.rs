@@ -6,7 +6,8 @@
 //! grow linearly with the number of courses (and of contacts).
 //!
 //! A third group, `friction_law`, compares Coulomb friction with the associative law on the
-//! two-block case and the 210-block wall (`cargo bench --bench step_cost -- friction_law`).
+//! two-block case and the 210-block wall (`cargo bench --bench step_cost -- friction_law`), and
+//! a fourth, `stepper`, the impact stepper (the default) with the paper's.
 //!
 //! `cargo bench --bench step_cost` (or `make bench-steps`). The dense active-set back-end is
 //! not run on the 210-block wall (see below).
@@ -116,8 +117,30 @@ fn wall_at_rest(c: &mut Criterion) {
     g.finish();
 }
 
+/// The impact stepper (the default) against the paper's, `auto` back-end: one block and the
+/// two-block case rocking, the 210-block wall at rest
+/// (`cargo bench --bench step_cost -- stepper`).
+fn stepper(c: &mut Criterion) {
+    let mut g = c.benchmark_group("stepper");
+    g.measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500))
+        .sample_size(20);
+    for (name, n) in [("one-block", 1usize), ("two-block", 2), ("wall-210", 210)] {
+        for kind in ["paper", "impact"] {
+            let mut scene = if n == 210 { wall(10) } else { stack(n) };
+            scene.set_setting("native", "stepper", kind);
+            let (mut stepper, mut state) = stepper_for(&scene).unwrap();
+            for _ in 0..100 {
+                stepper.step(&mut state).unwrap();
+            }
+            bench_step(&mut g, BenchmarkId::new(kind, name), &mut stepper, &state);
+        }
+    }
+    g.finish();
+}
+
 /// Non-associative Coulomb friction against the paper's associative law (default `auto`
-/// back-end, position stepper): the two-block case rocking and the 210-block wall at rest.
+/// back-end, default stepper): the two-block case rocking and the 210-block wall at rest.
 fn coulomb(c: &mut Criterion) {
     let mut g = c.benchmark_group("friction_law");
     g.measurement_time(Duration::from_secs(3))
@@ -137,5 +160,5 @@ fn coulomb(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, step_cost, wall_at_rest, coulomb);
+criterion_group!(benches, step_cost, wall_at_rest, coulomb, stepper);
 criterion_main!(benches);
