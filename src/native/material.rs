@@ -25,6 +25,40 @@
 use super::problem::{ContactRows, SparseRow};
 use crate::geometry::{ContactPoint, Pose};
 
+/// An increment `k dq` from the start of the step (`k = 1/2`: the midpoint, without a copy of
+/// `dq`), with every body's rotation over it computed once: `(sin a, cos a, cos a - 1)`, the
+/// last as `-2 sin^2(a/2)` (see `Carrier::displacement`). Build one per increment and evaluate
+/// all of a step's points with it: the trigonometry is per body, not per point.
+pub struct Increment<'a> {
+    dq: &'a [f64],
+    k: f64,
+    turns: Vec<(f64, f64, f64)>,
+}
+
+impl<'a> Increment<'a> {
+    pub fn new(dq: &'a [f64], k: f64) -> Self {
+        let turns = (0..dq.len() / 3)
+            .map(|b| {
+                let a = k * dq[3 * b + 2];
+                let (s, c) = a.sin_cos();
+                let h = (0.5 * a).sin();
+                (s, c, -2.0 * h * h)
+            })
+            .collect();
+        Increment { dq, k, turns }
+    }
+    fn at(&self, i: usize) -> f64 {
+        self.k * self.dq[i]
+    }
+    /// The whole increment (`k = 1`) as a slice.
+    fn whole(&self) -> &[f64] {
+        debug_assert!(self.k == 1.0);
+        self.dq
+    }
+}
+
+type Incr<'b, 'a> = &'b Increment<'a>;
+
 /// One body's share of a contact point: its index, and the point's offset from the centroid
 /// at the start of the step.
 #[derive(Debug, Clone, Copy)]
@@ -40,31 +74,25 @@ impl Carrier {
             rho: (p.0 - pose.x, p.1 - pose.z),
         }
     }
-    fn turn(&self, dq: &[f64]) -> f64 {
-        dq[3 * self.body + 2]
-    }
     /// The offset turned by the step's increment `dq`: `R(dphi) rho`.
-    fn arm(&self, dq: &[f64]) -> (f64, f64) {
-        rotate(self.rho, self.turn(dq))
+    fn arm(&self, dq: Incr) -> (f64, f64) {
+        rotate(self.rho, dq.turns[self.body])
     }
     /// The point's displacement over the increment `dq`: `dc + (R(dphi) - I) rho`, formed from
     /// the increments alone so that it keeps their relative precision however far the body is
     /// from the origin (`cos a - 1 = -2 sin^2(a/2)`).
-    fn displacement(&self, dq: &[f64]) -> (f64, f64) {
-        let a = self.turn(dq);
-        let s = a.sin();
-        let h = (0.5 * a).sin();
-        let cm1 = -2.0 * h * h;
+    fn displacement(&self, dq: Incr) -> (f64, f64) {
+        let (s, _, cm1) = dq.turns[self.body];
         let i = 3 * self.body;
         (
-            dq[i] + cm1 * self.rho.0 - s * self.rho.1,
-            dq[i + 1] + s * self.rho.0 + cm1 * self.rho.1,
+            dq.at(i) + cm1 * self.rho.0 - s * self.rho.1,
+            dq.at(i + 1) + s * self.rho.0 + cm1 * self.rho.1,
         )
     }
 }
 
-fn rotate(v: (f64, f64), a: f64) -> (f64, f64) {
-    let (s, c) = a.sin_cos();
+/// `R(a) v` for a rotation given as `(sin a, cos a, _)`.
+fn rotate(v: (f64, f64), (s, c, _): (f64, f64, f64)) -> (f64, f64) {
     (c * v.0 - s * v.1, s * v.0 + c * v.1)
 }
 
@@ -103,28 +131,28 @@ impl MaterialContact {
         }
     }
 
-    fn normal(&self, dq: &[f64]) -> (f64, f64) {
+    fn normal(&self, dq: Incr) -> (f64, f64) {
         match &self.a {
-            Some(a) => rotate(self.n0, a.turn(dq)),
+            Some(a) => rotate(self.n0, dq.turns[a.body]),
             None => self.n0,
         }
     }
 
     /// `d = p_B - p_A` at `q0 + dq` (zero at `q0`).
-    fn separation(&self, dq: &[f64]) -> (f64, f64) {
+    fn separation(&self, dq: Incr) -> (f64, f64) {
         let db = self.b.displacement(dq);
         let da = self.a.as_ref().map_or((0.0, 0.0), |a| a.displacement(dq));
         (db.0 - da.0, db.1 - da.1)
     }
 
     /// `(g_n, g_t)` at `q0 + dq`.
-    pub fn gaps(&self, dq: &[f64]) -> (f64, f64) {
+    pub fn gaps(&self, dq: Incr) -> (f64, f64) {
         let (dn, dt) = self.increments(dq);
         (self.g0 + dn, dt)
     }
 
     /// `(g_n - g0, g_t)` at `q0 + dq`: the change of the gaps over the increment.
-    pub fn increments(&self, dq: &[f64]) -> (f64, f64) {
+    pub fn increments(&self, dq: Incr) -> (f64, f64) {
         let n = self.normal(dq);
         let t = (n.1, -n.0);
         let d = self.separation(dq);
@@ -133,7 +161,7 @@ impl MaterialContact {
 
     /// Gradients of `g_n` and `g_t` at `q0 + dq`, as (DOF, coefficient) pairs: B's three DOFs,
     /// then A's (the layout of `assembly::contact_rows`).
-    pub fn gradients(&self, dq: &[f64]) -> (Gradient, Gradient, usize) {
+    pub fn gradients(&self, dq: Incr) -> (Gradient, Gradient, usize) {
         let n = self.normal(dq);
         let t = (n.1, -n.0);
         let mut gn = [(0, 0.0); 6];
@@ -161,33 +189,34 @@ impl MaterialContact {
         (gn, gt, 6)
     }
 
-    /// The discrete gradients of `g_n` and `g_t` over the increment `dq` (module docs), `mass`
-    /// the diagonal of M. With no motion of the point's bodies, the gradient at `q0`.
-    pub fn discrete_gradients(&self, dq: &[f64], mass: &[f64]) -> (SparseRow, SparseRow) {
-        let half: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
-        let (mut gn, mut gt, len) = self.gradients(&half);
+    /// The discrete gradients of `g_n` and `g_t` over the increment `dq` (module docs), given
+    /// with its midpoint `half` (`Increment::new(dq, 0.5)`); `mass` the diagonal of M. With no
+    /// motion of the point's bodies, the gradient at `q0`.
+    pub fn discrete_gradients(&self, dq: Incr, half: Incr, mass: &[f64]) -> (SparseRow, SparseRow) {
+        let (mut gn, mut gt, len) = self.gradients(half);
+        let dq_all = dq.whole();
         let norm: f64 = gn[..len]
             .iter()
-            .map(|&(i, _)| mass[i] * dq[i] * dq[i])
+            .map(|&(i, _)| mass[i] * dq_all[i] * dq_all[i])
             .sum();
         if norm > 0.0 {
             let (dn, dt) = self.increments(dq);
-            let along = |g: &[(usize, f64)]| g.iter().map(|&(i, c)| c * dq[i]).sum::<f64>();
+            let along = |g: &[(usize, f64)]| g.iter().map(|&(i, c)| c * dq_all[i]).sum::<f64>();
             let cn = (dn - along(&gn[..len])) / norm;
             let ct = (dt - along(&gt[..len])) / norm;
             for k in 0..len {
                 let i = gn[k].0;
-                gn[k].1 += cn * mass[i] * dq[i];
-                gt[k].1 += ct * mass[i] * dq[i];
+                gn[k].1 += cn * mass[i] * dq_all[i];
+                gt[k].1 += ct * mass[i] * dq_all[i];
             }
         }
         (gn[..len].to_vec(), gt[..len].to_vec())
     }
 
     /// Replace the rows of `r` (built by `assembly::contact_rows` for this point) by the
-    /// discrete gradients over the increment `dq`; offsets unchanged.
-    pub fn set_rows(&self, r: &mut ContactRows, dq: &[f64], mass: &[f64]) {
-        let (n, t) = self.discrete_gradients(dq, mass);
+    /// discrete gradients over the increment `dq` (with its midpoint `half`); offsets unchanged.
+    pub fn set_rows(&self, r: &mut ContactRows, dq: Incr, half: Incr, mass: &[f64]) {
+        let (n, t) = self.discrete_gradients(dq, half, mass);
         r.nrow = n;
         r.trow = t;
     }
@@ -220,27 +249,27 @@ mod tests {
     fn gradients_at_the_start_are_the_assembly_rows() {
         let (m, q0, c) = sample(0.0);
         let r = contact_rows(&c, &poses(&q0), 0.0, (0.0, 0.0));
-        let (gn, gt, len) = m.gradients(&[0.0; 6]);
+        let (gn, gt, len) = m.gradients(&Increment::new(&[0.0; 6], 1.0));
         assert_eq!(len, 6);
         for (a, b) in gn.iter().zip(&r.nrow).chain(gt.iter().zip(&r.trow)) {
             assert_eq!(a.0, b.0);
             assert!((a.1 - b.1).abs() < 1e-15, "{a:?} {b:?}");
         }
-        assert_eq!(m.gaps(&[0.0; 6]), (1e-4, 0.0));
+        assert_eq!(m.gaps(&Increment::new(&[0.0; 6], 1.0)), (1e-4, 0.0));
     }
 
     #[test]
     fn gradients_match_finite_differences() {
         let (m, _, _) = sample(0.0);
         let dq = [0.07; 6];
-        let (gn, gt, _) = m.gradients(&dq);
+        let (gn, gt, _) = m.gradients(&Increment::new(&dq, 1.0));
         for k in 0..6 {
             let h = 1e-6;
             let (mut qp, mut qm) = (dq, dq);
             qp[gn[k].0] += h;
             qm[gn[k].0] -= h;
-            let (np, tp) = m.gaps(&qp);
-            let (nm, tm) = m.gaps(&qm);
+            let (np, tp) = m.gaps(&Increment::new(&qp, 1.0));
+            let (nm, tm) = m.gaps(&Increment::new(&qm, 1.0));
             assert!(((np - nm) / (2.0 * h) - gn[k].1).abs() < 1e-8, "n {k}");
             assert!(((tp - tm) / (2.0 * h) - gt[k].1).abs() < 1e-8, "t {k}");
         }
@@ -251,8 +280,9 @@ mod tests {
         let (m, _, _) = sample(0.0);
         let dq: Vec<f64> = (0..6).map(|i| 0.03 * (i as f64 - 2.5)).collect();
         let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
-        let (gn, gt) = m.discrete_gradients(&dq, &mass);
-        let (n1, t1) = m.gaps(&dq);
+        let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
+        let (gn, gt) = m.discrete_gradients(&whole, &half, &mass);
+        let (n1, t1) = m.gaps(&whole);
         assert!((1e-4 + along(&gn, &dq) - n1).abs() < 1e-15);
         assert!((along(&gt, &dq) - t1).abs() < 1e-15);
     }
@@ -266,9 +296,10 @@ mod tests {
         let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
         for scale in [1e-6, 1e-9, 1e-12] {
             let dq: Vec<f64> = (0..6).map(|i| scale * (i as f64 - 2.5)).collect();
-            let half: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
-            let (mn, mt, len) = m.gradients(&half);
-            let (gn, gt) = m.discrete_gradients(&dq, &mass);
+            let halved: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
+            let (mn, mt, len) = m.gradients(&Increment::new(&halved, 1.0));
+            let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
+            let (gn, gt) = m.discrete_gradients(&whole, &half, &mass);
             for k in 0..len {
                 assert!((gn[k].1 - mn[k].1).abs() < 1e-9, "{scale} n {k}");
                 assert!((gt[k].1 - mt[k].1).abs() < 1e-9, "{scale} t {k}");

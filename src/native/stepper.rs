@@ -31,7 +31,7 @@
 
 use super::assembly::{Bodies, contact_rows, poses};
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
-use super::material::MaterialContact;
+use super::material::{Increment, MaterialContact};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 
@@ -595,13 +595,14 @@ impl Stepper {
         let ps = poses(&s0.q);
         let dq: Vec<f64> = s1.q.iter().zip(&s0.q).map(|(a, b)| a - b).collect();
         let mut tau: Option<f64> = None;
+        let increment = Increment::new(&dq, 1.0);
         for &k in fresh {
             let c = &contacts[k];
             let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
             let vn0 = self.normal_speed(c, &r.nrow, &s0.v, s0.ground_w);
             // The gap within the step, `g0 + vn0 tau + c2 tau^2`, through the point's exact gap
             // at the end of the free trial (local error O(h^3) whatever the motion).
-            let mut g1 = MaterialContact::new(c, &ps).gaps(&dq).0;
+            let mut g1 = MaterialContact::new(c, &ps).gaps(&increment).0;
             if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
                 let dd = (s1.ground_d.0 - s0.ground_d.0, s1.ground_d.1 - s0.ground_d.1);
                 g1 -= c.normal.0 * dd.0 + c.normal.1 * dd.1;
@@ -761,20 +762,24 @@ impl Stepper {
             .collect();
         let mut iterations = 0;
         for solve in 1..=DISCRETE_GRADIENT_SOLVES {
-            for (r, m) in pr.contacts.iter_mut().zip(&points) {
-                m.set_rows(r, &dq, &self.bodies.mass);
+            {
+                let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
+                for (r, m) in pr.contacts.iter_mut().zip(&points) {
+                    m.set_rows(r, &whole, &half, &self.bodies.mass);
+                }
             }
             let mut sol = self.solve_law(pr)?;
             iterations += sol.iterations;
             dq.copy_from_slice(&sol.dq);
             let carries = closed(pr, &sol, self.settings.friction_law);
+            let whole = Increment::new(&dq, 1.0);
             let drift = points
                 .iter()
                 .zip(&pr.contacts)
                 .zip(&carries)
                 .filter(|(_, l)| **l)
                 .map(|((m, r), _)| {
-                    let (dn, dt) = m.increments(&dq);
+                    let (dn, dt) = m.increments(&whole);
                     let dn = dn - row_dot(&r.nrow, &dq);
                     let dt = dt - row_dot(&r.trow, &dq);
                     dn.abs().max(dt.abs())
@@ -816,6 +821,7 @@ impl Stepper {
         // Coulomb: per body pair, the sum of its stopping points' tangential rows and offsets.
         let mut stuck: Vec<((Option<usize>, usize), ContactRows, usize)> = Vec::new();
         let mut worst = 0.0f64;
+        let increment = Increment::new(&sol.dq, 1.0);
         for (k, ((c, m), l)) in contacts.iter().zip(points).zip(&carries).enumerate() {
             if !*l {
                 continue;
@@ -823,7 +829,7 @@ impl Stepper {
             let mu = self.bodies.friction(c);
             let mut r = contact_rows(c, &ps, mu, w);
             r.g_n -= c.gap;
-            let (gn, gt, len) = m.gradients(&sol.dq);
+            let (gn, gt, len) = m.gradients(&increment);
             r.nrow = gn[..len].to_vec();
             r.trow = gt[..len].to_vec();
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
