@@ -149,11 +149,12 @@ impl Engine for NativeEngine {
                 )];
                 if stepper.gradient_solves > 0 {
                     notes.push(format!(
-                        "impact stepper: {} solves for the discrete-gradient rows ({:.2} a step), {} end velocities settled, {} plastic impacts at the start of a step",
+                        "impact stepper: {} solves for the discrete-gradient rows ({:.2} a step), {} end velocities settled, {} plastic impacts at the start of a step, {} impact instants halved",
                         stepper.gradient_solves,
                         stepper.gradient_solves as f64 / computed.max(1) as f64,
                         stepper.settled_velocities,
-                        stepper.start_impacts
+                        stepper.start_impacts,
+                        stepper.halved_instants
                     ));
                 }
                 if stepper.coulomb.problems > 0 {
@@ -164,6 +165,16 @@ impl Engine for NativeEngine {
                         stepper.coulomb.iterations as f64 / stepper.coulomb.problems as f64,
                         stepper.coulomb.lemke_solves,
                         stepper.coulomb.lemke_pivots
+                    ));
+                }
+                if let Some(sl) = stepper.sleep.as_ref().filter(|sl| sl.fallen_asleep > 0) {
+                    notes.push(format!(
+                        "sleeping islands: {} put to sleep, {} woken by the excitation, {} by a contact; {:.1} % of block-steps asleep",
+                        sl.fallen_asleep,
+                        sl.woken_by_excitation,
+                        sl.woken_by_contact,
+                        100.0 * sl.block_steps_asleep as f64
+                            / (computed.max(1) * scene.blocks.len() as u64) as f64
                     ));
                 }
                 if let Some(t) = stopped_at {

@@ -9,6 +9,7 @@ pub mod islands;
 pub mod material;
 pub mod problem;
 pub mod settings;
+pub mod sleep;
 pub mod solver;
 pub mod stepper;
 

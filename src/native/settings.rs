@@ -149,6 +149,12 @@ pub struct NativeSettings {
     /// islands go to the dense one) and the back-ends' round-off.
     #[serde(default = "d_true")]
     pub islands: bool,
+    /// Put islands of blocks at rest to sleep until the excitation or a contact can move them
+    /// (default true; see `native::sleep`). Only where the excitation is applied as inertial
+    /// forces and has no vertical component; it zeroes speeds below `rest_velocity` of blocks
+    /// that have been that still for 0.05 s and skips them while they sleep.
+    #[serde(default = "d_true")]
+    pub sleep: bool,
 }
 
 fn d_rest_velocity() -> f64 {
@@ -175,6 +181,7 @@ impl Default for NativeSettings {
             contact_reach: d_reach(),
             polish: true,
             islands: true,
+            sleep: true,
             stop_at_rest: false,
             rest_velocity: d_rest_velocity(),
         }

@@ -1,0 +1,165 @@
+//! Sleeping islands (`native.sleep`): the interval of ground accelerations that keeps blocks at
+//! rest against the closed forms, and runs with sleeping against the same runs without it.
+
+mod common;
+
+use rockbench::native::assembly::{contact_rows, poses};
+use rockbench::native::sleep::rest_interval;
+use rockbench::native::stepper::CLOSED_GAP;
+use rockbench::native::stepper_for;
+use rockbench::scene::{Scene, parse_scene_str};
+use rockbench::walls::WallSpec;
+
+const G: f64 = 9.81;
+
+fn scene(text: &str, set: &[&str]) -> Scene {
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    parse_scene_str(text, false, "sleep-test", &set).unwrap()
+}
+
+/// The interval of horizontal ground accelerations that keeps every block of the scene at rest
+/// where it starts (all blocks one island), in units of g.
+fn interval(text: &str) -> (f64, f64) {
+    let s = scene(text, &[]);
+    let (stepper, state) = stepper_for(&s).unwrap();
+    let ps = poses(&state.q);
+    let rows: Vec<_> = stepper
+        .detect(&state)
+        .iter()
+        .filter(|c| c.gap <= CLOSED_GAP)
+        .map(|c| contact_rows(c, &ps, stepper.bodies.friction(c), (0.0, 0.0)))
+        .collect();
+    let blocks: Vec<usize> = (0..stepper.bodies.len()).collect();
+    let (lo, hi) = rest_interval(&blocks, &rows, &stepper.bodies.mass, s.gravity).unwrap();
+    (lo / s.gravity, hi / s.gravity)
+}
+
+fn block(width: f64, height: f64, friction: f64) -> String {
+    format!(
+        "name = \"b\"\nduration = 1\n[[blocks]]\nname = \"b\"\nwidth = {width}\nheight = {height}\n[contact]\nfriction = {friction}\n"
+    )
+}
+
+/// A block on the ground stays at rest while `|a| <= g min(mu, B/H)` (rocking or sliding); a
+/// column of two equal blocks while `|a| <= g min(mu, B/(2H))` (the whole column rocks first):
+/// the static theorem on the vertex contact points gives exactly these.
+#[test]
+fn the_rest_interval_is_the_rocking_or_sliding_threshold() {
+    let cases = [
+        (block(0.5, 2.0, 0.7), 0.25),
+        (block(1.0, 1.0, 0.4), 0.4),
+        (block(2.0, 1.0, 0.9), 0.9),
+        (
+            "name = \"c\"\nduration = 1\n[[blocks]]\nname = \"a\"\nwidth = 0.4\nheight = 1\n[[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1\n[contact]\nfriction = 0.7\n".to_string(),
+            0.2,
+        ),
+    ];
+    for (text, expected) in cases {
+        let (lo, hi) = interval(&text);
+        assert!(
+            (hi - expected).abs() < 1e-6 * expected && (lo + expected).abs() < 1e-6 * expected,
+            "interval [{lo}, {hi}] g, expected +-{expected} g for\n{text}"
+        );
+    }
+}
+
+/// Positions of every step, and the sleep counters (fallen asleep, woken by the excitation,
+/// woken by a contact, block-steps asleep).
+fn run(s: &Scene) -> (Vec<Vec<f64>>, [u64; 4]) {
+    let (mut stepper, mut state) = stepper_for(s).unwrap();
+    let steps = (s.duration / stepper.settings.dt).round() as usize;
+    let mut out = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        stepper.step(&mut state).unwrap();
+        out.push(state.q.clone());
+    }
+    let counts = stepper.sleep.as_ref().map_or([0; 4], |sl| {
+        [
+            sl.fallen_asleep,
+            sl.woken_by_excitation,
+            sl.woken_by_contact,
+            sl.block_steps_asleep,
+        ]
+    });
+    (out, counts)
+}
+
+fn largest_difference(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
+        .fold(0.0, f64::max)
+}
+
+/// Runs `text` with and without sleeping under each stepper; returns the counters of the
+/// sleeping runs after checking that both give the same positions at every step to the bound
+/// sleeping promises: the speeds it zeroes (below `native.rest_velocity`, 1e-9 m/s) times the
+/// run's duration.
+fn same_with_and_without_sleep(text: &str) -> Vec<[u64; 4]> {
+    ["impact", "paper"]
+        .iter()
+        .map(|stepper| {
+            let stepper = format!("native.stepper=\"{stepper}\"");
+            let (awake, none) = run(&scene(text, &[&stepper, "native.sleep=false"]));
+            assert_eq!(none, [0; 4]);
+            let s = scene(text, &[&stepper]);
+            let bound = 1e-9 * s.duration;
+            let (sleeping, counts) = run(&s);
+            let d = largest_difference(&awake, &sleeping);
+            eprintln!("{stepper}: largest difference {d:e}, counters {counts:?}");
+            assert!(
+                d <= bound,
+                "{stepper}: sleeping moved the answer by {d:e} (bound {bound:e}); counters {counts:?}"
+            );
+            let moved = awake
+                .iter()
+                .flat_map(|q| q.iter().zip(&awake[0]).map(|(a, b)| (a - b).abs()))
+                .fold(0.0, f64::max);
+            assert!(moved > 1e-3, "{stepper}: nothing moved ({moved:e})");
+            counts
+        })
+        .collect()
+}
+
+/// A slender block (tan alpha = 0.4) at rest sleeps; a half-sine pulse of 1.5 times its rocking
+/// threshold starting at 0.3 s wakes it when its acceleration reaches the threshold, and the
+/// rocking that follows is the one of the run without sleeping.
+#[test]
+fn a_pulse_wakes_a_sleeping_block_when_it_can_move_it() {
+    let text = format!(
+        "{}[excitation.horizontal]\nkind = \"half-sine\"\namplitude = {}\nduration = 0.6\nstart = 0.3\n",
+        block(1.0, 2.5, 0.7).replace("duration = 1", "duration = 1.5"),
+        1.5 * 0.4 * G
+    );
+    for counts in same_with_and_without_sleep(&text) {
+        assert!(counts[0] >= 1 && counts[1] >= 1, "counters {counts:?}");
+        // Asleep from 0.05 s until the pulse reaches the threshold (after 0.3 s).
+        assert!(counts[3] >= 250, "counters {counts:?}");
+    }
+}
+
+/// A block at rest sleeps; another slides into it and wakes it by contact; both runs agree.
+#[test]
+fn a_block_sliding_into_a_sleeping_one_wakes_it() {
+    let text = "name = \"s\"\nduration = 0.8\n[[blocks]]\nname = \"still\"\nwidth = 0.5\nheight = 0.5\nx = 0\n[[blocks]]\nname = \"slider\"\nwidth = 0.5\nheight = 0.5\nx = -1.0\n[initial.blocks.slider]\nvx = 2.0\n[contact]\nfriction = 0.3\n";
+    for counts in same_with_and_without_sleep(text) {
+        assert!(counts[0] >= 1 && counts[2] >= 1, "counters {counts:?}");
+    }
+}
+
+/// A running-bond wall of 3 courses of 6 blocks under a one-sine pulse that rocks part of it:
+/// every block sleeps at first, the pulse wakes the wall, the blocks that end at rest sleep
+/// again, and the positions are those of the run without sleeping.
+#[test]
+fn a_wall_woken_by_a_pulse_moves_as_without_sleeping() {
+    let mut w = WallSpec::running_bond(3, 6);
+    w.duration = 1.5;
+    let text = format!(
+        "{}\n[excitation.horizontal]\nkind = \"one-sine\"\namplitude = {}\nduration = 0.5\nstart = 0.2\n",
+        w.to_toml(),
+        0.8 * G
+    );
+    for counts in same_with_and_without_sleep(&text) {
+        assert!(counts[0] >= 1 && counts[1] >= 1, "counters {counts:?}");
+    }
+}
