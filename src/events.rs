@@ -12,7 +12,10 @@
 //! - **Impact**: a zero crossing of the rotation (relative rotation for a block on another
 //!   block), extrapolated from the last sample before the sign change. A crossing counts only
 //!   when the largest |phi| of the half-wave that ends at it reaches the noise floor (default
-//!   1e-5 rad), so jitter about zero is not counted.
+//!   1e-5 rad), so jitter about zero is not counted. A half-wave that ends flat (within
+//!   [`FLAT`] of zero) without a change of sign and stays flat to the end of the history, two
+//!   samples or more (a block stopped dead by the impact), counts as an impact where it
+//!   reaches zero.
 //! - **Peak amplitude**: max |phi| before the first impact and between consecutive impacts,
 //!   at the extremum: the zero of omega inside a sample interval, where the cubic Hermite
 //!   interpolant of (phi, omega) at its two ends peaks (local error O(h^4)); a parabola through
@@ -177,6 +180,9 @@ pub struct Peak {
     pub amplitude: f64,
 }
 
+/// A rotation at most this is flat (rad): round-off of a block lying on its face.
+pub const FLAT: f64 = 1e-12;
+
 /// Zero crossings that count as impacts (see the module docs).
 pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
     let (t, phi) = (h.t, h.phi);
@@ -203,6 +209,23 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
         wave_max = wave_max.max(p.abs());
         last_sign = s;
         last_idx = k;
+    }
+    // A half-wave that ends flat without a change of sign and stays flat (two samples or
+    // more, so that a history ending on a crossing is not one): the block stopped dead at this
+    // impact.
+    let flat_from = (0..phi.len())
+        .rev()
+        .take_while(|&k| phi[k].abs() <= FLAT)
+        .last();
+    if let Some(j) = flat_from
+        && j >= 1
+        && phi.len() - j >= 2
+        && wave_max >= floor
+        && out.last().is_none_or(|&c| c < t[j - 1])
+    {
+        let lo = stretch_start.min(j - 1);
+        let tc = h.crossing_from(j - 1, j, lo, 0.0);
+        out.push(tc.clamp(t[j - 1], t[j]));
     }
     out
 }
@@ -522,6 +545,28 @@ mod tests {
         let omega = vec![0.0; t.len()];
         let pk = peaks(&History::new(&t, &phi, &omega), &[]);
         assert!((pk[0].amplitude - 1.0).abs() < 1e-12 && (pk[0].t - 0.503).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_block_stopped_dead_lands_once() {
+        // A quarter of a sine down to zero at t = 0.5, then flat at +1e-17 (round-off): one
+        // impact where it reaches zero; the same history ending at the landing sample: none.
+        let t = grid(1001, 1e-3);
+        let pi = std::f64::consts::PI;
+        let (phi, omega) = sample(&t, |x| {
+            if x < 0.5 {
+                (0.1 * (pi * x).cos(), -0.1 * pi * (pi * x).sin())
+            } else {
+                (1e-17, 0.0)
+            }
+        });
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        assert_eq!(imp.len(), 1, "{imp:?}");
+        // Extrapolated from the sample before: local error O(h^3), h = 1e-3.
+        assert!((imp[0] - 0.5).abs() < 1e-8, "{imp:?}");
+        let n = 501;
+        let ended = impacts(&History::new(&t[..n], &phi[..n], &omega[..n]), NOISE_FLOOR);
+        assert!(ended.is_empty(), "{ended:?}");
     }
 
     #[test]
