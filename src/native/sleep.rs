@@ -84,6 +84,10 @@ impl Sleep {
         self.island_of[block].is_some()
     }
 
+    pub fn all_asleep(&self) -> bool {
+        self.island_of.iter().all(Option::is_some)
+    }
+
     fn wake(&mut self, k: usize) {
         if let Some(island) = self.islands[k].take() {
             for b in island.blocks {

@@ -339,6 +339,9 @@ impl Stepper {
         };
         let asleep = |i: usize| self.sleep.as_ref().is_some_and(|sl| sl.asleep(i));
         let mut out = Vec::new();
+        if self.sleep.as_ref().is_some_and(Sleep::all_asleep) {
+            return out;
+        }
         for (i, r) in self.bodies.rects.iter().enumerate() {
             if asleep(i) {
                 continue;
