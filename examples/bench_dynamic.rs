@@ -7,7 +7,8 @@
 //! `rockbench::walls`; the scenes run are written next to the results.
 //!
 //! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40] [--duration 5]
-//! [--scale 2] [--engines native,rapier] [--out out/bench-dynamic]`
+//! [--scale 2] [--engines native,rapier] [--sleep false] [--out out/bench-dynamic]`
+//! (`--sleep true` runs the native engine with `native.sleep = true`).
 
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::scene::load_scene;
@@ -42,6 +43,7 @@ fn main() -> anyhow::Result<()> {
         .map(String::from)
         .collect();
     let out = PathBuf::from(arg(&args, "--out", "out/bench-dynamic"));
+    let sleep: bool = arg(&args, "--sleep", "false").parse()?;
     std::fs::create_dir_all(out.join("scenes"))?;
     let record = std::fs::canonicalize("validation/records/elcentro-1940.AT2").map_err(|e| {
         anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)")
@@ -50,7 +52,7 @@ fn main() -> anyhow::Result<()> {
         "blocks,courses,engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks\n",
     );
     let mut md = format!(
-        "# Walls in motion: El Centro 1940 x {scale}, {duration} s, dt 1e-3\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks |\n|---|---|---|---|---|---|---|---|---|\n"
+        "# Walls in motion: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks |\n|---|---|---|---|---|---|---|---|---|\n"
     );
     for &c in &courses {
         let mut w = WallSpec::running_bond(c, 21);
@@ -59,7 +61,11 @@ fn main() -> anyhow::Result<()> {
         let path = out
             .join("scenes")
             .join(format!("wall-{}.toml", w.n_blocks()));
-        std::fs::write(&path, w.to_toml())?;
+        let mut text = w.to_toml();
+        if sleep {
+            text.push_str("\n[native]\nsleep = true\n");
+        }
+        std::fs::write(&path, text)?;
         let scene = load_scene(&path)?;
         for e in &engines {
             let engine = engine_by_name(e)?;

@@ -102,7 +102,7 @@ fn same_with_and_without_sleep(text: &str) -> Vec<[u64; 4]> {
             let stepper = format!("native.stepper=\"{stepper}\"");
             let (awake, none) = run(&scene(text, &[&stepper, "native.sleep=false"]));
             assert_eq!(none, [0; 4]);
-            let s = scene(text, &[&stepper]);
+            let s = scene(text, &[&stepper, "native.sleep=true"]);
             let bound = 1e-9 * s.duration;
             let (sleeping, counts) = run(&s);
             let d = largest_difference(&awake, &sleeping);
@@ -162,4 +162,42 @@ fn a_wall_woken_by_a_pulse_moves_as_without_sleeping() {
     for counts in same_with_and_without_sleep(&text) {
         assert!(counts[0] >= 1 && counts[1] >= 1, "counters {counts:?}");
     }
+}
+
+/// Open defect (docs/method.md, "Sleeping islands"): three courses of the wall-in-motion scene
+/// (0.3 x 0.45 m blocks) have a static collapse acceleration of 0.4232 g, yet awake under a
+/// rectangular pulse of 0.38 g their velocities grow from round-off by a factor of about 2 a
+/// step and the wall collapses. It should stay at rest, as it does asleep.
+#[test]
+#[ignore = "open defect: the awake native engine collapses a wall below its static collapse acceleration"]
+fn a_wall_loaded_below_its_static_collapse_acceleration_stays_at_rest() {
+    let path = common::root().join("benches/walls/wall-in-motion.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let (head, blocks) = text.split_once("[[blocks]]").unwrap();
+    let mut kept = head.replace("duration = 6", "duration = 0.5");
+    for b in blocks.split("[[blocks]]") {
+        let b = b.split("[excitation").next().unwrap();
+        let course: usize = b
+            .split("name = \"c")
+            .nth(1)
+            .unwrap()
+            .split('b')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        if course < 3 {
+            kept.push_str("[[blocks]]");
+            kept.push_str(b.split("[contact]").next().unwrap());
+        }
+    }
+    kept.push_str(&format!(
+        "[contact]\nfriction = 0.7\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {}\nduration = 1.0\nstart = 0.1\n",
+        0.38 * G
+    ));
+    let (lo, hi) = interval(&kept);
+    assert!(hi > 0.42 && lo < -0.42, "interval [{lo}, {hi}] g");
+    let (positions, _) = run(&scene(&kept, &["native.sleep=false"]));
+    let moved = largest_difference(&positions, &vec![positions[0].clone(); positions.len()]);
+    assert!(moved < 1e-9, "the wall moved by {moved:e} under 0.38 g");
 }
