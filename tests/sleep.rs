@@ -167,7 +167,9 @@ fn a_wall_woken_by_a_pulse_moves_as_without_sleeping() {
 /// Open defect (docs/method.md, "Sleeping islands"): three courses of the wall-in-motion scene
 /// (0.3 x 0.45 m blocks) have a static collapse acceleration of 0.4232 g, yet awake under a
 /// rectangular pulse of 0.38 g their velocities grow from round-off by a factor of about 2 a
-/// step and the wall collapses. It should stay at rest, as it does asleep.
+/// step and the wall collapses: a closed point's positive round-off gap lets the end pieces'
+/// separating face slip more than the associative cone allows at zero gap, with a gain of
+/// 1 + x / (mu l - x) a step. The associative law's own answer is rest, as asleep.
 #[test]
 #[ignore = "open defect: the awake native engine collapses a wall below its static collapse acceleration"]
 fn a_wall_loaded_below_its_static_collapse_acceleration_stays_at_rest() {

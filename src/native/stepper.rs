@@ -654,20 +654,31 @@ impl Stepper {
             // The sub-step to the impact instant, without the located points. Its motion is not
             // the free trial's (measured: a light plank just struck by a heavy block, whose
             // corner the trial closed at 3.1e-4 s, went 1.4 mm through the ground by then), so
-            // a located point found through its face at its end halves the instant, down to an
-            // impact at the start.
+            // a located point found through its face at its end halves the instant; from the
+            // earlier instant reached, the points are located again (they are not at their
+            // faces there: an impact on them would stop the bodies in the air). Halved down to
+            // nothing, the impact is at the start.
             let mut tau = tau;
             let start = s.clone();
+            let mut halved = false;
+            let mut reached = false;
             while tau > 1e-9 * h {
                 let (first, pr) = self.sub_step(s, &free, tau, true)?;
                 iterations += first.iterations;
                 self.loaded = closed_keys(&pr, &first, self.settings.friction_law);
                 if !self.passed_through(&start, s, &contacts, &fresh) {
+                    reached = true;
                     break;
                 }
                 *s = start.clone();
                 tau *= 0.5;
+                halved = true;
                 self.halved_instants += 1;
+            }
+            if halved && reached {
+                self.split_steps += 1;
+                contacts = self.detect_waking(s);
+                continue;
             }
             let at = self.detect_waking(s);
             iterations += self
