@@ -456,6 +456,8 @@ pub fn compare_runs(
             unit: String::from(unit),
         });
     };
+    // Blocks overturned in the run and in the reference, and blocks on which they disagree.
+    let mut overturned = (0usize, 0usize, 0usize);
     for (si, s) in all.iter().enumerate() {
         let (a, r, _) = &eh.series[si];
         let (e, f) = (&ev[si], &er[si]);
@@ -586,6 +588,11 @@ pub fn compare_runs(
             None,
             "1",
         );
+        if !s.is_interface() {
+            overturned.0 += usize::from(e.overturned);
+            overturned.1 += usize::from(f.overturned);
+            overturned.2 += usize::from(e.overturned != f.overturned);
+        }
         push(
             lab,
             "max_abs_rotation".into(),
@@ -636,6 +643,20 @@ pub fn compare_runs(
         drift(&reference.trajectory),
         "m",
     );
+    push(
+        RUN_ROW,
+        "overturned_count".into(),
+        Some(overturned.0 as f64),
+        Some(overturned.1 as f64),
+        "1",
+    );
+    push(
+        RUN_ROW,
+        "overturning_disagreements".into(),
+        Some(overturned.2 as f64),
+        None,
+        "1",
+    );
     let c = (&run.cost, &reference.cost);
     push(
         RUN_ROW,
@@ -672,6 +693,8 @@ pub fn is_known_metric(name: &str) -> bool {
         "energy_rms_diff",
         "displacement_x_final",
         "max_drift",
+        "overturned_count",
+        "overturning_disagreements",
         "wall_time",
         "steps",
         "solver_iterations",

@@ -283,6 +283,42 @@ fn overturning_disagreement_is_reported() {
     );
 }
 
+/// Over an assembly (interfaces not counted): the run overturns the statue alone, the
+/// reference both blocks together: one block against two, one disagreement (the pedestal).
+#[test]
+fn overturned_blocks_are_counted_over_the_assembly() {
+    let t = times(2.0, 1e-3);
+    let still = vec![0.0; t.len()];
+    let falls: Vec<f64> = t.iter().map(|x| 0.2 + x * x).collect();
+    let run = synthetic(
+        "statue falls",
+        &["pedestal", "statue"],
+        &t,
+        &[still.clone(), falls.clone()],
+    );
+    let reference = synthetic(
+        "pedestal falls",
+        &["pedestal", "statue"],
+        &t,
+        &[falls.clone(), falls],
+    );
+    let sc = scene(TWO_BLOCKS);
+    let rows = compare_runs(&sc, &run, &reference, &MetricSettings::default()).unwrap();
+    assert_eq!(
+        get(&rows, RUN_ROW, "overturned_count"),
+        (Some(1.0), Some(2.0))
+    );
+    assert_eq!(
+        get(&rows, RUN_ROW, "overturning_disagreements"),
+        (Some(1.0), None)
+    );
+    let same = compare_runs(&sc, &run, &run, &MetricSettings::default()).unwrap();
+    assert_eq!(
+        get(&same, RUN_ROW, "overturning_disagreements"),
+        (Some(0.0), None)
+    );
+}
+
 #[test]
 fn interfaces_use_the_relative_rotation() {
     // Pedestal phi_p = 0.01 sin(pi t); statue phi_s = phi_p + 0.05 sin(2 pi t): the interface
