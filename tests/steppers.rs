@@ -516,3 +516,45 @@ fn a_halved_impact_instant_is_located_again_not_applied_in_the_air() {
     assert_eq!(n.len(), 1, "native impacts {n:?}");
     assert!((n[0] - h[0]).abs() < 10e-6, "native {n:?}, Housner {h:?}");
 }
+
+/// `native.locate_speed`: the block dropped 0.1 m lands at 1.40 m/s. Below the setting (2 m/s)
+/// its impact is not located: no split step, it closes at the end of its step under the
+/// position-level row, at rest on the ground with no penetration to project; above it (1 m/s)
+/// it is located as by default, and the run is the default's.
+#[test]
+fn an_impact_slower_than_locate_speed_closes_at_the_end_of_its_step() {
+    let dt = 1e-3;
+    let drop = 0.1;
+    let run = |speed: f64| {
+        let set = [
+            format!("native.dt={dt}"),
+            "initial.tilt=0".into(),
+            format!("native.locate_speed={speed}"),
+        ];
+        let scene = load_scene_with_overrides(&scene_path("housner-square"), &set).unwrap();
+        let (mut stepper, mut state) = stepper_for(&scene).unwrap();
+        let z_rest = state.q[1];
+        state.q[1] += drop;
+        let k_hit = ((2.0 * drop / scene.gravity).sqrt() / dt).ceil() as usize;
+        let mut zs = Vec::new();
+        for k in 1..=k_hit + 20 {
+            stepper.step(&mut state).unwrap();
+            if k >= k_hit {
+                assert!(
+                    (state.q[1] - z_rest).abs() < 1e-12 && state.v[1].abs() < 1e-12,
+                    "locate_speed {speed}, step {k}: z - z_rest = {:e}, vz = {:e}",
+                    state.q[1] - z_rest,
+                    state.v[1]
+                );
+            }
+            zs.push(state.q.clone());
+        }
+        assert_eq!(stepper.projections, 0, "locate_speed {speed}: projections");
+        (stepper.split_steps, zs)
+    };
+    let (split_default, default) = run(0.0);
+    let (split_fast, fast) = run(1.0);
+    let (split_slow, _) = run(2.0);
+    assert_eq!((split_default, split_fast, split_slow), (1, 1, 0));
+    assert_eq!(default, fast);
+}

@@ -108,6 +108,13 @@ pub struct NativeSettings {
     /// Ignored by the position-level stepper.
     #[serde(default = "d_true")]
     pub locate_impacts: bool,
+    /// Impact-consistent stepper with `locate_impacts`: a new contact approaching slower than
+    /// this (m/s; its speed at the start of the step or the mean speed that closes its gap
+    /// within the step, whichever is larger) is not located: it closes at the end of the step
+    /// under the position-level row and the plastic end velocity (default 0: every new contact
+    /// is located; see docs/method.md).
+    #[serde(default)]
+    pub locate_speed: f64,
     /// `associative` (the paper's law, default) or `coulomb` (non-associative).
     #[serde(default)]
     pub friction_law: FrictionLaw,
@@ -177,6 +184,7 @@ impl Default for NativeSettings {
             stepper: StepperKind::default(),
             friction_law: FrictionLaw::default(),
             locate_impacts: true,
+            locate_speed: 0.0,
             solver: SolverKind::default(),
             tolerance: d_tol(),
             max_iterations: d_max_iter(),
@@ -215,6 +223,15 @@ impl NativeSettings {
                 format!(
                     "must be a positive speed in m/s (got {})",
                     self.rest_velocity
+                ),
+            );
+        }
+        if !self.locate_speed.is_finite() || self.locate_speed < 0.0 {
+            return e(
+                "locate_speed",
+                format!(
+                    "must be a speed in m/s, zero or more (got {})",
+                    self.locate_speed
                 ),
             );
         }

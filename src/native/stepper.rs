@@ -56,7 +56,7 @@ pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
-use crate::geometry::{ContactPoint, block_contacts, broad_phase, ground_contacts};
+use crate::geometry::{ContactPoint, Pose, block_contacts, broad_phase, ground_contacts};
 use crate::scene::AppliedAs;
 
 /// Add `r`'s tangential row and offset to `sum`'s (rows of the same body pair share their DOF
@@ -459,6 +459,13 @@ impl Stepper {
 
     /// Normal relative velocity of a point for block velocities `v` and ground velocity `w`
     /// (the ground's counts only when the ground moves), from the point's rows.
+    /// How fast an open point `c` approaches over a (sub-)step of length `h` from `s`: its
+    /// approach speed at the start or the mean speed that closes its gap within `h`, the larger.
+    fn approach_speed(&self, c: &ContactPoint, ps: &[Pose], s: &NativeState, h: f64) -> f64 {
+        let r = contact_rows(c, ps, 0.0, (0.0, 0.0));
+        (-self.normal_speed(c, &r.nrow, &s.v, s.ground_w)).max(c.gap / h)
+    }
+
     fn normal_speed(&self, c: &ContactPoint, nrow: &SparseRow, v: &[f64], w: (f64, f64)) -> f64 {
         let mut vn = row_dot(nrow, v);
         if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
@@ -601,11 +608,14 @@ impl Stepper {
             let s0 = s.clone();
             let (mut sol, pr) = self.sub_step(s, &contacts, h, true)?;
             let carries = closed(&pr, &sol, self.settings.friction_law);
+            let ps0 = poses(&s0.q);
             let fresh: Vec<usize> = (0..contacts.len())
                 .filter(|&k| {
                     contacts[k].gap > CLOSED_GAP
                         && carries[k]
                         && self.loaded.binary_search(&pr.contacts[k].key).is_err()
+                        && self.approach_speed(&contacts[k], &ps0, &s0, h)
+                            >= self.settings.locate_speed
                 })
                 .collect();
             let tau = if fresh.is_empty() || round == rounds {
