@@ -128,8 +128,9 @@ pub struct NativeSettings {
     /// Interior-point iteration limit per step (default 200).
     #[serde(default = "d_max_iter")]
     pub max_iterations: u32,
-    /// Accept Clarabel's `AlmostSolved` (reduced accuracy) status (default false: such a step is
-    /// an error).
+    /// Accept Clarabel's `AlmostSolved` (reduced accuracy) status outright (default false: such
+    /// a step is accepted only when the active-set polish verifies its solution, the KKT
+    /// conditions to round-off, and is an error otherwise or with `polish = false`).
     #[serde(default)]
     pub accept_almost_solved: bool,
     /// Contact points are kept in the problem while their gap is below this fraction of the

@@ -10,9 +10,13 @@
 //!          u = P^-1 (H'c - q)
 //! ```
 //!
-//! The scaled dual variables are `c dt / s`. Presolve is off; only `Solved` is accepted
-//! (`AlmostSolved` too when the settings allow it). The solution is then polished on its
-//! active set (see [`super::polish`]) unless `native.polish = false`.
+//! The scaled dual variables are `c dt / s`. Presolve is off. The solution is polished on its
+//! active set (see [`super::polish`]) unless `native.polish = false`. `Solved` is accepted;
+//! `AlmostSolved` (reduced accuracy) is accepted when the settings allow it, or when its
+//! polished solution passes the polish's optimality check (every row satisfied, non-negative
+//! multipliers on the working set: the KKT conditions of the convex QP, to round-off), which
+//! makes the step's displacement exact whatever the interior-point status said; otherwise it is
+//! the step's error.
 
 use super::{ContactSolver, SolveFailure, polish};
 use crate::native::problem::SparseRow;
@@ -63,7 +67,7 @@ impl ClarabelSolver {
         a: &CscMatrix<f64>,
         b: &[f64],
         rows: usize,
-    ) -> Result<DefaultSolver<f64>, SolveFailure> {
+    ) -> Result<(DefaultSolver<f64>, bool), SolveFailure> {
         let cones = if rows > 0 {
             vec![NonnegativeConeT(rows)]
         } else {
@@ -77,19 +81,33 @@ impl ClarabelSolver {
                 }
             })?;
         solver.solve();
-        self.check(solver.solution.status)?;
-        Ok(solver)
+        let verify = self.check(solver.solution.status)?;
+        Ok((solver, verify))
     }
 
-    fn check(&self, status: SolverStatus) -> Result<(), SolveFailure> {
+    /// Whether the status is acceptable outright (`Ok(false)`), acceptable once the polished
+    /// solution passes its optimality check (`Ok(true)`: `AlmostSolved`), or an error.
+    fn check(&self, status: SolverStatus) -> Result<bool, SolveFailure> {
         match status {
-            SolverStatus::Solved => Ok(()),
-            SolverStatus::AlmostSolved if self.accept_almost => Ok(()),
+            SolverStatus::Solved => Ok(false),
+            SolverStatus::AlmostSolved if self.accept_almost => Ok(false),
+            SolverStatus::AlmostSolved if self.polish => Ok(true),
             other => Err(SolveFailure {
                 solver: "clarabel",
                 status: format!("{other:?}"),
             }),
         }
+    }
+
+    /// The error of an `AlmostSolved` solution whose polish did not verify it.
+    fn unverified(polished: bool, verify: bool) -> Result<(), SolveFailure> {
+        if verify && !polished {
+            return Err(SolveFailure {
+                solver: "clarabel",
+                status: "AlmostSolved (its active-set polish did not verify the solution)".into(),
+            });
+        }
+        Ok(())
     }
 }
 
@@ -167,9 +185,10 @@ impl ClarabelSolver {
         }
         let p = csc(n, n, &pe);
         let a = csc(m, n, &ae);
-        let solver = self.run(&p, &sc.q, &a, &b, m)?;
+        let (solver, verify) = self.run(&p, &sc.q, &a, &b, m)?;
         let mut u = solver.solution.x.clone();
         let polished = self.polish(pr, &sc, &mut u, &solver.solution.z);
+        Self::unverified(polished, verify)?;
         let dq: Vec<f64> = u.iter().map(|u| u * pr.dt).collect();
         let zscale = sc.s / pr.dt;
         let (mut normal, mut tangential) = (Vec::new(), Vec::new());
@@ -241,7 +260,7 @@ impl ClarabelSolver {
         }
         let p = csc(2 * k, 2 * k, &pe);
         let a = csc(3 * k, 2 * k, &ae);
-        let solver = self.run(&p, &qd, &a, &b, 3 * k)?;
+        let (solver, verify) = self.run(&p, &qd, &a, &b, 3 * k)?;
         let c = &solver.solution.x;
         let mut u: Vec<f64> = sc.q.iter().map(|q| -q).collect();
         for (r, row) in rows.iter().enumerate() {
@@ -264,6 +283,7 @@ impl ClarabelSolver {
             })
             .collect();
         let polished = self.polish(pr, &sc, &mut u, &z);
+        Self::unverified(polished, verify)?;
         let dq = u.iter().map(|ui| ui * pr.dt).collect();
         let fscale = sc.s / pr.dt;
         Ok(StepSolution {
