@@ -12,11 +12,11 @@
 //!
 //! The scaled dual variables are `c dt / s`. Presolve is off. The solution is polished on its
 //! active set (see [`super::polish`]) unless `native.polish = false`. `Solved` is accepted;
-//! `AlmostSolved` (reduced accuracy) is accepted when the settings allow it, or when its
-//! polished solution passes the polish's optimality check (every row satisfied, non-negative
-//! multipliers on the working set: the KKT conditions of the convex QP, to round-off), which
-//! makes the step's displacement exact whatever the interior-point status said; otherwise it is
-//! the step's error.
+//! `AlmostSolved` (reduced accuracy) when the settings allow it; `AlmostSolved`,
+//! `InsufficientProgress` and `MaxIterations` when the polished solution passes the polish's
+//! optimality check (every row satisfied, non-negative multipliers on the working set: the KKT
+//! conditions of the convex QP, to round-off), which makes the step's displacement exact
+//! whatever the interior-point status said; any other status is the step's error.
 
 use super::{ContactSolver, SolveFailure, polish};
 use crate::native::problem::SparseRow;
@@ -67,7 +67,7 @@ impl ClarabelSolver {
         a: &CscMatrix<f64>,
         b: &[f64],
         rows: usize,
-    ) -> Result<(DefaultSolver<f64>, bool), SolveFailure> {
+    ) -> Result<(DefaultSolver<f64>, Option<SolverStatus>), SolveFailure> {
         let cones = if rows > 0 {
             vec![NonnegativeConeT(rows)]
         } else {
@@ -85,13 +85,21 @@ impl ClarabelSolver {
         Ok((solver, verify))
     }
 
-    /// Whether the status is acceptable outright (`Ok(false)`), acceptable once the polished
-    /// solution passes its optimality check (`Ok(true)`: `AlmostSolved`), or an error.
-    fn check(&self, status: SolverStatus) -> Result<bool, SolveFailure> {
+    /// Whether the status is acceptable outright (`Ok(None)`), acceptable once the polished
+    /// solution passes its optimality check (`Ok(Some(status))`: a reduced-accuracy or stalled
+    /// interior point, `AlmostSolved`, `InsufficientProgress`, `MaxIterations`), or an error
+    /// (infeasibility, numerical failure).
+    fn check(&self, status: SolverStatus) -> Result<Option<SolverStatus>, SolveFailure> {
         match status {
-            SolverStatus::Solved => Ok(false),
-            SolverStatus::AlmostSolved if self.accept_almost => Ok(false),
-            SolverStatus::AlmostSolved if self.polish => Ok(true),
+            SolverStatus::Solved => Ok(None),
+            SolverStatus::AlmostSolved if self.accept_almost => Ok(None),
+            SolverStatus::AlmostSolved
+            | SolverStatus::InsufficientProgress
+            | SolverStatus::MaxIterations
+                if self.polish =>
+            {
+                Ok(Some(status))
+            }
             other => Err(SolveFailure {
                 solver: "clarabel",
                 status: format!("{other:?}"),
@@ -99,15 +107,15 @@ impl ClarabelSolver {
         }
     }
 
-    /// The error of an `AlmostSolved` solution whose polish did not verify it.
-    fn unverified(polished: bool, verify: bool) -> Result<(), SolveFailure> {
-        if verify && !polished {
-            return Err(SolveFailure {
+    /// The error of a solution that needed the polish's check and did not pass it.
+    fn unverified(polished: bool, verify: Option<SolverStatus>) -> Result<(), SolveFailure> {
+        match verify {
+            Some(status) if !polished => Err(SolveFailure {
                 solver: "clarabel",
-                status: "AlmostSolved (its active-set polish did not verify the solution)".into(),
-            });
+                status: format!("{status:?} (its active-set polish did not verify the solution)"),
+            }),
+            _ => Ok(()),
         }
-        Ok(())
     }
 }
 
