@@ -392,13 +392,22 @@ fn an_interrupted_study_leaves_whole_entries_and_resumes() {
     )
     .unwrap();
     let out = d.join("out");
-    let mut child = bin()
-        .args(["fragility", "--quiet", "--jobs", "1"])
+    let mut cmd = bin();
+    cmd.args(["fragility", "--quiet", "--jobs", "1"])
         .arg(&study)
         .arg("--out")
-        .arg(&out)
-        .spawn()
-        .unwrap();
+        .arg(&out);
+    // Ctrl-C from a terminal: SIGINT at its default disposition. A process started in the
+    // background by a non-interactive shell inherits SIGINT ignored (POSIX), and so would the
+    // study, which would then finish in spite of the interrupt.
+    unsafe {
+        use std::os::unix::process::CommandExt;
+        cmd.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut child = cmd.spawn().unwrap();
     let cache = d.join("cache");
     let entries = |dir: &Path| -> Vec<std::path::PathBuf> {
         let mut v = Vec::new();
