@@ -457,8 +457,6 @@ impl Stepper {
         self.problem(s, &c, self.settings.dt).0
     }
 
-    /// Normal relative velocity of a point for block velocities `v` and ground velocity `w`
-    /// (the ground's counts only when the ground moves), from the point's rows.
     /// How fast an open point `c` approaches over a (sub-)step of length `h` from `s`: its
     /// approach speed at the start or the mean speed that closes its gap within `h`, the larger.
     fn approach_speed(&self, c: &ContactPoint, ps: &[Pose], s: &NativeState, h: f64) -> f64 {
@@ -466,6 +464,8 @@ impl Stepper {
         (-self.normal_speed(c, &r.nrow, &s.v, s.ground_w)).max(c.gap / h)
     }
 
+    /// Normal relative velocity of a point for block velocities `v` and ground velocity `w`
+    /// (the ground's counts only when the ground moves), from the point's rows.
     fn normal_speed(&self, c: &ContactPoint, nrow: &SparseRow, v: &[f64], w: (f64, f64)) -> f64 {
         let mut vn = row_dot(nrow, v);
         if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
@@ -608,14 +608,17 @@ impl Stepper {
             let s0 = s.clone();
             let (mut sol, pr) = self.sub_step(s, &contacts, h, true)?;
             let carries = closed(&pr, &sol, self.settings.friction_law);
-            let ps0 = poses(&s0.q);
+            // New impacts, those slower than `locate_speed` left to the ordinary step.
+            let slowest = self.settings.locate_speed;
+            let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
             let fresh: Vec<usize> = (0..contacts.len())
                 .filter(|&k| {
                     contacts[k].gap > CLOSED_GAP
                         && carries[k]
                         && self.loaded.binary_search(&pr.contacts[k].key).is_err()
-                        && self.approach_speed(&contacts[k], &ps0, &s0, h)
-                            >= self.settings.locate_speed
+                        && ps0.as_ref().is_none_or(|ps| {
+                            self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
+                        })
                 })
                 .collect();
             let tau = if fresh.is_empty() || round == rounds {
@@ -668,9 +671,9 @@ impl Stepper {
             // earlier instant reached, the points are located again (they are not at their
             // faces there: an impact on them would stop the bodies in the air). Halved down to
             // nothing, the impact is at the start.
+            let found = tau;
             let mut tau = tau;
             let start = s.clone();
-            let mut halved = false;
             let mut reached = false;
             while tau > 1e-9 * h {
                 let (first, pr) = self.sub_step(s, &free, tau, true)?;
@@ -682,10 +685,9 @@ impl Stepper {
                 }
                 *s = start.clone();
                 tau *= 0.5;
-                halved = true;
                 self.halved_instants += 1;
             }
-            if halved && reached {
+            if reached && tau < found {
                 self.split_steps += 1;
                 contacts = self.detect_waking(s);
                 continue;
