@@ -70,12 +70,36 @@ pub fn poses(q: &[f64]) -> Vec<Pose> {
 }
 
 /// Coefficients of `d·du_i(p)` on body i's DOFs for a direction d.
-fn body_terms(row: &mut SparseRow, i: usize, pose: &Pose, p: (f64, f64), d: (f64, f64), sign: f64) {
+fn body_entries(
+    i: usize,
+    pose: &Pose,
+    p: (f64, f64),
+    d: (f64, f64),
+    sign: f64,
+) -> [(usize, f64); 3] {
     let rx = p.0 - pose.x;
     let rz = p.1 - pose.z;
-    row.push((3 * i, sign * d.0));
-    row.push((3 * i + 1, sign * d.1));
-    row.push((3 * i + 2, sign * (-d.0 * rz + d.1 * rx)));
+    [
+        (3 * i, sign * d.0),
+        (3 * i + 1, sign * d.1),
+        (3 * i + 2, sign * (-d.0 * rz + d.1 * rx)),
+    ]
+}
+
+fn body_terms(row: &mut SparseRow, i: usize, pose: &Pose, p: (f64, f64), d: (f64, f64), sign: f64) {
+    row.extend(body_entries(i, pose, p, d, sign));
+}
+
+/// The normal row of one contact point (the `nrow` of [`contact_rows`]) without allocating:
+/// its entries and their number.
+pub fn normal_row(c: &ContactPoint, poses: &[Pose]) -> ([(usize, f64); 6], usize) {
+    let mut row = [(0, 0.0); 6];
+    row[..3].copy_from_slice(&body_entries(c.b, &poses[c.b], c.point, c.normal, 1.0));
+    let Some(a) = c.a else {
+        return (row, 3);
+    };
+    row[3..].copy_from_slice(&body_entries(a, &poses[a], c.point, c.normal, -1.0));
+    (row, 6)
 }
 
 /// Rows of one contact point; `ground_step` is the ground's displacement over the step.

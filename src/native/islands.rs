@@ -13,6 +13,9 @@
 //! Islands are solved in parallel (rayon) when there are at least two with `PARALLEL_DOFS`
 //! DOFs or more; smaller ones are not worth a thread.
 //!
+//! A problem that is one island of every block (a block on the ground, a stack, a standing
+//! wall) goes to its back-end whole, without a copy.
+//!
 //! An island's back-end is keyed by the island's lowest block index; when islands merge or
 //! split, each part keeps the back-end of its lowest block (multipliers are matched by contact
 //! key, so the warm start survives a change of membership).
@@ -28,43 +31,66 @@ pub const PARALLEL_DOFS: usize = 150;
 /// The connected components of the blocks through block-block contact points: for each block
 /// its island (numbered by increasing lowest block), or `None` for a block without contacts.
 pub fn components(n_blocks: usize, contacts: &[ContactRows]) -> Vec<Option<usize>> {
-    let mut parent: Vec<usize> = (0..n_blocks).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
+    let mut scratch = Components::default();
+    scratch.find(n_blocks, contacts);
+    scratch.island
+}
+
+/// [`components`] with its working storage kept from call to call.
+#[derive(Default)]
+struct Components {
+    parent: Vec<usize>,
+    touched: Vec<bool>,
+    number: Vec<usize>,
+    /// The result of the last [`Components::find`].
+    island: Vec<Option<usize>>,
+}
+
+impl Components {
+    fn find(&mut self, n_blocks: usize, contacts: &[ContactRows]) {
+        fn root(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
         }
-        i
-    }
-    let mut touched = vec![false; n_blocks];
-    for c in contacts {
-        let first = c.nrow.first().map(|e| e.0 / 3);
-        let last = c.nrow.last().map(|e| e.0 / 3);
-        if let (Some(a), Some(b)) = (first, last) {
-            touched[a] = true;
-            touched[b] = true;
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            if ra != rb {
-                // The lower index becomes the root, so that roots are lowest blocks.
-                parent[ra.max(rb)] = ra.min(rb);
+        let parent = &mut self.parent;
+        parent.clear();
+        parent.extend(0..n_blocks);
+        let touched = &mut self.touched;
+        touched.clear();
+        touched.resize(n_blocks, false);
+        for c in contacts {
+            let first = c.nrow.first().map(|e| e.0 / 3);
+            let last = c.nrow.last().map(|e| e.0 / 3);
+            if let (Some(a), Some(b)) = (first, last) {
+                touched[a] = true;
+                touched[b] = true;
+                let (ra, rb) = (root(parent, a), root(parent, b));
+                if ra != rb {
+                    // The lower index becomes the root, so that roots are lowest blocks.
+                    parent[ra.max(rb)] = ra.min(rb);
+                }
             }
         }
-    }
-    let mut number = vec![usize::MAX; n_blocks];
-    let mut next = 0;
-    let mut out = vec![None; n_blocks];
-    for b in 0..n_blocks {
-        if !touched[b] {
-            continue;
+        self.number.clear();
+        self.number.resize(n_blocks, usize::MAX);
+        self.island.clear();
+        self.island.resize(n_blocks, None);
+        let mut next = 0;
+        for (b, &touched) in touched.iter().enumerate() {
+            if !touched {
+                continue;
+            }
+            let r = root(parent, b);
+            if self.number[r] == usize::MAX {
+                self.number[r] = next;
+                next += 1;
+            }
+            self.island[b] = Some(self.number[r]);
         }
-        let r = root(&mut parent, b);
-        if number[r] == usize::MAX {
-            number[r] = next;
-            next += 1;
-        }
-        out[b] = Some(number[r]);
     }
-    out
 }
 
 /// One island's sub-problem and where its parts go in the whole.
@@ -87,6 +113,7 @@ pub struct Islands {
     retired: (u64, u64),
     /// Islands solved in all (for diagnostics).
     pub islands_solved: u64,
+    components: Components,
 }
 
 impl Islands {
@@ -97,13 +124,31 @@ impl Islands {
             solvers: HashMap::new(),
             retired: (0, 0),
             islands_solved: 0,
+            components: Components::default(),
         }
     }
 
-    /// Split a problem into its islands (and the blocks without contacts).
-    fn split(pr: &StepProblem) -> (Vec<Part>, Vec<usize>) {
+    /// Retire the back-ends of islands that no longer exist (not keyed by one of `keys`),
+    /// keeping their counts.
+    fn retire(&mut self, keys: &[usize]) {
+        let gone: Vec<usize> = self
+            .solvers
+            .keys()
+            .copied()
+            .filter(|k| !keys.contains(k))
+            .collect();
+        for k in gone {
+            if let Some(s) = self.solvers.remove(&k) {
+                self.retired.0 += s.fallbacks();
+                self.retired.1 += s.factorisations();
+            }
+        }
+    }
+
+    /// Split a problem into its islands (numbered by [`components`]) and the blocks without
+    /// contacts.
+    fn split(pr: &StepProblem, island: &[Option<usize>]) -> (Vec<Part>, Vec<usize>) {
         let n_blocks = pr.n_dof() / 3;
-        let island = components(n_blocks, &pr.contacts);
         let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
         let mut blocks = vec![Vec::new(); n_islands];
         let mut free = Vec::new();
@@ -179,21 +224,19 @@ impl ContactSolver for Islands {
     }
 
     fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        let (parts, free) = Self::split(pr);
-        // Back-ends of islands that no longer exist are retired (their counts kept).
-        let keys: Vec<usize> = parts.iter().map(|p| p.key).collect();
-        let gone: Vec<usize> = self
-            .solvers
-            .keys()
-            .copied()
-            .filter(|k| !keys.contains(k))
-            .collect();
-        for k in gone {
-            if let Some(s) = self.solvers.remove(&k) {
-                self.retired.0 += s.fallbacks();
-                self.retired.1 += s.factorisations();
-            }
+        self.components.find(pr.n_dof() / 3, &pr.contacts);
+        let island = &self.components.island;
+        if !island.is_empty() && island.iter().all(|&i| i == Some(0)) {
+            // One island of every block (a single block on the ground, a stack, a standing
+            // wall): its sub-problem would be the problem itself.
+            self.retire(&[0]);
+            self.islands_solved += 1;
+            let make = &self.make;
+            return self.solvers.entry(0).or_insert_with(|| make()).solve(pr);
         }
+        let (parts, free) = Self::split(pr, island);
+        let keys: Vec<usize> = parts.iter().map(|p| p.key).collect();
+        self.retire(&keys);
         let mut work: Vec<(Part, Box<dyn ContactSolver>)> = parts
             .into_iter()
             .map(|p| {
@@ -342,5 +385,46 @@ mod tests {
             assert!((whole.tangential[k] - parts.tangential[k]).abs() <= 1e-9 * scale);
         }
         assert!(whole.normal.iter().any(|&n| n > 0.0));
+    }
+
+    /// A problem that is one island of every block goes to that island's back-end whole:
+    /// the same answer, to the bit, as the back-end alone; and the island keeps its back-end
+    /// (and its counts) through a step in which it split in two.
+    #[test]
+    fn one_island_of_every_block_is_solved_whole() {
+        let n = 3;
+        let problem = |contacts: Vec<ContactRows>| StepProblem {
+            theta: 0.5,
+            dt: 1e-3,
+            mass: vec![1.0; 3 * n],
+            force: (0..3 * n)
+                .map(|i| if i % 3 == 1 { -9.81 } else { 0.2 })
+                .collect(),
+            v0: vec![0.0; 3 * n],
+            contacts,
+        };
+        let joined = problem(vec![
+            point(1, None, 0),
+            point(2, Some(0), 1),
+            point(3, Some(1), 2),
+        ]);
+        let split_apart = problem(vec![
+            point(1, None, 0),
+            point(2, Some(0), 1),
+            point(3, None, 2),
+        ]);
+        let whole = SparseSolver::new().solve(&joined).unwrap();
+        let mut islands = Islands::new("sparse", Box::new(|| Box::new(SparseSolver::new())));
+        let first = islands.solve(&joined).unwrap();
+        assert_eq!(first.dq, whole.dq);
+        assert_eq!(first.normal, whole.normal);
+        assert_eq!(islands.islands_solved, 1);
+        let factorisations = islands.factorisations();
+        assert!(factorisations > 0);
+        islands.solve(&split_apart).unwrap();
+        assert_eq!(islands.islands_solved, 3);
+        islands.solve(&joined).unwrap();
+        assert_eq!(islands.islands_solved, 4);
+        assert!(islands.factorisations() >= factorisations);
     }
 }

@@ -193,6 +193,17 @@ impl MaterialContact {
     /// with its midpoint `half` (`Increment::new(dq, 0.5)`); `mass` the diagonal of M. With no
     /// motion of the point's bodies, the gradient at `q0`.
     pub fn discrete_gradients(&self, dq: Incr, half: Incr, mass: &[f64]) -> (SparseRow, SparseRow) {
+        let (gn, gt, len) = self.discrete_gradient_entries(dq, half, mass);
+        (gn[..len].to_vec(), gt[..len].to_vec())
+    }
+
+    /// [`Self::discrete_gradients`] as fixed arrays and their length.
+    fn discrete_gradient_entries(
+        &self,
+        dq: Incr,
+        half: Incr,
+        mass: &[f64],
+    ) -> (Gradient, Gradient, usize) {
         let (mut gn, mut gt, len) = self.gradients(half);
         let dq_all = dq.whole();
         let norm: f64 = gn[..len]
@@ -210,15 +221,17 @@ impl MaterialContact {
                 gt[k].1 += ct * mass[i] * dq_all[i];
             }
         }
-        (gn[..len].to_vec(), gt[..len].to_vec())
+        (gn, gt, len)
     }
 
     /// Replace the rows of `r` (built by `assembly::contact_rows` for this point) by the
     /// discrete gradients over the increment `dq` (with its midpoint `half`); offsets unchanged.
     pub fn set_rows(&self, r: &mut ContactRows, dq: Incr, half: Incr, mass: &[f64]) {
-        let (n, t) = self.discrete_gradients(dq, half, mass);
-        r.nrow = n;
-        r.trow = t;
+        let (n, t, len) = self.discrete_gradient_entries(dq, half, mass);
+        r.nrow.clear();
+        r.nrow.extend_from_slice(&n[..len]);
+        r.trow.clear();
+        r.trow.extend_from_slice(&t[..len]);
     }
 }
 

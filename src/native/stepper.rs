@@ -29,7 +29,7 @@
 //! Inertial route: coordinates relative to the ground, forces `-m a_eff`. Moving-ground route:
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
-use super::assembly::{Bodies, contact_rows, poses};
+use super::assembly::{Bodies, contact_rows, normal_row, poses};
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
 use super::material::{Increment, MaterialContact};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
@@ -82,7 +82,7 @@ fn equal_to_zero(key: u64, g: f64, row: &SparseRow, w: f64) -> [ContactRows; 2] 
     })
 }
 
-fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
+fn row_dot(row: &[(usize, f64)], x: &[f64]) -> f64 {
     row.iter().map(|&(i, c)| c * x[i]).sum()
 }
 
@@ -466,7 +466,13 @@ impl Stepper {
 
     /// Normal relative velocity of a point for block velocities `v` and ground velocity `w`
     /// (the ground's counts only when the ground moves), from the point's rows.
-    fn normal_speed(&self, c: &ContactPoint, nrow: &SparseRow, v: &[f64], w: (f64, f64)) -> f64 {
+    fn normal_speed(
+        &self,
+        c: &ContactPoint,
+        nrow: &[(usize, f64)],
+        v: &[f64],
+        w: (f64, f64),
+    ) -> f64 {
         let mut vn = row_dot(nrow, v);
         if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
             vn -= c.normal.0 * w.0 + c.normal.1 * w.1;
@@ -579,8 +585,8 @@ impl Stepper {
     fn approaching(&self, s: &NativeState, contacts: &[ContactPoint]) -> bool {
         let ps = poses(&s.q);
         contacts.iter().filter(|c| c.gap <= CLOSED_GAP).any(|c| {
-            let r = contact_rows(c, &ps, 0.0, (0.0, 0.0));
-            self.normal_speed(c, &r.nrow, &s.v, s.ground_w) * self.settings.dt < -CLOSED_GAP
+            let (nrow, len) = normal_row(c, &ps);
+            self.normal_speed(c, &nrow[..len], &s.v, s.ground_w) * self.settings.dt < -CLOSED_GAP
         })
     }
 
@@ -981,8 +987,10 @@ impl Stepper {
             let mut r = contact_rows(c, &ps, mu, w);
             r.g_n -= c.gap;
             let (gn, gt, len) = m.gradients(&increment);
-            r.nrow = gn[..len].to_vec();
-            r.trow = gt[..len].to_vec();
+            r.nrow.clear();
+            r.nrow.extend_from_slice(&gn[..len]);
+            r.trow.clear();
+            r.trow.extend_from_slice(&gt[..len]);
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
             let vt = r.g_t + row_dot(&r.trow, &s.v);
             if !coulomb {
