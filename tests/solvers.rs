@@ -289,3 +289,18 @@ fn an_almost_solved_step_is_accepted_when_its_polish_verifies_it() {
     let err = run_timed(engine_by_name("native").unwrap().as_ref(), &strict).unwrap_err();
     assert!(err.to_string().contains("AlmostSolved"), "{err}");
 }
+
+/// `auto` hands the small problems its dense back-end cannot solve (the working-set search
+/// cycling on a flat interface's nearly dependent rows) to the sparse back-end, not to
+/// Clarabel: the two-block case, 21 of whose problems fell back to Clarabel, needs none.
+#[test]
+fn auto_needs_no_clarabel_fallback_on_the_two_block_case() {
+    let p =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/scenes/two-block-free-rocking.toml");
+    let s = load_scene_with_overrides(&p, &[]).unwrap();
+    let (mut stepper, mut state) = rockbench::native::stepper_for(&s).unwrap();
+    while state.t < s.duration - 1e-9 {
+        stepper.step(&mut state).unwrap();
+    }
+    assert_eq!(stepper.solver_fallbacks(), 0);
+}
