@@ -98,8 +98,6 @@ pub const AUTO_DENSE_MAX_DOFS: usize = 42;
 pub struct Auto {
     dense: ActiveSetSolver,
     sparse: WithFallback,
-    /// Small problems the dense back-end handed to the sparse one.
-    pub handed_on: u64,
 }
 
 impl ContactSolver for Auto {
@@ -111,7 +109,6 @@ impl ContactSolver for Auto {
             if let Ok(s) = self.dense.solve(problem) {
                 return Ok(s);
             }
-            self.handed_on += 1;
         }
         self.sparse.solve(problem)
     }
@@ -147,7 +144,6 @@ pub fn whole_solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
         SolverKind::Auto => Box::new(Auto {
             dense: ActiveSetSolver::new(),
             sparse: WithFallback::new(Box::new(SparseSolver::new()), s),
-            handed_on: 0,
         }),
     }
 }
