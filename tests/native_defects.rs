@@ -241,3 +241,23 @@ fn impact_stepper_ends_at_the_duration_with_a_shortened_step() {
         "the last sample is not interpolated"
     );
 }
+
+/// A heavy block (mass ratio about 240) rocking over from one bottom corner to the other on a
+/// light plank, at theta 0.5 and dt 4.4e-3 (`make proptest`): the impact stepper leaves it
+/// 1.67 mm inside the plank at the end of the step in which it lands on its other corner
+/// (7 located impacts in that step), against the invariants' limit of 1e-4 of the smallest
+/// dimension. The previous back-end choice (every step of it solved by Clarabel) sank it alike.
+#[test]
+#[ignore = "open defect of the impact stepper: a heavy block landing on a light plank sinks into it"]
+fn a_heavy_block_landing_on_a_light_plank_stays_out_of_it() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/heavy-block-on-light-plank.toml");
+    let scene = rockbench::scene::load_scene_with_overrides(&path, &[]).unwrap();
+    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    let (ground, pair, where_) = rockbench::invariants::max_penetration(&scene, &out.trajectory);
+    let limit = 1e-4 * rockbench::invariants::smallest_dimension(&scene);
+    assert!(
+        ground <= limit && pair <= limit,
+        "penetration {ground:.3e} / {pair:.3e} m ({where_}), limit {limit:.3e} m"
+    );
+}
