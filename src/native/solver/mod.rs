@@ -105,10 +105,10 @@ impl ContactSolver for Auto {
         "auto (active-set up to 42 DOFs, sparse above)"
     }
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS {
-            if let Ok(s) = self.dense.solve(problem) {
-                return Ok(s);
-            }
+        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS
+            && let Ok(s) = self.dense.solve(problem)
+        {
+            return Ok(s);
         }
         self.sparse.solve(problem)
     }
