@@ -14,11 +14,12 @@
 //! is convex, piecewise quadratic and once differentiable. It is minimised by Newton steps
 //! `(P + sum_{i in A} rho_i D_i' D_i) du = -grad phi(u)` on the rows
 //! `A = {i : y_i = D_i u + r_i - l_i/rho_i < eps_i}`, each followed by an exact line search (phi
-//! is piecewise quadratic along du); then `l_i <- max(0, l_i - rho_i (D_i u + r_i))`. The margin
-//! `eps_i = CLOSED_MARGIN (1 + |r_i|)` keeps in the Newton matrix the closed rows that carry no
-//! force (a wall's head joints, a sticking point's far cone edge), which sit at `y_i = 0` to
-//! round-off and would otherwise flip in and out of A from one Newton step to the next; the
-//! gradient and the line search use the exact pieces, so the fixed point is the same. A fixed
+//! is piecewise quadratic along du); then `l_i <- max(0, l_i - rho_i (D_i u + r_i))`. On a wide
+//! envelope (below) the margin `eps_i = CLOSED_MARGIN (1 + |r_i|)` keeps in the Newton matrix
+//! the closed rows that carry no force (a wall's head joints, a sticking point's far cone edge),
+//! which sit at `y_i = 0` to round-off and would otherwise flip in and out of A from one Newton
+//! step to the next; elsewhere `eps_i = 0`. The gradient and the line search use the exact
+//! pieces, so the fixed point is the same. A fixed
 //! point satisfies the KKT conditions exactly (`P u + q = D' l`, `D u + r >= 0`, `l >= 0`,
 //! `l_i (D_i u + r_i) = 0`); the iteration stops when no multiplier moves by more than
 //! `rho_i * 1e-11 (1 + |r_i|)`, i.e. every row holds to the dense back-end's tolerance.
@@ -34,6 +35,13 @@
 //! slightly different rows, so a Newton step with it is inexact; the iteration still converges
 //! to the exact fixed point, and the factor is rebuilt from the current rows when a step with
 //! a kept factor does not shrink the next one tenfold.
+//!
+//! A factorisation costs about `n w^2 / 2` for an envelope of mean row width `w`, a Newton step
+//! with the factor in hand about `n w` plus a pass over the rows. Where `w` is at least
+//! `WIDE_ENVELOPE` DOFs (a wall of more than about six courses) the closed rows are held in the
+//! Newton matrix and a new factor is trusted again until it fails, both of which trade
+//! factorisations for Newton steps; on narrower envelopes (small islands, low walls) they cost
+//! more than they save (measured below).
 
 use super::envelope::Envelope;
 use super::rows::{EdgeRow, edge_rows, step_solution};
@@ -62,12 +70,20 @@ const MAX_NEWTON: usize = 60;
 /// breaks), past 60 steps.
 const MAX_NEWTON_LAST_RETRY: usize = 1000;
 /// Rows with `0 <= y_i < CLOSED_MARGIN (1 + |r_i|)` (closed and unloaded, at zero to
-/// round-off) stay in the Newton matrix (see the module's text). Measured on the walls under
-/// El Centro x2 (215 blocks, 1 s; 430 blocks, 0.5 s): without the margin the velocity problems
-/// of the impact stepper, whose closed rows all sit at `y = 0`, took 5 factorisations and some
-/// 17 Newton steps each, and the Newton matrix was factorised 1287 / 2734 times; with it
-/// 631 / 326 times, the trajectories the same to 1e-10 (the round-off of those walls).
+/// round-off) stay in the Newton matrix on a wide envelope and on the last retry (see the
+/// module's text). Measured on the walls under El Centro x2 (215 blocks, 1 s; 430 blocks,
+/// 0.5 s): without the margin the velocity problems of the impact stepper, whose closed rows
+/// all sit at `y = 0`, took 5 factorisations and some 17 Newton steps each, and the Newton
+/// matrix was factorised 1287 / 2734 times; with it 631 / 326 times, the trajectories the same
+/// to 1e-10 (the round-off of those walls).
 const CLOSED_MARGIN: f64 = 1e-11;
+/// Mean row width of the envelope, in DOFs, from which the closed rows are held in the Newton
+/// matrix and a new factor is trusted again (see the module's text). Measured (`rockbench run`,
+/// El Centro x2 or the toppling pulse, both on against both off): the 215-block wall (width
+/// 31.5) 1 s 2.01 -> 1.32 s and the 430-block wall (56) 0.5 s 8.43 -> 1.62 s; the 107-block
+/// wall (18.3) 0.693 -> 0.752 ms a step and the toppling 42-block wall (islands up to 16.7)
+/// 30.2 -> 46.4 s, slower.
+const WIDE_ENVELOPE: f64 = 24.0;
 /// On the last retry Newton's iteration also stops when its steps stop shrinking below this
 /// (`STAGNATION_TOLERANCE (1 + |u|_inf)`): measured on a 430-block wall, steps of 6e-12 to
 /// 2e-11 for 60 iterations, the round-off of the Newton matrix with its stiffened rows. Whether
@@ -112,6 +128,8 @@ pub struct SparseSolver {
     pub last_retries: u64,
     /// Whether this is the last retry (`MAX_NEWTON_LAST_RETRY`).
     last_retry: bool,
+    /// Whether the envelope is at least `WIDE_ENVELOPE` wide.
+    wide: bool,
 }
 
 impl SparseSolver {
@@ -177,7 +195,11 @@ impl SparseSolver {
 
     /// Rows with `y_i` below this are in the Newton matrix (see [`CLOSED_MARGIN`]).
     fn margin(&self, i: usize) -> f64 {
-        CLOSED_MARGIN * (1.0 + self.r[i].abs())
+        if self.wide || self.last_retry {
+            CLOSED_MARGIN * (1.0 + self.r[i].abs())
+        } else {
+            0.0
+        }
     }
 
     /// `y` at the current `u`, and the keys of the active rows.
@@ -269,10 +291,10 @@ impl SparseSolver {
             let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
             if self.factored.is_none() || (!exact && !trusted) {
                 self.factorise(p)?;
-                // A new factor is trusted until a step with it fails to shrink the next one
-                // tenfold (measured on the walls above: factorising again at every later change
-                // of A instead doubles the factorisations).
-                trusted = true;
+                // On a wide envelope a new factor is trusted until a step with it fails to
+                // shrink the next one tenfold (measured on the walls of `WIDE_ENVELOPE`:
+                // factorising again at every later change of A doubles the factorisations).
+                trusted = self.wide;
             }
             let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
             self.du.clear();
@@ -428,6 +450,7 @@ impl SparseSolver {
             }
             self.update_envelope(n / 3);
         }
+        self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64;
         // Start from the previous step's solution (velocities are continuous), or else from
         // the minimiser of the Lagrangian for the warm-started multipliers.
         if self.u.len() != n {
