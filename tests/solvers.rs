@@ -96,8 +96,8 @@ fn tiny_problem_with_known_answer() {
             mu: 0.5,
             g_n: 0.0,
             g_t: 0.0,
-            nrow: vec![(0, 0.0), (1, 1.0), (2, 0.0)],
-            trow: vec![(0, 1.0), (1, 0.0), (2, 0.0)],
+            nrow: [(0, 0.0), (1, 1.0), (2, 0.0)].into(),
+            trow: [(0, 1.0), (1, 0.0), (2, 0.0)].into(),
         }],
     };
     let a = ClarabelSolver::new(&NativeSettings::default())

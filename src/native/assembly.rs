@@ -111,8 +111,8 @@ pub fn contact_rows(
 ) -> ContactRows {
     let n = c.normal;
     let t = (n.1, -n.0);
-    let mut nrow = Vec::with_capacity(6);
-    let mut trow = Vec::with_capacity(6);
+    let mut nrow = SparseRow::new();
+    let mut trow = SparseRow::new();
     body_terms(&mut nrow, c.b, &poses[c.b], c.point, n, 1.0);
     body_terms(&mut trow, c.b, &poses[c.b], c.point, t, 1.0);
     let (g_n, g_t) = match c.a {

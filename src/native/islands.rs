@@ -20,7 +20,7 @@
 //! split, each part keeps the back-end of its lowest block (multipliers are matched by contact
 //! key, so the warm start survives a change of membership).
 
-use super::problem::{ContactRows, StepProblem, StepSolution};
+use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::solver::{ContactSolver, SolveFailure};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -180,7 +180,7 @@ impl Islands {
                         .flat_map(|&b| v[3 * b..3 * b + 3].iter().copied())
                         .collect()
                 };
-                let remap = |row: &[(usize, f64)]| -> Vec<(usize, f64)> {
+                let remap = |row: &[(usize, f64)]| -> SparseRow {
                     row.iter()
                         .map(|&(i, c)| (3 * local[i / 3] + i % 3, c))
                         .collect()
@@ -314,7 +314,7 @@ mod tests {
     use crate::native::solver::SparseSolver;
 
     fn point(key: u64, a: Option<usize>, b: usize) -> ContactRows {
-        let mut nrow = Vec::new();
+        let mut nrow = SparseRow::new();
         if let Some(a) = a {
             nrow.extend([(3 * a, 0.0), (3 * a + 1, -1.0), (3 * a + 2, 0.1)]);
         }

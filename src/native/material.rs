@@ -194,7 +194,10 @@ impl MaterialContact {
     /// motion of the point's bodies, the gradient at `q0`.
     pub fn discrete_gradients(&self, dq: Incr, half: Incr, mass: &[f64]) -> (SparseRow, SparseRow) {
         let (gn, gt, len) = self.discrete_gradient_entries(dq, half, mass);
-        (gn[..len].to_vec(), gt[..len].to_vec())
+        (
+            gn[..len].iter().copied().collect(),
+            gt[..len].iter().copied().collect(),
+        )
     }
 
     /// [`Self::discrete_gradients`] as fixed arrays and their length.

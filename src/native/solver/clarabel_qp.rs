@@ -19,7 +19,6 @@
 //! whatever the interior-point status said; any other status is the step's error.
 
 use super::{ContactSolver, SolveFailure, polish};
-use crate::native::problem::SparseRow;
 use crate::native::problem::{Scaled, StepProblem, StepSolution};
 use crate::native::settings::{Formulation, NativeSettings};
 use clarabel::algebra::CscMatrix;
@@ -140,12 +139,12 @@ fn csc(m: usize, n: usize, entries: &BTreeMap<(usize, usize), f64>) -> CscMatrix
 }
 
 /// The primal rows `(nrow ± mu trow)` and offsets `(g_n ± mu g_t)/dt`, two per contact.
-fn edge_rows(pr: &StepProblem) -> (Vec<SparseRow>, Vec<f64>) {
+fn edge_rows(pr: &StepProblem) -> (Vec<Vec<(usize, f64)>>, Vec<f64>) {
     let mut rows = Vec::with_capacity(2 * pr.contacts.len());
     let mut r = Vec::with_capacity(2 * pr.contacts.len());
     for c in &pr.contacts {
         for sign in [1.0, -1.0] {
-            let mut row: SparseRow = c.nrow.clone();
+            let mut row: Vec<(usize, f64)> = c.nrow.to_vec();
             row.extend(c.trow.iter().map(|&(i, v)| (i, sign * c.mu * v)));
             rows.push(row);
             r.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
@@ -222,7 +221,7 @@ impl ClarabelSolver {
         let sc = pr.scaled();
         let k = pr.contacts.len();
         // Rows of H: 2k (N) and 2k+1 (T).
-        let mut rows: Vec<&Vec<(usize, f64)>> = Vec::with_capacity(2 * k);
+        let mut rows: Vec<&[(usize, f64)]> = Vec::with_capacity(2 * k);
         for c in &pr.contacts {
             rows.push(&c.nrow);
             rows.push(&c.trow);
@@ -354,8 +353,8 @@ mod tests {
                 mu: 0.5,
                 g_n: 0.0,
                 g_t: 0.0,
-                nrow: vec![(1, 1.0)],
-                trow: vec![(0, 1.0)],
+                nrow: [(1, 1.0)].into(),
+                trow: [(0, 1.0)].into(),
             }],
         }
     }

@@ -15,13 +15,12 @@
 //! close to the interior-point solution; otherwise the interior-point solution stands. This
 //! takes the step from the solver tolerance (~1e-9 m on near-degenerate steps) to round-off.
 
-use crate::native::problem::SparseRow;
 use nalgebra::{DMatrix, DVector};
 
 /// Largest working set polished (larger problems keep the interior-point solution).
 pub const MAX_POLISHED_ROWS: usize = 200;
 
-fn row_value(row: &SparseRow, u: &[f64]) -> f64 {
+fn row_value(row: &[(usize, f64)], u: &[f64]) -> f64 {
     row.iter().map(|&(j, c)| c * u[j]).sum()
 }
 
@@ -29,7 +28,7 @@ fn row_value(row: &SparseRow, u: &[f64]) -> f64 {
 fn solve_eqp(
     p: &[f64],
     q: &[f64],
-    rows: &[SparseRow],
+    rows: &[Vec<(usize, f64)>],
     r: &[f64],
     w: &[usize],
 ) -> Option<(Vec<f64>, Vec<f64>)> {
@@ -60,7 +59,7 @@ fn solve_eqp(
 pub fn polish(
     p: &[f64],
     q: &[f64],
-    rows: &[SparseRow],
+    rows: &[Vec<(usize, f64)>],
     r: &[f64],
     z: &[f64],
     dt: f64,
