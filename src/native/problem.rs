@@ -230,3 +230,36 @@ pub struct StepSolution {
     /// Whether the solution was polished on its active set.
     pub polished: bool,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row is written as the sequence of its entries (as a `Vec` was) and read back equal;
+    /// a saved row with more entries than a contact has is refused, not truncated.
+    #[test]
+    fn a_row_is_written_as_a_sequence_and_a_longer_one_is_refused() {
+        let row: SparseRow = [(3, 0.5), (4, -1.0), (5, 0.25)].into();
+        let text = serde_json::to_string(&row).unwrap();
+        assert_eq!(text, "[[3,0.5],[4,-1.0],[5,0.25]]");
+        assert_eq!(serde_json::from_str::<SparseRow>(&text).unwrap(), row);
+        let seven = "[[0,1.0],[1,1.0],[2,1.0],[3,1.0],[4,1.0],[5,1.0],[6,1.0]]";
+        let err = serde_json::from_str::<SparseRow>(seven).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("a contact row has 7 entries, at most 6"),
+            "{err}"
+        );
+    }
+
+    /// Equality looks at the entries only, not at what a cleared row kept.
+    #[test]
+    fn rows_with_the_same_entries_are_equal() {
+        let mut a: SparseRow = [(0, 1.0), (1, 2.0)].into();
+        a.clear();
+        a.push((7, 3.0));
+        let b: SparseRow = [(7, 3.0)].into();
+        assert_eq!(a, b);
+        assert_eq!(format!("{a:?}"), "[(7, 3.0)]");
+    }
+}
