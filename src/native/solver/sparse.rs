@@ -89,8 +89,8 @@ const MAX_NEWTON_LAST_RETRY: usize = 1000;
 const CLOSED_MARGIN: f64 = 1e-11;
 /// Mean row width of the envelope, in DOFs, from which the closed rows are held in the Newton
 /// matrix and a new factor is trusted again (see the module's text). Measured (`rockbench run`,
-/// El Centro x2 or the toppling pulse, both on against both off): the 215-block wall (width
-/// 31.5) 1 s 2.01 -> 1.32 s and the 430-block wall (56) 0.5 s 8.43 -> 1.62 s; the 107-block
+/// El Centro x2 or the toppling pulse, both off against both on): the 215-block wall (width
+/// 31.5) 1 s 1.84 -> 1.32 s and the 430-block wall (56) 0.5 s 6.21 -> 1.62 s; the 107-block
 /// wall (18.3) 0.693 -> 0.752 ms a step and the toppling 42-block wall (islands up to 16.7)
 /// 30.2 -> 46.4 s, slower.
 const WIDE_ENVELOPE: f64 = 24.0;
@@ -309,7 +309,9 @@ impl SparseSolver {
                 // On a wide envelope a new factor is trusted until a step with it fails to
                 // shrink the next one tenfold (measured on the walls of `WIDE_ENVELOPE`:
                 // factorising again at every later change of A doubles the factorisations).
-                trusted = self.wide;
+                if self.wide {
+                    trusted = true;
+                }
             }
             let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
             self.du.clear();
