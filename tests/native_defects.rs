@@ -242,6 +242,16 @@ fn impact_stepper_ends_at_the_duration_with_a_shortened_step() {
     );
 }
 
+/// The scene `tests/scenes/<file>` and the native engine's run of it.
+fn native_run_of(file: &str) -> (rockbench::scene::Scene, rockbench::engines::RunOutput) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/scenes")
+        .join(file);
+    let scene = rockbench::scene::load_scene_with_overrides(&path, &[]).unwrap();
+    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    (scene, out)
+}
+
 /// A heavy block (mass ratio about 240) rocking over from one bottom corner to the other on a
 /// light plank, at theta 0.5 and dt 4.4e-3 (`make proptest`). The impact stepper left it 1.67 mm
 /// inside the plank: in the last sub-step of the step in which it landed on its other corner
@@ -251,10 +261,7 @@ fn impact_stepper_ends_at_the_duration_with_a_shortened_step() {
 /// checked also on the points that end closed or through their faces.
 #[test]
 fn a_heavy_block_landing_on_a_light_plank_stays_out_of_it() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/heavy-block-on-light-plank.toml");
-    let scene = rockbench::scene::load_scene_with_overrides(&path, &[]).unwrap();
-    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    let (scene, out) = native_run_of("heavy-block-on-light-plank.toml");
     let (ground, pair, where_) = rockbench::invariants::max_penetration(&scene, &out.trajectory);
     let limit = 1e-4 * rockbench::invariants::smallest_dimension(&scene);
     assert!(
@@ -271,10 +278,7 @@ fn a_heavy_block_landing_on_a_light_plank_stays_out_of_it() {
 /// steps still halve, with the factor in hand.
 #[test]
 fn the_sparse_back_end_adds_no_energy_to_a_heavy_stack_on_a_light_base() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/heavy-stack-on-light-base.toml");
-    let scene = rockbench::scene::load_scene_with_overrides(&path, &[]).unwrap();
-    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    let (scene, out) = native_run_of("heavy-stack-on-light-base.toml");
     let e = rockbench::invariants::energy(&scene, &out.trajectory);
     let scale = rockbench::invariants::energy_scale(&scene);
     let growth = e

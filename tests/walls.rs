@@ -84,7 +84,8 @@ fn the_215_block_wall_under_the_impact_stepper_needs_no_fallback() {
 /// The whole 5 s of the 215-block wall under El Centro x2 (the benchmark's wall, default
 /// settings) without a fallback to Clarabel: between 4 and 5 s, 29 of its problems defeated
 /// the sparse back-end's Newton iteration warm and cold (unloaded closed rows flipping in and
-/// out of the active set at y = 0) until its last retry held such rows in the Newton matrix.
+/// out of the active set at y = 0) until such rows were held in the Newton matrix (now on every
+/// solve of an envelope this wide, and on the last retry).
 #[test]
 fn the_215_block_wall_needs_no_fallback_over_the_whole_record() {
     let mut w = WallSpec::running_bond(10, 21);

@@ -61,16 +61,8 @@ impl ContactSolver for WithFallback {
         self.primary.name()
     }
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        let e = match self.primary.solve(problem) {
-            Ok(s) => return Ok(s),
-            Err(e) => e,
-        };
-        if std::env::var_os("RB_DEBUG_FALLBACK").is_some() {
-            eprintln!(
-                "fallback: n_dof {} contacts {} : {e}",
-                problem.n_dof(),
-                problem.contacts.len()
-            );
+        if let Ok(s) = self.primary.solve(problem) {
+            return Ok(s);
         }
         self.fallbacks += 1;
         self.backup.solve(problem)
