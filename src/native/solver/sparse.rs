@@ -417,14 +417,22 @@ impl ContactSolver for SparseSolver {
         let mut result = self.solve_warm(pr);
         if result.is_err() {
             self.start_cold();
+            // On a wide envelope the cold start is the last retry from the outset: the two
+            // differ there only in the Newton steps allowed, so a cold start that failed would
+            // be repeated step for step by the last retry and then continued.
+            let mut last_retried = false;
             if warm {
                 self.cold_restarts += 1;
+                last_retried = self.wide;
+                self.last_retries += u64::from(last_retried);
+                self.last_retry = last_retried;
                 result = self.solve_warm(pr);
+                self.last_retry = false;
                 if result.is_err() {
                     self.start_cold();
                 }
             }
-            if result.is_err() {
+            if result.is_err() && !last_retried {
                 // The last retry: cold, a longer Newton iteration, stagnation accepted.
                 self.last_retries += 1;
                 self.last_retry = true;
