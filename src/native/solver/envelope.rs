@@ -61,6 +61,42 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (s[0] + s[2]) + (s[1] + s[3]) + tail
 }
 
+/// Three inner products with the same `b`, each summed exactly as [`dot`] sums it.
+fn dot3(a: [&[f64]; 3], b: &[f64]) -> [f64; 3] {
+    let m = b.len();
+    let whole = m - m % 4;
+    let mut s = [[0.0f64; 4]; 3];
+    for i in (0..whole).step_by(4) {
+        for (t, at) in a.iter().enumerate() {
+            for q in 0..4 {
+                s[t][q] += at[i + q] * b[i + q];
+            }
+        }
+    }
+    let mut out = [0.0; 3];
+    for (t, at) in a.iter().enumerate() {
+        let tail: f64 = at[whole..m]
+            .iter()
+            .zip(&b[whole..m])
+            .map(|(x, y)| x * y)
+            .sum();
+        out[t] = (s[t][0] + s[t][2]) + (s[t][1] + s[t][3]) + tail;
+    }
+    out
+}
+
+/// The diagonal entry `row[m]` of a row whose entries left of it are done: false when the pivot
+/// is not positive (relative to the matrix's diagonal `diag`).
+fn finish_row(row: &mut [f64], m: usize, diag: f64) -> bool {
+    let (off, pivot) = row.split_at_mut(m);
+    let d = pivot[0] - dot(off, off);
+    if d.is_nan() || d <= 1e-15 * diag {
+        return false;
+    }
+    pivot[0] = d.sqrt();
+    true
+}
+
 /// Reverse Cuthill-McKee order of `n` nodes with the given (deduplicated) adjacency lists.
 fn reverse_cuthill_mckee(adj: &[Vec<usize>]) -> Vec<usize> {
     let n = adj.len();
@@ -232,23 +268,43 @@ impl Envelope {
         for j in 0..n {
             self.diag[j] = self.val[self.start[j + 1] - 1];
         }
-        for j in 0..n {
-            let fj = self.first[j];
-            let (done, rest) = self.val.split_at_mut(self.start[j]);
-            let row_j = &mut rest[..j - fj + 1];
-            for k in fj..j {
+        // A block's three rows share their first column: their entries left of the block are
+        // computed together, each row's inner products with the same row k (read once) in the
+        // same order as row by row, so the factor is the row-by-row algorithm's to the bit.
+        for j0 in (0..n).step_by(DOFS) {
+            let fj = self.first[j0];
+            let (done, rest) = self.val.split_at_mut(self.start[j0]);
+            let (row0, rest) = rest.split_at_mut(j0 - fj + 1);
+            let (row1, rest) = rest.split_at_mut(j0 - fj + 2);
+            let row2 = &mut rest[..j0 - fj + 3];
+            for k in fj..j0 {
                 let fk = self.first[k];
                 let l0 = fj.max(fk);
                 let row_k = &done[self.start[k]..self.start[k + 1]];
-                let s = row_j[k - fj] - dot(&row_j[l0 - fj..k - fj], &row_k[l0 - fk..k - fk]);
-                row_j[k - fj] = s / row_k[k - fk];
+                let (a, b) = (l0 - fj, k - fj);
+                let sums = dot3(
+                    [&row0[a..b], &row1[a..b], &row2[a..b]],
+                    &row_k[l0 - fk..k - fk],
+                );
+                let pivot = row_k[k - fk];
+                row0[b] = (row0[b] - sums[0]) / pivot;
+                row1[b] = (row1[b] - sums[1]) / pivot;
+                row2[b] = (row2[b] - sums[2]) / pivot;
             }
-            let (off, pivot) = row_j.split_at_mut(j - fj);
-            let d = pivot[0] - dot(off, off);
-            if d.is_nan() || d <= 1e-15 * self.diag[j] {
+            // Within the block, row by row.
+            let m = j0 - fj;
+            if !finish_row(row0, m, self.diag[j0]) {
                 return false;
             }
-            pivot[0] = d.sqrt();
+            row1[m] = (row1[m] - dot(&row1[..m], &row0[..m])) / row0[m];
+            if !finish_row(row1, m + 1, self.diag[j0 + 1]) {
+                return false;
+            }
+            row2[m] = (row2[m] - dot(&row2[..m], &row0[..m])) / row0[m];
+            row2[m + 1] = (row2[m + 1] - dot(&row2[..m + 1], &row1[..m + 1])) / row1[m + 1];
+            if !finish_row(row2, m + 2, self.diag[j0 + 2]) {
+                return false;
+            }
         }
         true
     }
