@@ -150,18 +150,18 @@ fn rank_of(order: &[usize]) -> Vec<usize> {
     rank
 }
 
+/// The lowest rank among block `b` and its neighbours: where its rows of the envelope start.
+fn lowest_rank(adj: &[Vec<usize>], rank: &[usize], b: usize) -> usize {
+    adj[b].iter().map(|&w| rank[w]).fold(rank[b], usize::min)
+}
+
 /// `sum_j w_j^2` over the blocks' rows of the envelope for the given ranks (`w_j` the distance
 /// from a block to its lowest-ranked neighbour, plus one): proportional to the work of a
 /// factorisation.
 fn factorisation_work(adj: &[Vec<usize>], rank: &[usize]) -> u64 {
-    adj.iter()
-        .enumerate()
-        .map(|(b, neighbours)| {
-            let lowest = neighbours
-                .iter()
-                .map(|&w| rank[w])
-                .fold(rank[b], usize::min);
-            let w = (rank[b] - lowest + 1) as u64;
+    (0..adj.len())
+        .map(|b| {
+            let w = (rank[b] - lowest_rank(adj, rank, b) + 1) as u64;
             w * w
         })
         .sum()
@@ -199,11 +199,8 @@ impl Envelope {
             }
         }
         let mut first = vec![0; n];
-        for (b, neighbours) in adj.iter().enumerate() {
-            let lowest = neighbours
-                .iter()
-                .map(|&w| rank[w])
-                .fold(rank[b], usize::min);
+        for b in 0..n_blocks {
+            let lowest = lowest_rank(&adj, &rank, b);
             for d in 0..DOFS {
                 first[DOFS * rank[b] + d] = DOFS * lowest;
             }

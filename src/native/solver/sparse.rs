@@ -19,10 +19,10 @@
 //! the closed rows that carry no force (a wall's head joints, a sticking point's far cone edge),
 //! which sit at `y_i = 0` to round-off and would otherwise flip in and out of A from one Newton
 //! step to the next; elsewhere `eps_i = 0`. The gradient and the line search use the exact
-//! pieces, so the fixed point is the same. A fixed
-//! point satisfies the KKT conditions exactly (`P u + q = D' l`, `D u + r >= 0`, `l >= 0`,
-//! `l_i (D_i u + r_i) = 0`); the iteration stops when no multiplier moves by more than
-//! `rho_i * 1e-11 (1 + |r_i|)`, i.e. every row holds to the dense back-end's tolerance.
+//! pieces, so the fixed point is the same. A fixed point satisfies the KKT conditions exactly
+//! (`P u + q = D' l`, `D u + r >= 0`, `l >= 0`, `l_i (D_i u + r_i) = 0`); the iteration stops
+//! when no multiplier moves by more than `rho_i * 1e-11 (1 + |r_i|)`, i.e. every row holds to
+//! the dense back-end's tolerance.
 //! Dependent rows (a flat interface has four rows on three relative DOFs) need no special
 //! treatment: the Newton matrix stays positive definite through P.
 //!
