@@ -71,6 +71,7 @@ fn bench_step(
 }
 
 fn step_cost(c: &mut Criterion) {
+    rockbench::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("native_step");
     g.measurement_time(Duration::from_secs(3))
         .warm_up_time(Duration::from_millis(500))
@@ -98,6 +99,7 @@ fn step_cost(c: &mut Criterion) {
 
 /// The sparse back-end on walls at rest of growing height.
 fn wall_at_rest(c: &mut Criterion) {
+    rockbench::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("wall_at_rest");
     g.measurement_time(Duration::from_secs(3))
         .warm_up_time(Duration::from_millis(500))
@@ -121,6 +123,7 @@ fn wall_at_rest(c: &mut Criterion) {
 /// two-block case rocking, the 210-block wall at rest
 /// (`cargo bench --bench step_cost -- stepper`).
 fn stepper(c: &mut Criterion) {
+    rockbench::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("stepper");
     g.measurement_time(Duration::from_secs(3))
         .warm_up_time(Duration::from_millis(500))
@@ -142,6 +145,7 @@ fn stepper(c: &mut Criterion) {
 /// Non-associative Coulomb friction against the paper's associative law (default `auto`
 /// back-end, default stepper): the two-block case rocking and the 210-block wall at rest.
 fn coulomb(c: &mut Criterion) {
+    rockbench::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("friction_law");
     g.measurement_time(Duration::from_secs(3))
         .warm_up_time(Duration::from_millis(500))

@@ -31,6 +31,7 @@ fn count_before(notes: &[String], what: &str) -> Option<u64> {
 }
 
 fn main() -> anyhow::Result<()> {
+    rockbench::allocator::keep_freed_memory();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let courses: Vec<usize> = arg(&args, "--courses", "2,5,10,20,40")
         .split(',')

@@ -28,6 +28,7 @@
 //! · [`report`] (HTML and Markdown) · [`gates`] (accuracy gates, run cache, JUnit XML) · [`validation`] (the validation suite,
 //! its reference-data generator and report).
 
+pub mod allocator;
 pub mod bench;
 pub mod cli;
 pub mod compare;

@@ -10,6 +10,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    rockbench::allocator::keep_freed_memory();
     match rockbench::cli::main() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
