@@ -221,9 +221,10 @@ fn main() -> anyhow::Result<()> {
                 }
                 Err(err) => {
                     // A failed run stays in the table with its reason.
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,failed: {err}");
-                    let _ = writeln!(md, "| {n} | {e} | failed: {err} |||||||");
-                    println!("{n} blocks, {e}: failed: {err}");
+                    let reason = format!("{err:#}").replace(',', ";");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,failed: {reason}");
+                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} |||||||");
+                    println!("{n} blocks, {e}: failed: {err:#}");
                 }
             }
             std::fs::write(out.join("dynamic.csv"), &csv)?;
