@@ -76,7 +76,7 @@ pub const NEWTON_TOLERANCE: f64 = 1e-12;
 /// stack above: 2.9e-4): equal blocks do not refine, a wall of blocks and half blocks refines
 /// to 5e-13. Measured on the walls under El Centro x2 (first second, a probe stepping the
 /// stepper): the refinements to 1e-15 were 2-3 of a problem's 3.5-9 Newton steps; with the
-/// ratio, 215 blocks 0.78 -> 0.69 ms a step and 860 blocks 7.2 -> 5.8. On narrow envelopes
+/// ratio, 215 blocks 0.77-0.81 -> 0.68-0.69 ms a step and 860 blocks 6.8 -> 5.9. On narrow envelopes
 /// (small islands) every problem refines to this: with the ratio there the toppling 42-block
 /// wall took another path at round-off and factorised more a sub-step (81660 -> 95342
 /// factorisations, 6752 -> 7532 sub-steps, 19.4 -> 22.5 s).
