@@ -54,6 +54,16 @@ use crate::native::problem::{StepProblem, StepSolution};
 /// (`D_i u + r_i < l_i / rho_i`) too thin a margin, so a rocking column re-factorises ten
 /// times a step; 1e4 needs about two factorisations a step there and none at rest.
 pub const RHO: f64 = 1e4;
+/// Normalised penalty a problem starts from on a wide envelope (`WIDE_ENVELOPE`), except on
+/// its last retry (which starts from `RHO`). Measured on the walls under El Centro x2 (a probe
+/// stepping the stepper, dt 1e-3; base 1e4 / 1e5 / 1e6 / 1e7 / 1e8): the 215-block wall's 5 s
+/// 2.02 / 1.21 / 1.21 / 0.754 / 0.757 ms a step (5.4 / 2.3 / 2.6 / 0.92 / 1.2 factorisations a
+/// step), the 860-block wall's first second 5.20 / 3.46 / 2.58 / 2.17 / 2.04 ms a step (13.9 /
+/// 7.5 / 4.7 / 3.2 / 2.7 Newton steps): from a stiff start the warm-started multipliers settle
+/// in one or two updates where the ladder from 1e4 took up to ten (see docs/method.md). The
+/// 430-block wall's cold last retries fail from 1e7 (at 4.216 s, every retry and Clarabel) and
+/// not from 1e4.
+pub const RHO_WIDE: f64 = 1e7;
 /// Largest normalised penalty: when the multipliers converge slowly (a change not below a
 /// quarter of the previous one) every penalty grows tenfold, up to this.
 pub const RHO_MAX: f64 = 1e10;
@@ -120,7 +130,8 @@ pub struct SparseSolver {
     rows: Vec<EdgeRow>,
     r: Vec<f64>,
     rho: Vec<f64>,
-    /// The penalties each step starts from.
+    /// The penalties at the normalised level `RHO` (a problem on a wide envelope starts
+    /// `RHO_WIDE / RHO` times stiffer; the ladder stops at `RHO_MAX / RHO` times these).
     rho_base: Vec<f64>,
     lambda: Vec<f64>,
     pinv: Vec<f64>,
@@ -519,6 +530,11 @@ impl SparseSolver {
             self.update_envelope(n / 3);
         }
         self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64;
+        if self.wide && !self.last_retry {
+            for rho in &mut self.rho {
+                *rho *= RHO_WIDE / RHO;
+            }
+        }
         self.refined_tolerance = REFINED_TOLERANCE;
         if self.wide {
             let (lightest, heaviest) =
