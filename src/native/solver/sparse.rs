@@ -27,7 +27,8 @@
 //! treatment: the Newton matrix stays positive definite through P.
 //!
 //! The penalties are normalised, `rho_i = RHO / (D_i P^-1 D_i')`, so that every row is
-//! stiffened alike whatever the masses and lever arms. The Newton matrix is factorised by an
+//! stiffened alike whatever the masses and lever arms; a problem on a wide envelope (below)
+//! starts from `RHO_WIDE` instead, its last retry from `RHO`. The Newton matrix is factorised by an
 //! envelope Cholesky factorisation over a reverse Cuthill-McKee order of the blocks (see
 //! [`super::envelope`]). The multipliers start from the previous step's (matched by row key),
 //! and the factor is kept from step to step while the set A does not change: at rest, a step
