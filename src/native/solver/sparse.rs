@@ -28,8 +28,8 @@
 //!
 //! The penalties are normalised, `rho_i = RHO / (D_i P^-1 D_i')`, so that every row is
 //! stiffened alike whatever the masses and lever arms; a problem on a wide envelope (below)
-//! starts from `RHO_WIDE` instead, its last retry from `RHO`. The Newton matrix is factorised by an
-//! envelope Cholesky factorisation over a reverse Cuthill-McKee order of the blocks (see
+//! starts from `RHO_WIDE` instead, its last retry from `RHO`. The Newton matrix is factorised
+//! by an envelope Cholesky factorisation over a reverse Cuthill-McKee order of the blocks (see
 //! [`super::envelope`]). The multipliers start from the previous step's (matched by row key),
 //! and the factor is kept from step to step while the set A does not change: at rest, a step
 //! costs a few solves with the kept factor and no factorisation. A kept factor was built from
@@ -87,9 +87,9 @@ pub const NEWTON_TOLERANCE: f64 = 1e-12;
 /// stack above: 2.9e-4): equal blocks do not refine, a wall of blocks and half blocks refines
 /// to 5e-13. Measured on the walls under El Centro x2 (first second, a probe stepping the
 /// stepper): the refinements to 1e-15 were 2-3 of a problem's 3.5-9 Newton steps; with the
-/// ratio, 215 blocks 0.77-0.81 -> 0.68-0.69 ms a step and 860 blocks 6.8 -> 5.9. On narrow envelopes
-/// (small islands) every problem refines to this: with the ratio there the toppling 42-block
-/// wall took another path at round-off and factorised more a sub-step (81660 -> 95342
+/// ratio, 215 blocks 0.77-0.81 -> 0.68-0.69 ms a step and 860 blocks 6.8 -> 5.9. On narrow
+/// envelopes (small islands) every problem refines to this: with the ratio there the toppling
+/// 42-block wall took another path at round-off and factorised more a sub-step (81660 -> 95342
 /// factorisations, 6752 -> 7532 sub-steps, 19.4 -> 22.5 s).
 const REFINED_TOLERANCE: f64 = 1e-15;
 const MAX_REFINEMENTS: usize = 3;
@@ -488,7 +488,6 @@ impl SparseSolver {
             self.previous_lambda.clear();
             return Ok(step_solution(pr, sc.s, &self.u, &[], 0));
         }
-        self.rho.clear();
         self.rho_base.clear();
         for row in &self.rows {
             let w: f64 = (0..row.len)
@@ -497,7 +496,6 @@ impl SparseSolver {
             if w.is_nan() || w <= 0.0 {
                 return Err(Self::fail("a contact row without coefficients".into()));
             }
-            self.rho.push(RHO / w);
             self.rho_base.push(RHO / w);
         }
         // Multipliers from the previous step: row by row while the rows are the same ones,
@@ -531,11 +529,13 @@ impl SparseSolver {
             self.update_envelope(n / 3);
         }
         self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64;
-        if self.wide && !self.last_retry {
-            for rho in &mut self.rho {
-                *rho *= RHO_WIDE / RHO;
-            }
-        }
+        let start = if self.wide && !self.last_retry {
+            RHO_WIDE / RHO
+        } else {
+            1.0
+        };
+        self.rho.clear();
+        self.rho.extend(self.rho_base.iter().map(|b| b * start));
         self.refined_tolerance = REFINED_TOLERANCE;
         if self.wide {
             let (lightest, heaviest) =
