@@ -32,7 +32,8 @@ fn arg(args: &[String], name: &str, default: &str) -> String {
         .unwrap_or_else(|| default.to_string())
 }
 
-/// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations".
+/// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations" / "N
+/// interior-point rescues".
 fn count_before(notes: &[String], what: &str) -> Option<u64> {
     let n = notes.first()?;
     let i = n.find(what)?;
@@ -49,6 +50,7 @@ struct Measured {
     iterations: Option<u64>,
     factorisations: Option<u64>,
     fallbacks: Option<u64>,
+    rescues: Option<u64>,
 }
 
 /// Run `engine` on the scene at `path` (in the child process).
@@ -74,6 +76,7 @@ fn measure(path: &Path, engine: &str) -> anyhow::Result<Measured> {
         iterations: s.solver_iterations,
         factorisations: count_before(&o.notes, " factorisations"),
         fallbacks: count_before(&o.notes, " steps fell back to Clarabel"),
+        rescues: count_before(&o.notes, " interior-point rescues"),
     })
 }
 
@@ -162,10 +165,10 @@ fn main() -> anyhow::Result<()> {
         anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)")
     })?;
     let mut csv = String::from(
-        "blocks,courses,engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks\n",
+        "blocks,courses,engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
     );
     let mut md = format!(
-        "# Walls in motion: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks |\n|---|---|---|---|---|---|---|---|---|\n",
+        "# Walls in motion: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
         budget.as_secs_f64()
     );
     for &c in &courses {
@@ -189,9 +192,10 @@ fn main() -> anyhow::Result<()> {
                     };
                     let ms = 1e3 * m.wall_s / steps;
                     let fallbacks = m.fallbacks.map_or("-".to_string(), |f| f.to_string());
+                    let rescues = m.rescues.map_or("-".to_string(), |f| f.to_string());
                     let _ = writeln!(
                         csv,
-                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{fallbacks}",
+                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{fallbacks},{rescues}",
                         m.moving,
                         m.overturned,
                         m.wall_s,
@@ -201,7 +205,7 @@ fn main() -> anyhow::Result<()> {
                     );
                     let _ = writeln!(
                         md,
-                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {fallbacks} |",
+                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {fallbacks} | {rescues} |",
                         m.moving,
                         m.overturned,
                         m.wall_s,
@@ -215,15 +219,15 @@ fn main() -> anyhow::Result<()> {
                 }
                 Ok(None) => {
                     let s = budget.as_secs_f64();
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,not finished in {s} s");
-                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s |||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,not finished in {s} s");
+                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s ||||||||");
                     println!("{n} blocks, {e}: not finished in {s} s");
                 }
                 Err(err) => {
                     // A failed run stays in the table with its reason.
                     let reason = format!("{err:#}").replace(',', ";");
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,failed: {reason}");
-                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} |||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,failed: {reason}");
+                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} ||||||||");
                     println!("{n} blocks, {e}: failed: {err:#}");
                 }
             }

@@ -22,13 +22,14 @@ fn main() {
         if k % 100 == 0 {
             let now = Instant::now();
             println!(
-                "{:5} t={:.2} {:7.3} ms/step it/step {:6.1} fact/step {:5.2} fallbacks {} vmax {:.3e}",
+                "{:5} t={:.2} {:7.3} ms/step it/step {:6.1} fact/step {:5.2} fallbacks {} rescues {} vmax {:.3e}",
                 k,
                 s.t,
                 (now - last.3).as_secs_f64() * 1e3 / 100.0,
                 (st.iterations - last.0) as f64 / 100.0,
                 (st.solver_factorisations() - last.1) as f64 / 100.0,
                 st.solver_fallbacks() - last.2,
+                st.solver_rescues(),
                 s.v.iter().fold(0.0f64, |m, v| m.max(v.abs()))
             );
             last = (

@@ -109,8 +109,8 @@ pub struct Islands {
     make: Box<dyn Fn() -> Box<dyn ContactSolver> + Send>,
     name: &'static str,
     solvers: HashMap<usize, Box<dyn ContactSolver>>,
-    /// Fallbacks and factorisations of back-ends already dropped.
-    retired: (u64, u64),
+    /// Fallbacks, factorisations and rescues of back-ends already dropped.
+    retired: (u64, u64, u64),
     /// Islands solved in all (for diagnostics).
     pub islands_solved: u64,
     components: Components,
@@ -122,7 +122,7 @@ impl Islands {
             make,
             name,
             solvers: HashMap::new(),
-            retired: (0, 0),
+            retired: (0, 0, 0),
             islands_solved: 0,
             components: Components::default(),
         }
@@ -141,6 +141,7 @@ impl Islands {
             if let Some(s) = self.solvers.remove(&k) {
                 self.retired.0 += s.fallbacks();
                 self.retired.1 += s.factorisations();
+                self.retired.2 += s.rescues();
             }
         }
     }
@@ -305,6 +306,10 @@ impl ContactSolver for Islands {
                 .values()
                 .map(|s| s.factorisations())
                 .sum::<u64>()
+    }
+
+    fn rescues(&self) -> u64 {
+        self.retired.2 + self.solvers.values().map(|s| s.rescues()).sum::<u64>()
     }
 }
 

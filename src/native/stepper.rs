@@ -281,6 +281,11 @@ impl Stepper {
         self.solver.factorisations() + self.velocity_solver.factorisations()
     }
 
+    /// Problems the sparse back-end handed to its interior-point rescue.
+    pub fn solver_rescues(&self) -> u64 {
+        self.solver.rescues() + self.velocity_solver.rescues()
+    }
+
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
     /// theta, or 1/2 with midpoint kinematics.
     fn kinematic_weight(&self) -> f64 {

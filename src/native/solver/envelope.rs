@@ -335,19 +335,9 @@ impl Envelope {
 
 #[cfg(test)]
 mod tests {
+    use super::super::sequence;
     use super::*;
     use nalgebra::{DMatrix, DVector};
-
-    /// A deterministic pseudo-random sequence in [-1, 1).
-    fn sequence(seed: u64) -> impl FnMut() -> f64 {
-        let mut x = seed;
-        move || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-    }
 
     /// `P + sum a c c'` over random rows coupling random pairs of blocks, factorised in the
     /// envelope, against nalgebra's dense Cholesky solve of the same matrix.

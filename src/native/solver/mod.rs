@@ -3,6 +3,7 @@
 mod active_set;
 mod clarabel_qp;
 pub mod envelope;
+mod interior;
 pub mod lemke;
 pub mod polish;
 mod rows;
@@ -34,6 +35,11 @@ pub trait ContactSolver: Send {
     }
     /// Factorisations of a Newton matrix (the sparse back-end; for diagnostics and benchmarks).
     fn factorisations(&self) -> u64 {
+        0
+    }
+    /// Problems handed to the sparse back-end's interior-point rescue (for diagnostics and
+    /// benchmarks).
+    fn rescues(&self) -> u64 {
         0
     }
 }
@@ -73,6 +79,9 @@ impl ContactSolver for WithFallback {
     fn factorisations(&self) -> u64 {
         self.primary.factorisations()
     }
+    fn rescues(&self) -> u64 {
+        self.primary.rescues()
+    }
 }
 
 /// Largest problem (in DOFs, 3 per block) the dense active-set back-end takes under `auto`;
@@ -110,6 +119,9 @@ impl ContactSolver for Auto {
     fn factorisations(&self) -> u64 {
         self.sparse.factorisations()
     }
+    fn rescues(&self) -> u64 {
+        self.sparse.rescues()
+    }
 }
 
 /// The back-end a scene's settings ask for: with `native.islands` (the default), each island
@@ -137,5 +149,17 @@ pub fn whole_solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
             dense: ActiveSetSolver::new(),
             sparse: WithFallback::new(Box::new(SparseSolver::new()), s),
         }),
+    }
+}
+
+/// A deterministic pseudo-random sequence in [-1, 1) (for the back-ends' unit tests).
+#[cfg(test)]
+fn sequence(seed: u64) -> impl FnMut() -> f64 {
+    let mut x = seed;
+    move || {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
     }
 }

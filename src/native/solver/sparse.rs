@@ -43,8 +43,14 @@
 //! Newton matrix and a new factor is trusted again until it fails, both of which trade
 //! factorisations for Newton steps; on narrower envelopes (small islands, low walls) they cost
 //! more than they save (measured below).
+//!
+//! On a wide envelope a problem whose first solve does not converge in `MAX_NEWTON_WIDE`
+//! Newton steps goes to the interior-point rescue (see [`SparseSolver::rescue`] and
+//! [`super::interior`]): a wall that moves changes hundreds of active rows from one problem to
+//! the next, which the augmented Lagrangian's Newton steps find a few at a time.
 
 use super::envelope::Envelope;
+use super::interior::InteriorPoint;
 use super::rows::{EdgeRow, edge_rows, step_solution};
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
@@ -94,6 +100,16 @@ pub const NEWTON_TOLERANCE: f64 = 1e-12;
 const REFINED_TOLERANCE: f64 = 1e-15;
 const MAX_REFINEMENTS: usize = 3;
 const MAX_NEWTON: usize = 60;
+/// Newton steps of a minimisation on a wide envelope before the problem goes to the
+/// interior-point rescue (not while the rescue's solution is settled). Measured on the walls
+/// under El Centro x2 (probe, rescue on): the 430-block wall's 12 steps from 4.21 s (where it
+/// starts to move) 26.7 / 20.4 / 16.9 / 15.6 / 14.4 s with 60 / 25 / 15 / 10 / 8 (6 s of
+/// them the quiet 4.21 s before), the 215-block wall's last second of 5 s 1.77 / 1.83 / 2.06 /
+/// 2.57 ms a step with 60 / 15 / 10 / 8 (there warm problems that need more steps succeed).
+const MAX_NEWTON_WIDE: usize = 15;
+/// The interior-point rescue stops at residuals below this (`super::interior`), and holds in
+/// the Newton matrix the rows whose slack is below it or below their multiplier.
+const RESCUE_TOLERANCE: f64 = 1e-8;
 /// Newton steps of the last retry: measured on a 430-block wall at 4.2 s of El Centro x2, a cold
 /// start rebuilt about 900 active rows some 30 a step (the exact line search stops at the first
 /// breaks), past 60 steps.
@@ -141,6 +157,14 @@ pub struct SparseSolver {
     /// `D_i u + r_i - l_i / rho_i`.
     y: Vec<f64>,
     active: Vec<u64>,
+    /// Whether each row is in the Newton matrix (`y_i` below its margin, or held).
+    in_matrix: Vec<bool>,
+    /// Rows held in the Newton matrix whatever their `y_i` (the interior-point rescue's closed
+    /// rows, while the augmented Lagrangian settles its solution); empty otherwise.
+    held: Vec<bool>,
+    /// Whether the augmented Lagrangian is settling an interior-point solution.
+    settling: bool,
+    interior: InteriorPoint,
     breaks: Vec<(f64, usize)>,
     /// Row keys and multipliers of the previous solution, in row order.
     previous_keys: Vec<u64>,
@@ -162,6 +186,11 @@ pub struct SparseSolver {
     /// Problems solved by the last retry (cold, a longer Newton iteration, stagnation at
     /// round-off accepted).
     pub last_retries: u64,
+    /// Problems handed to the interior-point rescue (see [`SparseSolver::rescue`]).
+    pub rescues: u64,
+    /// Whether the interior-point rescue is used (on from [`SparseSolver::new`]; off only to
+    /// compare it with the cold retries it precedes).
+    pub rescue: bool,
     /// Whether this is the last retry (`MAX_NEWTON_LAST_RETRY`).
     last_retry: bool,
     /// Whether the envelope is at least `WIDE_ENVELOPE` wide.
@@ -172,12 +201,16 @@ pub struct SparseSolver {
 
 impl SparseSolver {
     pub fn new() -> Self {
-        Self::default()
+        Self {
+            rescue: true,
+            ..Self::default()
+        }
     }
 
     /// The next solve starts from no solution, no multipliers and no factor.
     fn start_cold(&mut self) {
         self.u.clear();
+        self.held.clear();
         self.previous_keys.clear();
         self.previous_lambda.clear();
         self.factored = None;
@@ -216,7 +249,7 @@ impl SparseSolver {
             self.envelope.add_diagonal(i, pi);
         }
         for (i, row) in self.rows.iter().enumerate() {
-            if self.y[i] < self.margin(i) {
+            if self.in_matrix[i] {
                 self.envelope
                     .add_outer(self.rho[i], &row.idx[..row.len], &row.coef[..row.len]);
             }
@@ -240,15 +273,18 @@ impl SparseSolver {
         }
     }
 
-    /// `y` at the current `u`, and the keys of the active rows.
+    /// `y` at the current `u`, and the keys of the rows in the Newton matrix.
     fn classify(&mut self) {
         self.y.clear();
         self.active.clear();
+        self.in_matrix.clear();
         for (i, row) in self.rows.iter().enumerate() {
             let y = row.dot(&self.u) + self.r[i] - self.lambda[i] / self.rho[i];
-            if y < self.margin(i) {
+            let in_matrix = y < self.margin(i) || self.held.get(i).copied().unwrap_or(false);
+            if in_matrix {
                 self.active.push(row.key);
             }
+            self.in_matrix.push(in_matrix);
             self.y.push(y);
         }
     }
@@ -341,6 +377,8 @@ impl SparseSolver {
         let mut refinements = 0;
         let max_newton = if self.last_retry {
             MAX_NEWTON_LAST_RETRY
+        } else if self.wide && !self.settling {
+            MAX_NEWTON_WIDE
         } else {
             MAX_NEWTON
         };
@@ -421,9 +459,13 @@ impl ContactSolver for SparseSolver {
     fn factorisations(&self) -> u64 {
         self.factorisations
     }
+    fn rescues(&self) -> u64 {
+        self.rescues
+    }
 
-    /// Warm from the last problem's solution and multipliers; a problem that does not
-    /// converge from there is solved again cold before it counts as failed. (The impact
+    /// Warm from the last problem's solution and multipliers; on a wide envelope a problem that
+    /// does not converge from there goes to the interior-point rescue; a problem still unsolved
+    /// is solved again cold before it counts as failed. (The impact
     /// stepper's velocity problems are homogeneous in the velocities, whose size changes by
     /// orders of magnitude from one to the next, so a warm start can set the working rows at
     /// the wrong scale: measured, Newton's iteration stalls on 100 of 200 steps of a 215-block
@@ -437,6 +479,9 @@ impl ContactSolver for SparseSolver {
     fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let warm = !self.u.is_empty() || !self.previous_keys.is_empty();
         let mut result = self.solve_warm(pr);
+        if result.is_err() && self.wide && self.rescue {
+            result = self.rescue(pr);
+        }
         if result.is_err() {
             self.start_cold();
             // On a wide envelope the cold start is the last retry from the outset: the two
@@ -470,6 +515,52 @@ impl ContactSolver for SparseSolver {
 }
 
 impl SparseSolver {
+    /// The interior-point rescue of a problem on a wide envelope whose first solve failed.
+    /// Where a wall moves, a problem's active rows differ from the last problem's by hundreds,
+    /// and the augmented Lagrangian's Newton steps from a warm (or cold) start stall: along
+    /// each Newton direction rows that carry no force are crossed at once (line-search factors
+    /// of 1e-7 to 1e-4; measured on the 215-block wall under a 0.8 g pulse), and a cold start
+    /// builds its active rows a few at a time (some 200 factorisations a problem on the
+    /// 430-block wall). Interior-point iterations, whose count does not depend on the active
+    /// rows, go to `RESCUE_TOLERANCE` (15-25 iterations, one factorisation each); the augmented
+    /// Lagrangian then settles their solution to this back-end's tolerances from their
+    /// multipliers, with the rows they closed held in the Newton matrix (without the hold its
+    /// Newton steps from there stalled as before), in one to three factorisations.
+    fn rescue(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let sc = pr.scaled();
+        if self.rows.is_empty() || self.envelope.dofs() != sc.p.len() {
+            return Err(Self::fail("no rows to rescue".into()));
+        }
+        self.rescues += 1;
+        self.factored = None;
+        let (mut u, mut l) = (Vec::new(), Vec::new());
+        self.interior
+            .solve(
+                &mut self.envelope,
+                (&sc.p, &sc.q),
+                (&self.rows, &self.r),
+                RESCUE_TOLERANCE,
+                (&mut u, &mut l),
+                &mut self.factorisations,
+            )
+            .map_err(Self::fail)?;
+        let slack = self.interior.slack();
+        self.held.clear();
+        self.held.extend(
+            (0..self.rows.len())
+                .map(|i| slack[i] < l[i] || slack[i] < RESCUE_TOLERANCE * (1.0 + self.r[i].abs())),
+        );
+        self.u = u;
+        self.previous_keys.clear();
+        self.previous_keys.extend(self.rows.iter().map(|r| r.key));
+        self.previous_lambda = l;
+        self.settling = true;
+        let result = self.solve_warm(pr);
+        self.settling = false;
+        self.held.clear();
+        result
+    }
+
     fn solve_warm(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let sc = pr.scaled();
         let n = pr.n_dof();
