@@ -522,7 +522,7 @@ impl SparseSolver {
     /// of 1e-7 to 1e-4; measured on the 215-block wall under a 0.8 g pulse), and a cold start
     /// builds its active rows a few at a time (some 200 factorisations a problem on the
     /// 430-block wall). Interior-point iterations, whose count does not depend on the active
-    /// rows, go to `RESCUE_TOLERANCE` (15-25 iterations, one factorisation each); the augmented
+    /// rows, go to `RESCUE_TOLERANCE` (some 20-30 iterations, one factorisation each); the augmented
     /// Lagrangian then settles their solution to this back-end's tolerances from their
     /// multipliers, with the rows they closed held in the Newton matrix (without the hold its
     /// Newton steps from there stalled as before), in one to three factorisations.
