@@ -522,10 +522,10 @@ impl SparseSolver {
     /// of 1e-7 to 1e-4; measured on the 215-block wall under a 0.8 g pulse), and a cold start
     /// builds its active rows a few at a time (some 200 factorisations a problem on the
     /// 430-block wall). Interior-point iterations, whose count does not depend on the active
-    /// rows, go to `RESCUE_TOLERANCE` (some 20-30 iterations, one factorisation each); the augmented
-    /// Lagrangian then settles their solution to this back-end's tolerances from their
-    /// multipliers, with the rows they closed held in the Newton matrix (without the hold its
-    /// Newton steps from there stalled as before), in one to three factorisations.
+    /// rows, go to `RESCUE_TOLERANCE` (some 20-30 iterations, one factorisation each); the
+    /// augmented Lagrangian then settles their solution to this back-end's tolerances from
+    /// their multipliers, with the rows they closed held in the Newton matrix (without the hold
+    /// its Newton steps from there stalled as before), in one to three factorisations.
     fn rescue(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let sc = pr.scaled();
         if self.rows.is_empty() || self.envelope.dofs() != sc.p.len() {
