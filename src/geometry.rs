@@ -42,6 +42,26 @@ impl Rect {
     }
 }
 
+/// A rectangle at a pose: its vertices (as [`Rect::vertices`]) and the outward unit normals of
+/// its faces, computed once per detection rather than once per pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placed {
+    pub rect: Rect,
+    pub vertices: [(f64, f64); 4],
+    pub normals: [(f64, f64); 4],
+}
+
+impl Placed {
+    pub fn new(rect: &Rect, pose: &Pose) -> Self {
+        let vertices = rect.vertices(pose);
+        Placed {
+            rect: *rect,
+            vertices,
+            normals: [0, 1, 2, 3].map(|k| face_normal(&vertices, k)),
+        }
+    }
+}
+
 /// One contact point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactPoint {
@@ -61,16 +81,15 @@ pub struct ContactPoint {
     pub feature: u16,
 }
 
-/// Axis-aligned bounding box of a posed rectangle.
-fn aabb(r: &Rect, p: &Pose) -> (f64, f64, f64, f64) {
-    let v = r.vertices(p);
+/// Axis-aligned bounding box of a placed rectangle.
+fn aabb(block: &Placed) -> (f64, f64, f64, f64) {
     let mut bb = (
         f64::INFINITY,
         f64::NEG_INFINITY,
         f64::INFINITY,
         f64::NEG_INFINITY,
     );
-    for (x, z) in v {
+    for &(x, z) in &block.vertices {
         bb.0 = bb.0.min(x);
         bb.1 = bb.1.max(x);
         bb.2 = bb.2.min(z);
@@ -90,28 +109,24 @@ pub const ALL_PAIRS_UP_TO: usize = 8;
 /// is tested against the boxes of nine cells. For blocks of similar size (walls, columns) the
 /// cost is linear in the number of blocks; a sweep along one axis would test every block of a
 /// column against every other.
-pub fn broad_phase(
-    rects: &[Rect],
-    poses: &[Pose],
-    margin: &dyn Fn(usize) -> f64,
-) -> Vec<(usize, usize)> {
+pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usize, usize)> {
     let enlarged = |i: usize| {
         let m = margin(i);
-        let b = aabb(&rects[i], &poses[i]);
+        let b = aabb(&blocks[i]);
         (b.0 - m, b.1 + m, b.2 - m, b.3 + m)
     };
     let overlaps = |a: &(f64, f64, f64, f64), b: &(f64, f64, f64, f64)| {
         a.0 <= b.1 && b.0 <= a.1 && a.2 <= b.3 && b.2 <= a.3
     };
-    if rects.len() <= ALL_PAIRS_UP_TO {
+    if blocks.len() <= ALL_PAIRS_UP_TO {
         // A few blocks: every pair (cheaper than the grid; the boxes stay on the stack).
         let mut few = [(0.0, 0.0, 0.0, 0.0); ALL_PAIRS_UP_TO];
-        for (i, b) in few.iter_mut().enumerate().take(rects.len()) {
+        for (i, b) in few.iter_mut().enumerate().take(blocks.len()) {
             *b = enlarged(i);
         }
         let mut pairs = Vec::new();
-        for i in 0..rects.len() {
-            for j in i + 1..rects.len() {
+        for i in 0..blocks.len() {
+            for j in i + 1..blocks.len() {
                 if overlaps(&few[i], &few[j]) {
                     pairs.push((i, j));
                 }
@@ -119,7 +134,7 @@ pub fn broad_phase(
         }
         return pairs;
     }
-    let boxes: Vec<_> = (0..rects.len()).map(enlarged).collect();
+    let boxes: Vec<_> = (0..blocks.len()).map(enlarged).collect();
     let overlap = overlaps;
     let mut pairs = Vec::new();
     let largest = boxes
@@ -180,13 +195,12 @@ pub fn broad_phase(
 /// below `reach`.
 pub fn ground_contacts(
     i: usize,
-    r: &Rect,
-    p: &Pose,
+    block: &Placed,
     ground_z: f64,
     reach: &dyn Fn((f64, f64), f64) -> bool,
     out: &mut Vec<ContactPoint>,
 ) {
-    for (k, v) in r.vertices(p).into_iter().enumerate() {
+    for (k, &v) in block.vertices.iter().enumerate() {
         let gap = v.1 - ground_z;
         if reach(v, gap) {
             out.push(ContactPoint {
@@ -220,16 +234,14 @@ fn face_normal(v: &[(f64, f64); 4], k: usize) -> (f64, f64) {
 
 /// Contact points between blocks `i < j`. `reach(point, gap)` decides which candidates are kept.
 pub fn block_contacts(
-    (i, ri, pi): (usize, &Rect, &Pose),
-    (j, rj, pj): (usize, &Rect, &Pose),
+    (i, bi): (usize, &Placed),
+    (j, bj): (usize, &Placed),
     reach: &dyn Fn((f64, f64), f64) -> bool,
     out: &mut Vec<ContactPoint>,
 ) {
-    let vi = ri.vertices(pi);
-    let vj = rj.vertices(pj);
-    let normals = |v: &[(f64, f64); 4]| [0, 1, 2, 3].map(|k| face_normal(v, k));
-    let (ni, nj) = (normals(&vi), normals(&vj));
-    let scale = ri.b + ri.h + rj.b + rj.h;
+    let (vi, ni) = (bi.vertices, bi.normals);
+    let (vj, nj) = (bj.vertices, bj.normals);
+    let scale = bi.rect.b + bi.rect.h + bj.rect.b + bj.rect.h;
     // Reference face: the largest separation over the faces of both blocks.
     let mut best: Option<(f64, usize, usize)> = None; // (separation, owner 0|1, face)
     for (owner, (va, na, vb)) in [(&vi, &ni, &vj), (&vj, &nj, &vi)].into_iter().enumerate() {
@@ -331,8 +343,8 @@ mod tests {
         };
         let mut out = Vec::new();
         block_contacts(
-            (0, &lower, &pl),
-            (1, &upper, &pu),
+            (0, &Placed::new(&lower, &pl)),
+            (1, &Placed::new(&upper, &pu)),
             &|_, g| g < 0.1,
             &mut out,
         );
@@ -361,8 +373,8 @@ mod tests {
         };
         let mut out = Vec::new();
         block_contacts(
-            (0, &lower, &pl),
-            (1, &upper, &pu),
+            (0, &Placed::new(&lower, &pl)),
+            (1, &Placed::new(&upper, &pu)),
             &|_, g| g < 0.1,
             &mut out,
         );
@@ -389,7 +401,12 @@ mod tests {
             }))
             .collect();
         let rects = vec![r; poses.len()];
-        let pairs = broad_phase(&rects, &poses, &|_| 0.01);
+        let placed: Vec<Placed> = rects
+            .iter()
+            .zip(&poses)
+            .map(|(r, p)| Placed::new(r, p))
+            .collect();
+        let pairs = broad_phase(&placed, &|_| 0.01);
         assert_eq!(pairs, vec![(0, 5)]);
     }
 }

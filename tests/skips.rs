@@ -1,7 +1,7 @@
 //! Work the native engine skips must not change the answer.
 
 use rockbench::engines::{RunOutput, engine_by_name, run_timed};
-use rockbench::geometry::{Pose, Rect, broad_phase};
+use rockbench::geometry::{Placed, Pose, Rect, broad_phase};
 use rockbench::scene::load_scene_with_overrides;
 use rockbench::summary::Summary;
 use std::path::Path;
@@ -117,7 +117,12 @@ fn broad_phase_equals_all_pairs() {
     for (rects, poses) in &layouts {
         let n = rects.len();
         let margin = |_: usize| 0.05;
-        let got = broad_phase(rects, poses, &margin);
+        let placed: Vec<Placed> = rects
+            .iter()
+            .zip(poses)
+            .map(|(r, p)| Placed::new(r, p))
+            .collect();
+        let got = broad_phase(&placed, &margin);
         let bb = |i: usize| {
             let v = rects[i].vertices(&poses[i]);
             let xs = v.iter().map(|p| p.0);

@@ -56,7 +56,7 @@ pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
-use crate::geometry::{ContactPoint, Pose, block_contacts, broad_phase, ground_contacts};
+use crate::geometry::{ContactPoint, Placed, Pose, block_contacts, broad_phase, ground_contacts};
 use crate::scene::AppliedAs;
 
 /// Add `r`'s tangential row and offset to `sum`'s (rows of the same body pair share their DOF
@@ -347,6 +347,9 @@ impl Stepper {
         if self.sleep.as_ref().is_some_and(Sleep::all_asleep) {
             return out;
         }
+        let placed: Vec<Placed> = (self.bodies.rects.iter().zip(&ps))
+            .map(|(r, p)| Placed::new(r, p))
+            .collect();
         for (i, r) in self.bodies.rects.iter().enumerate() {
             if asleep(i) {
                 continue;
@@ -355,7 +358,7 @@ impl Stepper {
             let reach = |p: (f64, f64), gap: f64| {
                 gap < lim || gap < 3.0 * (speed(i, p) + ground_speed) * dt
             };
-            ground_contacts(i, r, &ps[i], ground_z, &reach, &mut out);
+            ground_contacts(i, &placed[i], ground_z, &reach, &mut out);
         }
         let rects = &self.bodies.rects;
         let margin = |i: usize| {
@@ -363,19 +366,14 @@ impl Stepper {
             let (vx, vz) = (s.v[3 * i], s.v[3 * i + 1]);
             frac * rects[i].min_dim() + 3.0 * (vx * vx + vz * vz).sqrt() * dt
         };
-        for (i, j) in broad_phase(rects, &ps, &margin) {
+        for (i, j) in broad_phase(&placed, &margin) {
             if asleep(i) && asleep(j) {
                 continue;
             }
             let lim = frac * rects[i].min_dim().min(rects[j].min_dim());
             let reach =
                 |p: (f64, f64), gap: f64| gap < lim || gap < 3.0 * (speed(i, p) + speed(j, p)) * dt;
-            block_contacts(
-                (i, &rects[i], &ps[i]),
-                (j, &rects[j], &ps[j]),
-                &reach,
-                &mut out,
-            );
+            block_contacts((i, &placed[i]), (j, &placed[j]), &reach, &mut out);
         }
         out
     }
