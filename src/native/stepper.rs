@@ -108,13 +108,13 @@ fn closed(pr: &StepProblem, sol: &StepSolution, law: FrictionLaw) -> Vec<bool> {
         .collect()
 }
 
-/// Sorted keys of the points closed at the end of a solution (see [`closed`]).
-fn closed_keys(pr: &StepProblem, sol: &StepSolution, law: FrictionLaw) -> Vec<u64> {
+/// Sorted keys of the points of `pr` that `closed` (from [`closed`]) marks.
+fn closed_keys(pr: &StepProblem, closed: &[bool]) -> Vec<u64> {
     let mut k: Vec<u64> = pr
         .contacts
         .iter()
-        .zip(closed(pr, sol, law))
-        .filter(|(_, l)| *l)
+        .zip(closed)
+        .filter(|(_, l)| **l)
         .map(|(c, _)| c.key)
         .collect();
     k.sort_unstable();
@@ -516,7 +516,7 @@ impl Stepper {
         let sol = if self.settings.stepper == StepperKind::Impact && self.settings.locate_impacts {
             self.step_locating(s, contacts, dt)?
         } else {
-            let (sol, _) = self.sub_step(s, &contacts, dt, true)?;
+            let (sol, _, _) = self.sub_step(s, &contacts, dt, true)?;
             self.last_contacts = contacts;
             sol
         };
@@ -615,8 +615,7 @@ impl Stepper {
         for round in 0..=rounds {
             let h = t_end - s.t;
             let s0 = s.clone();
-            let (mut sol, pr) = self.sub_step(s, &contacts, h, true)?;
-            let carries = closed(&pr, &sol, self.settings.friction_law);
+            let (mut sol, pr, carries) = self.sub_step(s, &contacts, h, true)?;
             // New impacts, those slower than `locate_speed` left to the ordinary step.
             let slowest = self.settings.locate_speed;
             let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
@@ -641,7 +640,7 @@ impl Stepper {
                     .filter(|k| !fresh.contains(k))
                     .map(|k| contacts[k])
                     .collect();
-                let (trial, _) = self.sub_step(s, &free, h, false)?;
+                let (trial, _, _) = self.sub_step(s, &free, h, false)?;
                 iterations += trial.iterations;
                 let tau = self.closing_instant(&s0, s, &contacts, &fresh, h);
                 if tau.is_none() {
@@ -658,7 +657,7 @@ impl Stepper {
                 // The located points have just closed: not a new impact in the next step even if
                 // the short rest of this one left them without a force (gap within the fall of
                 // `g h^2/2`).
-                self.loaded = closed_keys(&pr, &sol, self.settings.friction_law);
+                self.loaded = closed_keys(&pr, &carries);
                 self.loaded.extend(&located_here);
                 self.loaded.sort_unstable();
                 self.loaded.dedup();
@@ -685,9 +684,9 @@ impl Stepper {
             let start = s.clone();
             let mut reached = false;
             while tau > 1e-9 * h {
-                let (first, pr) = self.sub_step(s, &free, tau, true)?;
+                let (first, pr, first_closed) = self.sub_step(s, &free, tau, true)?;
                 iterations += first.iterations;
-                self.loaded = closed_keys(&pr, &first, self.settings.friction_law);
+                self.loaded = closed_keys(&pr, &first_closed);
                 if !self.passed_through(&start, s, &contacts, &fresh) {
                     reached = true;
                     break;
@@ -837,14 +836,15 @@ impl Stepper {
     }
 
     /// Advance by `h` from the given contacts; `project`: project out a penetration after the
-    /// step (impact stepper without impact location; off for trial steps).
+    /// step (impact stepper without impact location; off for trial steps). Returns the step's
+    /// solution, its problem and which of its points end closed ([`closed`]).
     fn sub_step(
         &mut self,
         s: &mut NativeState,
         contacts: &[ContactPoint],
         h: f64,
         project: bool,
-    ) -> Result<(StepSolution, StepProblem), StepError> {
+    ) -> Result<(StepSolution, StepProblem, Vec<bool>), StepError> {
         let (mut pr, g) = self.problem(s, contacts, h);
         let fail = |failure| StepError::Solver {
             step: s.step + 1,
@@ -852,11 +852,13 @@ impl Stepper {
             failure,
         };
         let impact = self.settings.stepper == StepperKind::Impact;
-        let (mut sol, points) = if impact {
+        let (mut sol, points, ends_closed) = if impact {
             self.solve_discrete_gradient(s, contacts, &mut pr, h)
                 .map_err(fail)?
         } else {
-            (self.solve_law(&pr).map_err(fail)?, Vec::new())
+            let sol = self.solve_law(&pr).map_err(fail)?;
+            let ends_closed = closed(&pr, &sol, self.settings.friction_law);
+            (sol, Vec::new(), ends_closed)
         };
         let th = self.kinematic_weight();
         for i in 0..s.q.len() {
@@ -873,7 +875,7 @@ impl Stepper {
         s.t += h;
         if impact {
             sol.iterations += self
-                .settle_velocity(s, contacts, &points, &pr, &sol, h)
+                .settle_velocity(s, contacts, &points, &ends_closed, &pr, &sol, h)
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
                     t: s.t,
@@ -896,7 +898,7 @@ impl Stepper {
                 t: s.t,
             });
         }
-        Ok((sol, pr))
+        Ok((sol, pr, ends_closed))
     }
 
     /// The impact stepper's solve: the rows of every point are the discrete gradients of its gap
@@ -911,7 +913,7 @@ impl Stepper {
         contacts: &[ContactPoint],
         pr: &mut StepProblem,
         h: f64,
-    ) -> Result<(StepSolution, Vec<MaterialContact>), SolveFailure> {
+    ) -> Result<(StepSolution, Vec<MaterialContact>, Vec<bool>), SolveFailure> {
         let ps = poses(&s.q);
         let points: Vec<MaterialContact> = contacts
             .iter()
@@ -951,7 +953,7 @@ impl Stepper {
             if drift <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
                 self.gradient_solves += solve as u64;
                 sol.iterations = iterations;
-                return Ok((sol, points));
+                return Ok((sol, points, carries));
             }
         }
         unreachable!("the last solve returns")
@@ -969,6 +971,7 @@ impl Stepper {
         s: &mut NativeState,
         contacts: &[ContactPoint],
         points: &[MaterialContact],
+        carries: &[bool],
         pr: &StepProblem,
         sol: &StepSolution,
         h: f64,
@@ -977,7 +980,6 @@ impl Stepper {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
-        let carries = closed(pr, sol, self.settings.friction_law);
         let coulomb = self.settings.friction_law == FrictionLaw::Coulomb;
         let ps = poses(&s.q);
         let mut rows = Vec::new();
@@ -985,7 +987,7 @@ impl Stepper {
         let mut stuck: Vec<((Option<usize>, usize), ContactRows, usize)> = Vec::new();
         let mut worst = 0.0f64;
         let increment = Increment::new(&sol.dq, 1.0);
-        for (k, ((c, m), l)) in contacts.iter().zip(points).zip(&carries).enumerate() {
+        for (k, ((c, m), l)) in contacts.iter().zip(points).zip(carries).enumerate() {
             if !*l {
                 continue;
             }

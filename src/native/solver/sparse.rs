@@ -655,14 +655,19 @@ impl SparseSolver {
         let mut last_change = f64::INFINITY;
         for _ in 0..MAX_OUTER {
             newton += self.minimise(&sc.p, &sc.q)?;
+            // The update, and `kkt_holds(ROW_TOLERANCE)` with the new multipliers in the same
+            // pass over the rows.
             let mut change = 0.0f64;
+            let mut holds = true;
             for (i, row) in self.rows.iter().enumerate() {
                 let c = row.dot(&self.u) + self.r[i];
                 let l = (self.lambda[i] - self.rho[i] * c).max(0.0);
                 change = change.max((l - self.lambda[i]).abs() / self.rho[i]);
                 self.lambda[i] = l;
+                let tol = ROW_TOLERANCE * (1.0 + self.r[i].abs());
+                holds &= c >= -tol && (l == 0.0 || c <= tol);
             }
-            if self.kkt_holds(ROW_TOLERANCE) {
+            if holds {
                 converged = true;
                 break;
             }
