@@ -875,7 +875,7 @@ impl Stepper {
         s.t += h;
         if impact {
             sol.iterations += self
-                .settle_velocity(s, contacts, &points, &ends_closed, &pr, &sol, h)
+                .settle_velocity(s, contacts, &points, &ends_closed, &pr, &sol)
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
                     t: s.t,
@@ -959,13 +959,13 @@ impl Stepper {
         unreachable!("the last solve returns")
     }
 
-    /// The end velocity of an impact-stepper sub-step, `v = 2 dq/h - v0`, made admissible on the
-    /// points that carried a force: when some `(n ± mu t)·v` (rows at the end configuration)
-    /// approaches by more than `VELOCITY_TOLERANCE`, `v` becomes its closest admissible
-    /// velocity in the kinetic-energy norm (Moreau's plastic law; kinetic energy can only
-    /// drop). Without it the mean-velocity law would leave the end velocity ringing, `v = -v0`,
-    /// after a contact sticks or closes. On a smooth motion along a contact the change is
-    /// O(h^3) a step. Returns the solver iterations.
+    /// The end velocity of an impact-stepper sub-step, `v = 2 dq/h - v0` (`h = pr.dt`), made
+    /// admissible on the points that end closed (`carries`): when some `(n ± mu t)·v` (rows at
+    /// the end configuration) approaches by more than `VELOCITY_TOLERANCE`, `v` becomes its
+    /// closest admissible velocity in the kinetic-energy norm (Moreau's plastic law; kinetic
+    /// energy can only drop). Without it the mean-velocity law would leave the end velocity
+    /// ringing, `v = -v0`, after a contact sticks or closes. On a smooth motion along a contact
+    /// the change is O(h^3) a step. Returns the solver iterations.
     fn settle_velocity(
         &mut self,
         s: &mut NativeState,
@@ -974,7 +974,6 @@ impl Stepper {
         carries: &[bool],
         pr: &StepProblem,
         sol: &StepSolution,
-        h: f64,
     ) -> Result<u32, SolveFailure> {
         let w = match self.applied_as {
             AppliedAs::MovingGround => s.ground_w,
@@ -1044,7 +1043,7 @@ impl Stepper {
                 1.0 / count as f64,
             ));
         }
-        if worst * h <= VELOCITY_TOLERANCE {
+        if worst * pr.dt <= VELOCITY_TOLERANCE {
             return Ok(0);
         }
         self.settled_velocities += 1;
