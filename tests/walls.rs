@@ -82,6 +82,41 @@ fn the_215_block_wall_under_the_impact_stepper_needs_no_fallback() {
     the_215_block_wall_against_clarabel("impact");
 }
 
+/// A standing wall narrower than `WIDE_ENVELOPE` (5 courses, 107 blocks) under El Centro x2:
+/// its problems, with the last one's rows and a still last solution, start from the stiff
+/// penalty (`STILL_SPEED`), and the answer is Clarabel's. Measured: 2.35 solver iterations a step
+/// (about one Newton step for each discrete-gradient and velocity problem) over steps 100-200,
+/// 9.89 from the base penalty's ladder; positions 2.1e-12 m from Clarabel's.
+#[test]
+fn a_standing_narrow_wall_starts_stiff_and_keeps_clarabels_answer() {
+    let mut w = WallSpec::running_bond(5, 21);
+    w.record = Some((record(), 2.0));
+    let text = w.to_toml();
+    let fast = scene(&text, &[]);
+    let reference = scene(
+        &text,
+        &["native.solver=\"clarabel\"", "native.islands=false"],
+    );
+    let (mut a, mut sa) = stepper_for(&fast).unwrap();
+    let (mut b, mut sb) = stepper_for(&reference).unwrap();
+    let mut iterations_at_100 = 0;
+    for k in 1..=200 {
+        a.step(&mut sa).unwrap();
+        b.step(&mut sb).unwrap();
+        if k == 100 {
+            iterations_at_100 = a.iterations;
+        }
+    }
+    let per_step = (a.iterations - iterations_at_100) as f64 / 100.0;
+    assert!(
+        per_step <= 3.0,
+        "{per_step} solver iterations a step on a standing wall"
+    );
+    let d = largest_difference(&sa.q, &sb.q);
+    assert!(d < 1e-9, "largest position difference {d:.3e} m");
+    assert_eq!(a.solver_fallbacks(), 0);
+}
+
 /// The whole 5 s of the 215-block wall under El Centro x2 (the benchmark's wall, default
 /// settings) without a fallback to Clarabel: between 4 and 5 s, 29 of its problems defeated
 /// the sparse back-end's Newton iteration warm and cold (unloaded closed rows flipping in and
