@@ -42,23 +42,29 @@ impl Rect {
     }
 }
 
-/// A rectangle at a pose: its vertices (as [`Rect::vertices`]) and the outward unit normals of
-/// its faces, computed once per detection rather than once per pair.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A rectangle at a pose: its vertices (as [`Rect::vertices`]) and, once a block pair asks for
+/// them, the outward unit normals of its faces; computed once per detection, not once per pair.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Placed {
     pub rect: Rect,
     pub vertices: [(f64, f64); 4],
-    pub normals: [(f64, f64); 4],
+    normals: std::cell::OnceCell<[(f64, f64); 4]>,
 }
 
 impl Placed {
     pub fn new(rect: &Rect, pose: &Pose) -> Self {
-        let vertices = rect.vertices(pose);
         Placed {
             rect: *rect,
-            vertices,
-            normals: [0, 1, 2, 3].map(|k| face_normal(&vertices, k)),
+            vertices: rect.vertices(pose),
+            normals: std::cell::OnceCell::new(),
         }
+    }
+
+    /// Outward unit normals of the faces (face k from vertex k to k+1).
+    pub fn normals(&self) -> [(f64, f64); 4] {
+        *self
+            .normals
+            .get_or_init(|| [0, 1, 2, 3].map(|k| face_normal(&self.vertices, k)))
     }
 }
 
@@ -239,8 +245,8 @@ pub fn block_contacts(
     reach: &dyn Fn((f64, f64), f64) -> bool,
     out: &mut Vec<ContactPoint>,
 ) {
-    let (vi, ni) = (bi.vertices, bi.normals);
-    let (vj, nj) = (bj.vertices, bj.normals);
+    let (vi, ni) = (bi.vertices, bi.normals());
+    let (vj, nj) = (bj.vertices, bj.normals());
     let scale = bi.rect.b + bi.rect.h + bj.rect.b + bj.rect.h;
     // Reference face: the largest separation over the faces of both blocks.
     let mut best: Option<(f64, usize, usize)> = None; // (separation, owner 0|1, face)

@@ -326,7 +326,6 @@ impl Stepper {
 
     /// Contact points at the current geometry.
     pub fn detect(&self, s: &NativeState) -> Vec<ContactPoint> {
-        let ps = poses(&s.q);
         let dt = self.settings.dt;
         let frac = self.settings.contact_reach;
         let ground_z = match self.applied_as {
@@ -339,7 +338,7 @@ impl Stepper {
         };
         let speed = |i: usize, p: (f64, f64)| -> f64 {
             let (vx, vz, om) = (s.v[3 * i], s.v[3 * i + 1], s.v[3 * i + 2]);
-            let (rx, rz) = (p.0 - ps[i].x, p.1 - ps[i].z);
+            let (rx, rz) = (p.0 - s.q[3 * i], p.1 - s.q[3 * i + 1]);
             (vx - om * rz).hypot(vz + om * rx)
         };
         let asleep = |i: usize| self.sleep.as_ref().is_some_and(|sl| sl.asleep(i));
@@ -347,8 +346,8 @@ impl Stepper {
         if self.sleep.as_ref().is_some_and(Sleep::all_asleep) {
             return out;
         }
-        let placed: Vec<Placed> = (self.bodies.rects.iter().zip(&ps))
-            .map(|(r, p)| Placed::new(r, p))
+        let placed: Vec<Placed> = (self.bodies.rects.iter().zip(poses(&s.q)))
+            .map(|(r, p)| Placed::new(r, &p))
             .collect();
         for (i, r) in self.bodies.rects.iter().enumerate() {
             if asleep(i) {
@@ -837,7 +836,8 @@ impl Stepper {
 
     /// Advance by `h` from the given contacts; `project`: project out a penetration after the
     /// step (impact stepper without impact location; off for trial steps). Returns the step's
-    /// solution, its problem and which of its points end closed ([`closed`]).
+    /// solution, its problem and, under the impact stepper, which of its points end closed
+    /// ([`closed`]; empty under the paper's).
     fn sub_step(
         &mut self,
         s: &mut NativeState,
@@ -856,9 +856,8 @@ impl Stepper {
             self.solve_discrete_gradient(s, contacts, &mut pr, h)
                 .map_err(fail)?
         } else {
-            let sol = self.solve_law(&pr).map_err(fail)?;
-            let ends_closed = closed(&pr, &sol, self.settings.friction_law);
-            (sol, Vec::new(), ends_closed)
+            // The paper's stepper locates no impacts: nothing asks which points end closed.
+            (self.solve_law(&pr).map_err(fail)?, Vec::new(), Vec::new())
         };
         let th = self.kinematic_weight();
         for i in 0..s.q.len() {
