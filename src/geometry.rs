@@ -44,7 +44,7 @@ impl Rect {
 
 /// A rectangle at a pose: its vertices (as [`Rect::vertices`]) and, once a block pair asks for
 /// them, the outward unit normals of its faces; computed once per detection, not once per pair.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Placed {
     pub rect: Rect,
     pub vertices: [(f64, f64); 4],
