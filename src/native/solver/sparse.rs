@@ -61,8 +61,8 @@ use crate::native::problem::{StepProblem, StepSolution};
 /// (`D_i u + r_i < l_i / rho_i`) too thin a margin, so a rocking column re-factorises ten
 /// times a step; 1e4 needs about two factorisations a step there and none at rest.
 pub const RHO: f64 = 1e4;
-/// Normalised penalty a problem starts from on a wide envelope (`WIDE_ENVELOPE`), except on
-/// its last retry (which starts from `RHO`). Measured on the walls under El Centro x2 (a probe
+/// Normalised penalty a problem starts from on a wide envelope (`WIDE_ENVELOPE`) and on a
+/// still narrow one (`STILL_SPEED`), except on its last retry (which starts from `RHO`). Measured on the walls under El Centro x2 (a probe
 /// stepping the stepper, dt 1e-3; base 1e4 / 1e5 / 1e6 / 1e7 / 1e8): the 215-block wall's 5 s
 /// 2.02 / 1.21 / 1.21 / 0.754 / 0.757 ms a step (5.4 / 2.3 / 2.6 / 0.92 / 1.2 factorisations a
 /// step), the 860-block wall's first second 5.20 / 3.46 / 2.58 / 2.17 / 2.04 ms a step (13.9 /
