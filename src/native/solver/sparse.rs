@@ -62,8 +62,9 @@ use crate::native::problem::{StepProblem, StepSolution};
 /// times a step; 1e4 needs about two factorisations a step there and none at rest.
 pub const RHO: f64 = 1e4;
 /// Normalised penalty a problem starts from on a wide envelope (`WIDE_ENVELOPE`) and on a
-/// still narrow one (`STILL_SPEED`), except on its last retry (which starts from `RHO`). Measured on the walls under El Centro x2 (a probe
-/// stepping the stepper, dt 1e-3; base 1e4 / 1e5 / 1e6 / 1e7 / 1e8): the 215-block wall's 5 s
+/// still narrow one (`STILL_SPEED`), except on its last retry (which starts from `RHO`).
+/// Measured on the walls under El Centro x2 (a probe stepping the stepper, dt 1e-3; base 1e4 /
+/// 1e5 / 1e6 / 1e7 / 1e8): the 215-block wall's 5 s
 /// 2.02 / 1.21 / 1.21 / 0.754 / 0.757 ms a step (5.4 / 2.3 / 2.6 / 0.92 / 1.2 factorisations a
 /// step), the 860-block wall's first second 5.20 / 3.46 / 2.58 / 2.17 / 2.04 ms a step (13.9 /
 /// 7.5 / 4.7 / 3.2 / 2.7 Newton steps): from a stiff start the warm-started multipliers settle
@@ -76,7 +77,8 @@ pub const RHO_WIDE: f64 = 1e7;
 /// wall or stack standing under an earthquake, whose warm multipliers are as good as a wide
 /// wall's. Measured (running-bond walls of 2-5 courses of 21 blocks under El Centro x2, 5 s,
 /// `bench_dynamic`, 1e4 start -> this rule): 43 / 64 / 86 / 107 blocks 0.122 / 0.244 / 0.384 /
-/// 0.543 -> 0.072 / 0.119 / 0.182 / 0.254 ms a step, the same at 1e-4 m/s. Where blocks move
+/// 0.543 -> 0.072 / 0.119 / 0.182 / 0.254 ms a step (the 107-block wall the same at 1e-4
+/// m/s). Where blocks move
 /// the soft start stays: a tilted column of 25 blocks rocking freely took 25 factorisations a
 /// problem from the stiff start against 7.9 from 1e4 (the thin margins of `RHO`'s text).
 pub const STILL_SPEED: f64 = 1e-6;
@@ -150,6 +152,13 @@ const WIDE_ENVELOPE: f64 = 24.0;
 /// stagnation accepted on every solve moved the sleep test's wall (docs/method.md).
 const STAGNATION_TOLERANCE: f64 = 1e-9;
 const MAX_OUTER: usize = 60;
+
+/// Whether a row with value `c = D_i u + r_i` and multiplier `l` meets the complementarity
+/// conditions to `tolerance` (relative to `1 + |r_i|`): it holds, and it is closed if loaded.
+fn row_holds(c: f64, l: f64, r: f64, tolerance: f64) -> bool {
+    let tol = tolerance * (1.0 + r.abs());
+    c >= -tol && (l == 0.0 || c <= tol)
+}
 
 #[derive(Default)]
 pub struct SparseSolver {
@@ -306,9 +315,12 @@ impl SparseSolver {
     /// `P u + q = D' l`, holds to Newton's tolerance where this is called.)
     fn kkt_holds(&self, tolerance: f64) -> bool {
         self.rows.iter().enumerate().all(|(i, row)| {
-            let c = row.dot(&self.u) + self.r[i];
-            let tol = tolerance * (1.0 + self.r[i].abs());
-            c >= -tol && (self.lambda[i] == 0.0 || c <= tol)
+            row_holds(
+                row.dot(&self.u) + self.r[i],
+                self.lambda[i],
+                self.r[i],
+                tolerance,
+            )
         })
     }
 
@@ -676,8 +688,7 @@ impl SparseSolver {
                 let l = (self.lambda[i] - self.rho[i] * c).max(0.0);
                 change = change.max((l - self.lambda[i]).abs() / self.rho[i]);
                 self.lambda[i] = l;
-                let tol = ROW_TOLERANCE * (1.0 + self.r[i].abs());
-                holds &= c >= -tol && (l == 0.0 || c <= tol);
+                holds &= row_holds(c, l, self.r[i], ROW_TOLERANCE);
             }
             if holds {
                 converged = true;
