@@ -128,14 +128,17 @@ impl Islands {
         }
     }
 
-    /// Retire the back-ends of islands that no longer exist (not keyed by one of `keys`),
-    /// keeping their counts.
-    fn retire(&mut self, keys: &[usize]) {
+    /// Retire the back-ends of islands that no longer exist, keeping their counts: those keyed
+    /// by a block that is in one of this problem's islands (`island`) but keys none of them
+    /// (`keys`). A back-end keyed by a block this problem does not hold (no contact point) is
+    /// kept: the stepper hands the back-end one island's problem at a time when it locates
+    /// impacts per island, and the other islands' back-ends must keep their warm starts.
+    fn retire(&mut self, keys: &[usize], island: &[Option<usize>]) {
         let gone: Vec<usize> = self
             .solvers
             .keys()
             .copied()
-            .filter(|k| !keys.contains(k))
+            .filter(|&k| !keys.contains(&k) && island.get(k).is_some_and(Option::is_some))
             .collect();
         for k in gone {
             if let Some(s) = self.solvers.remove(&k) {
@@ -230,14 +233,18 @@ impl ContactSolver for Islands {
         if !island.is_empty() && island.iter().all(|&i| i == Some(0)) {
             // One island of every block (a single block on the ground, a stack, a standing
             // wall): its sub-problem would be the problem itself.
-            self.retire(&[0]);
+            let island = std::mem::take(&mut self.components.island);
+            self.retire(&[0], &island);
+            self.components.island = island;
             self.islands_solved += 1;
             let make = &self.make;
             return self.solvers.entry(0).or_insert_with(|| make()).solve(pr);
         }
         let (parts, free) = Self::split(pr, island);
         let keys: Vec<usize> = parts.iter().map(|p| p.key).collect();
-        self.retire(&keys);
+        let island = std::mem::take(&mut self.components.island);
+        self.retire(&keys, &island);
+        self.components.island = island;
         let mut work: Vec<(Part, Box<dyn ContactSolver>)> = parts
             .into_iter()
             .map(|p| {

@@ -115,6 +115,13 @@ pub struct NativeSettings {
     /// is located; see docs/method.md).
     #[serde(default)]
     pub locate_speed: f64,
+    /// Impact-consistent stepper with `locate_impacts`: an impact splits the step of its own
+    /// island of touching blocks only (default true); the other islands keep the ordinary
+    /// step. Off, every located impact splits the step of the whole scene, so that one
+    /// object's steps depend on the impacts of every other (see docs/method.md, "Impacts
+    /// located per island"). Ignored with `sleep`.
+    #[serde(default = "d_true")]
+    pub island_impacts: bool,
     /// `associative` (the paper's law, default) or `coulomb` (non-associative).
     #[serde(default)]
     pub friction_law: FrictionLaw,
@@ -186,6 +193,7 @@ impl Default for NativeSettings {
             friction_law: FrictionLaw::default(),
             locate_impacts: true,
             locate_speed: 0.0,
+            island_impacts: true,
             solver: SolverKind::default(),
             tolerance: d_tol(),
             max_iterations: d_max_iter(),

@@ -152,6 +152,22 @@ fn first_root(g0: f64, b: f64, c: f64, h: f64) -> Option<f64> {
         .min_by(|a, b| a.total_cmp(b))
 }
 
+/// What a step started from, for `Stepper::locate_per_island`.
+struct Start<'a> {
+    state: &'a NativeState,
+    /// The step's length.
+    dt: f64,
+    accel: &'a [f64],
+    loaded: &'a [u64],
+}
+
+/// The ordinary (unsplit) step of the whole scene, for `Stepper::locate_per_island`.
+struct Ordinary<'a> {
+    problem: &'a StepProblem,
+    closed: &'a [bool],
+    solution: &'a StepSolution,
+}
+
 /// State of the native engine between steps.
 #[derive(Debug, Clone)]
 pub struct NativeState {
@@ -210,6 +226,11 @@ pub struct Stepper {
     pub coulomb: Coulomb,
     /// Sleeping islands (`native.sleep`, excitation applied as horizontal inertial forces).
     pub sleep: Option<Sleep>,
+    /// The blocks (increasing) that detection considers while one island's step is located
+    /// apart from the others (`island_impacts`); `None`: every block.
+    scope: Option<Vec<usize>>,
+    /// Steps of one island located apart from the others (`island_impacts`).
+    pub island_steps: u64,
 }
 
 /// A step that could not be taken.
@@ -264,6 +285,8 @@ impl Stepper {
             loaded: Vec::new(),
             coulomb: Coulomb::default(),
             sleep,
+            scope: None,
+            island_steps: 0,
         }
     }
 
@@ -346,33 +369,51 @@ impl Stepper {
         if self.sleep.as_ref().is_some_and(Sleep::all_asleep) {
             return out;
         }
-        let placed: Vec<Placed> = (self.bodies.rects.iter().zip(poses(&s.q)))
-            .map(|(r, p)| Placed::new(r, &p))
+        let rects = &self.bodies.rects;
+        let every: Vec<usize>;
+        let members: &[usize] = match &self.scope {
+            Some(blocks) => blocks,
+            None => {
+                every = (0..rects.len()).collect();
+                &every
+            }
+        };
+        let placed: Vec<Placed> = members
+            .iter()
+            .map(|&i| {
+                let p = Pose {
+                    x: s.q[3 * i],
+                    z: s.q[3 * i + 1],
+                    phi: s.q[3 * i + 2],
+                };
+                Placed::new(&rects[i], &p)
+            })
             .collect();
-        for (i, r) in self.bodies.rects.iter().enumerate() {
+        for (&i, placed_i) in members.iter().zip(&placed) {
             if asleep(i) {
                 continue;
             }
-            let lim = frac * r.min_dim();
+            let lim = frac * rects[i].min_dim();
             let reach = |p: (f64, f64), gap: f64| {
                 gap < lim || gap < 3.0 * (speed(i, p) + ground_speed) * dt
             };
-            ground_contacts(i, &placed[i], ground_z, &reach, &mut out);
+            ground_contacts(i, placed_i, ground_z, &reach, &mut out);
         }
-        let rects = &self.bodies.rects;
-        let margin = |i: usize| {
+        let margin = |k: usize| {
             // A reach, not a geometric quantity: sqrt is enough (and cheaper than hypot).
+            let i = members[k];
             let (vx, vz) = (s.v[3 * i], s.v[3 * i + 1]);
             frac * rects[i].min_dim() + 3.0 * (vx * vx + vz * vz).sqrt() * dt
         };
-        for (i, j) in broad_phase(&placed, &margin) {
+        for (ki, kj) in broad_phase(&placed, &margin) {
+            let (i, j) = (members[ki], members[kj]);
             if asleep(i) && asleep(j) {
                 continue;
             }
             let lim = frac * rects[i].min_dim().min(rects[j].min_dim());
             let reach =
                 |p: (f64, f64), gap: f64| gap < lim || gap < 3.0 * (speed(i, p) + speed(j, p)) * dt;
-            block_contacts((i, &placed[i]), (j, &placed[j]), &reach, &mut out);
+            block_contacts((i, &placed[ki]), (j, &placed[kj]), &reach, &mut out);
         }
         out
     }
@@ -611,6 +652,12 @@ impl Stepper {
         let mut iterations = 0;
         let mut located_here: Vec<u64> = Vec::new();
         let rounds = LOCATED_PER_STEP;
+        // Impacts located per island: the state before the step (see `locate_per_island`).
+        let per_island = self.settings.island_impacts
+            && self.scope.is_none()
+            && self.sleep.is_none()
+            && self.bodies.len() > 1;
+        let before = per_island.then(|| (self.accel.clone(), self.loaded.clone()));
         for round in 0..=rounds {
             let h = t_end - s.t;
             let s0 = s.clone();
@@ -628,6 +675,25 @@ impl Stepper {
                         })
                 })
                 .collect();
+            if round == 0
+                && !fresh.is_empty()
+                && let Some((accel0, loaded0)) = &before
+            {
+                let start = Start {
+                    state: &s0,
+                    dt,
+                    accel: accel0,
+                    loaded: loaded0,
+                };
+                let ordinary = Ordinary {
+                    problem: &pr,
+                    closed: &carries,
+                    solution: &sol,
+                };
+                if let Some(sol) = self.locate_per_island(s, start, &contacts, &fresh, ordinary)? {
+                    return Ok(sol);
+                }
+            }
             let tau = if fresh.is_empty() || round == rounds {
                 None
             } else {
@@ -715,6 +781,79 @@ impl Stepper {
             contacts = self.detect_waking(s);
         }
         unreachable!("the last round returns")
+    }
+
+    /// Impacts located per island (`native.island_impacts`): after the ordinary step of the
+    /// whole scene found new impacts (`fresh`, indices into `contacts`), only the islands of
+    /// touching blocks that hold them are stepped again from the start, each alone
+    /// (`step_locating` on its own blocks and points); every other island keeps its ordinary
+    /// step, which is its exact step (the step problem is separable over islands). So an
+    /// island's step is split at its own impact instants only, whatever else the scene holds.
+    /// `s` holds the ordinary step on entry and the step on return. Returns `None` (nothing
+    /// done) when the islands with impacts are all the islands with contact points.
+    fn locate_per_island(
+        &mut self,
+        s: &mut NativeState,
+        start: Start,
+        contacts: &[ContactPoint],
+        fresh: &[usize],
+        ordinary: Ordinary,
+    ) -> Result<Option<StepSolution>, StepError> {
+        let n = self.bodies.len();
+        let island = super::islands::components(n, &ordinary.problem.contacts);
+        let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
+        let mut hit: Vec<usize> = fresh
+            .iter()
+            .filter_map(|&k| island[contacts[k].b])
+            .collect();
+        hit.sort_unstable();
+        hit.dedup();
+        if hit.len() == n_islands {
+            return Ok(None);
+        }
+        let in_hit = |b: usize| island[b].is_some_and(|i| hit.binary_search(&i).is_ok());
+        // A point's key holds its upper block (`assembly::contact_rows`), which is in the
+        // point's island.
+        let block_of_key = |key: u64| ((key >> 16) & 0xFF_FFFF) as usize;
+        let mut loaded: Vec<u64> = closed_keys(ordinary.problem, ordinary.closed)
+            .into_iter()
+            .filter(|&key| !in_hit(block_of_key(key)))
+            .collect();
+        let mut last: Vec<ContactPoint> =
+            contacts.iter().filter(|c| !in_hit(c.b)).copied().collect();
+        let mut accel = self.accel.clone();
+        let mut sol = ordinary.solution.clone();
+        for &i in &hit {
+            let blocks: Vec<usize> = (0..n).filter(|&b| island[b] == Some(i)).collect();
+            let points: Vec<ContactPoint> = contacts
+                .iter()
+                .filter(|c| island[c.b] == Some(i))
+                .copied()
+                .collect();
+            let mut alone = start.state.clone();
+            self.accel.copy_from_slice(start.accel);
+            self.loaded.clear();
+            self.loaded.extend_from_slice(start.loaded);
+            self.scope = Some(blocks);
+            let run = self.step_locating(&mut alone, points, start.dt);
+            let blocks = self.scope.take().expect("set above");
+            sol.iterations += run?.iterations;
+            for b in blocks {
+                let d = 3 * b..3 * b + 3;
+                s.q[d.clone()].copy_from_slice(&alone.q[d.clone()]);
+                s.v[d.clone()].copy_from_slice(&alone.v[d.clone()]);
+                accel[d.clone()].copy_from_slice(&self.accel[d]);
+            }
+            loaded.append(&mut self.loaded);
+            last.append(&mut self.last_contacts);
+            self.island_steps += 1;
+        }
+        loaded.sort_unstable();
+        loaded.dedup();
+        self.loaded = loaded;
+        self.accel = accel;
+        self.last_contacts = last;
+        Ok(Some(sol))
     }
 
     /// Whether one of the `fresh` points (detected at `s0`) is through its face, by more than
