@@ -10,13 +10,20 @@
 //! exceeds `--budget` seconds: its row then says so, and the series goes on. The tables are
 //! written again after every row, so an interrupted series keeps what it measured.
 //!
-//! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40] [--duration 5]
-//! [--scale 2] [--engines native,rapier] [--sleep false] [--budget 600]
-//! [--out out/bench-dynamic]` (`--sleep true` runs the native engine with
-//! `native.sleep = true`).
+//! `--gallery 1,4,16,64` runs galleries instead (`rockbench::gallery`: that many statues on
+//! pedestals, 3 m apart, each rocking and landing at its own instants): the series of
+//! independent objects, whose cost grows with the number of objects times the problems each
+//! step solves. Its CSV's second column is the number of pairs.
+//!
+//! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
+//! [--duration 5] [--scale 2] [--engines native,rapier] [--sleep false]
+//! [--island-impacts true] [--budget 600] [--out out/bench-dynamic]` (`--sleep true` and
+//! `--island-impacts false` run the native engine with `native.sleep = true` and
+//! `native.island_impacts = false`).
 
 use anyhow::{Context, bail};
 use rockbench::engines::{engine_by_name, run_timed};
+use rockbench::gallery::GallerySpec;
 use rockbench::scene::load_scene;
 use rockbench::walls::WallSpec;
 use std::fmt::Write as _;
@@ -143,10 +150,22 @@ fn main() -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let courses: Vec<usize> = arg(&args, "--courses", "2,5,10,20,40")
-        .split(',')
-        .map(|c| c.trim().parse())
-        .collect::<Result<_, _>>()?;
+    let list = |name: &str, default: &str| -> anyhow::Result<Vec<usize>> {
+        arg(&args, name, default)
+            .split(',')
+            .map(|c| {
+                c.trim()
+                    .parse()
+                    .with_context(|| format!("{name}: not a count: {c}"))
+            })
+            .collect()
+    };
+    let courses = list("--courses", "2,5,10,20,40")?;
+    let gallery = args
+        .iter()
+        .any(|a| a == "--gallery")
+        .then(|| list("--gallery", ""))
+        .transpose()?;
     let duration: f64 = arg(&args, "--duration", "5").parse()?;
     let scale: f64 = arg(&args, "--scale", "2").parse()?;
     let engines: Vec<String> = arg(&args, "--engines", "native,rapier")
@@ -155,6 +174,7 @@ fn main() -> anyhow::Result<()> {
         .collect();
     let out = PathBuf::from(arg(&args, "--out", "out/bench-dynamic"));
     let sleep: bool = arg(&args, "--sleep", "false").parse()?;
+    let island_impacts: bool = arg(&args, "--island-impacts", "true").parse()?;
     let budget: f64 = arg(&args, "--budget", "600").parse()?;
     if !(budget.is_finite() && budget > 0.0) {
         bail!("--budget: must be a positive number of seconds (got {budget})");
@@ -164,22 +184,53 @@ fn main() -> anyhow::Result<()> {
     let record = std::fs::canonicalize("validation/records/elcentro-1940.AT2").map_err(|e| {
         anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)")
     })?;
-    let mut csv = String::from(
-        "blocks,courses,engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
+    let unit = if gallery.is_some() {
+        "pairs"
+    } else {
+        "courses"
+    };
+    let mut csv = format!(
+        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
     );
+    let what = if gallery.is_some() {
+        "Galleries"
+    } else {
+        "Walls in motion"
+    };
     let mut md = format!(
-        "# Walls in motion: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
         budget.as_secs_f64()
     );
-    for &c in &courses {
-        let mut w = WallSpec::running_bond(c, 21);
-        w.duration = duration;
-        w.record = Some((record.display().to_string(), scale));
-        let n = w.n_blocks();
-        let path = out.join("scenes").join(format!("wall-{n}.toml"));
-        let mut text = w.to_toml();
-        if sleep {
-            text.push_str("\n[native]\nsleep = true\n");
+    let record_as_written = Some((record.display().to_string(), scale));
+    // (blocks, courses or pairs, scene file name, scene text)
+    let series: Vec<(usize, usize, String, String)> = match &gallery {
+        Some(sizes) => sizes
+            .iter()
+            .map(|&n| {
+                let mut g = GallerySpec::row(n);
+                g.duration = duration;
+                g.record = record_as_written.clone();
+                (g.n_blocks(), n, format!("gallery-{n}.toml"), g.to_toml())
+            })
+            .collect(),
+        None => courses
+            .iter()
+            .map(|&c| {
+                let mut w = WallSpec::running_bond(c, 21);
+                w.duration = duration;
+                w.record = record_as_written.clone();
+                let n = w.n_blocks();
+                (n, c, format!("wall-{n}.toml"), w.to_toml())
+            })
+            .collect(),
+    };
+    for (n, c, file, mut text) in series {
+        let path = out.join("scenes").join(file);
+        if sleep || !island_impacts {
+            let _ = write!(
+                text,
+                "\n[native]\nsleep = {sleep}\nisland_impacts = {island_impacts}\n"
+            );
         }
         std::fs::write(&path, text)?;
         load_scene(&path)?;

@@ -38,6 +38,7 @@ pub mod engines;
 pub mod events;
 pub mod excitation;
 pub mod fragility;
+pub mod gallery;
 pub mod gates;
 pub mod geometry;
 pub mod invariants;

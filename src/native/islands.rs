@@ -22,6 +22,7 @@
 
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::solver::{ContactSolver, SolveFailure};
+use crate::geometry::ContactPoint;
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -33,6 +34,13 @@ pub const PARALLEL_DOFS: usize = 150;
 pub fn components(n_blocks: usize, contacts: &[ContactRows]) -> Vec<Option<usize>> {
     let mut scratch = Components::default();
     scratch.find(n_blocks, contacts);
+    scratch.island
+}
+
+/// [`components`] of detected contact points (before any rows are built).
+pub fn components_of_points(n_blocks: usize, points: &[ContactPoint]) -> Vec<Option<usize>> {
+    let mut scratch = Components::default();
+    scratch.link(n_blocks, points.iter().map(|c| (c.a.unwrap_or(c.b), c.b)));
     scratch.island
 }
 
@@ -48,6 +56,19 @@ struct Components {
 
 impl Components {
     fn find(&mut self, n_blocks: usize, contacts: &[ContactRows]) {
+        self.link(
+            n_blocks,
+            contacts.iter().filter_map(|c| {
+                let first = c.nrow.first().map(|e| e.0 / 3);
+                let last = c.nrow.last().map(|e| e.0 / 3);
+                first.zip(last)
+            }),
+        );
+    }
+
+    /// The components of the graph of the blocks joined by `links` (a block linked to itself
+    /// is in an island of its own).
+    fn link(&mut self, n_blocks: usize, links: impl Iterator<Item = (usize, usize)>) {
         fn root(parent: &mut [usize], mut i: usize) -> usize {
             while parent[i] != i {
                 parent[i] = parent[parent[i]];
@@ -61,17 +82,13 @@ impl Components {
         let touched = &mut self.touched;
         touched.clear();
         touched.resize(n_blocks, false);
-        for c in contacts {
-            let first = c.nrow.first().map(|e| e.0 / 3);
-            let last = c.nrow.last().map(|e| e.0 / 3);
-            if let (Some(a), Some(b)) = (first, last) {
-                touched[a] = true;
-                touched[b] = true;
-                let (ra, rb) = (root(parent, a), root(parent, b));
-                if ra != rb {
-                    // The lower index becomes the root, so that roots are lowest blocks.
-                    parent[ra.max(rb)] = ra.min(rb);
-                }
+        for (a, b) in links {
+            touched[a] = true;
+            touched[b] = true;
+            let (ra, rb) = (root(parent, a), root(parent, b));
+            if ra != rb {
+                // The lower index becomes the root, so that roots are lowest blocks.
+                parent[ra.max(rb)] = ra.min(rb);
             }
         }
         self.number.clear();

@@ -24,28 +24,33 @@
 
 use super::problem::{ContactRows, SparseRow};
 use crate::geometry::{ContactPoint, Pose};
+use std::cell::OnceCell;
 
 /// An increment `k dq` from the start of the step (`k = 1/2`: the midpoint, without a copy of
-/// `dq`), with every body's rotation over it computed once: `(sin a, cos a, cos a - 1)`, the
-/// last as `-2 sin^2(a/2)` (see `Carrier::displacement`). Build one per increment and evaluate
-/// all of a step's points with it: the trigonometry is per body, not per point.
+/// `dq`), with each body's rotation over it computed once, when a point first asks for it:
+/// `(sin a, cos a, cos a - 1)`, the last as `-2 sin^2(a/2)` (see `Carrier::displacement`).
+/// Build one per increment and evaluate all of a step's points with it: the trigonometry is
+/// per body, not per point.
 pub struct Increment<'a> {
     dq: &'a [f64],
     k: f64,
-    turns: Vec<(f64, f64, f64)>,
+    /// Computed when a point first asks (a step of one island among many asks for few bodies).
+    turns: Vec<OnceCell<(f64, f64, f64)>>,
 }
 
 impl<'a> Increment<'a> {
     pub fn new(dq: &'a [f64], k: f64) -> Self {
-        let turns = (0..dq.len() / 3)
-            .map(|b| {
-                let a = k * dq[3 * b + 2];
-                let (s, c) = a.sin_cos();
-                let h = (0.5 * a).sin();
-                (s, c, -2.0 * h * h)
-            })
-            .collect();
+        let turns = (0..dq.len() / 3).map(|_| OnceCell::new()).collect();
         Increment { dq, k, turns }
+    }
+    /// `(sin a, cos a, cos a - 1)` of body `b`'s rotation `a` over the increment.
+    fn turn(&self, b: usize) -> (f64, f64, f64) {
+        *self.turns[b].get_or_init(|| {
+            let a = self.k * self.dq[3 * b + 2];
+            let (s, c) = a.sin_cos();
+            let h = (0.5 * a).sin();
+            (s, c, -2.0 * h * h)
+        })
     }
     fn at(&self, i: usize) -> f64 {
         self.k * self.dq[i]
@@ -76,13 +81,13 @@ impl Carrier {
     }
     /// The offset turned by the step's increment `dq`: `R(dphi) rho`.
     fn arm(&self, dq: Incr) -> (f64, f64) {
-        rotate(self.rho, dq.turns[self.body])
+        rotate(self.rho, dq.turn(self.body))
     }
     /// The point's displacement over the increment `dq`: `dc + (R(dphi) - I) rho`, formed from
     /// the increments alone so that it keeps their relative precision however far the body is
     /// from the origin (`cos a - 1 = -2 sin^2(a/2)`).
     fn displacement(&self, dq: Incr) -> (f64, f64) {
-        let (s, _, cm1) = dq.turns[self.body];
+        let (s, _, cm1) = dq.turn(self.body);
         let i = 3 * self.body;
         (
             dq.at(i) + cm1 * self.rho.0 - s * self.rho.1,
@@ -133,7 +138,7 @@ impl MaterialContact {
 
     fn normal(&self, dq: Incr) -> (f64, f64) {
         match &self.a {
-            Some(a) => rotate(self.n0, dq.turns[a.body]),
+            Some(a) => rotate(self.n0, dq.turn(a.body)),
             None => self.n0,
         }
     }

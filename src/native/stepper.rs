@@ -157,8 +157,16 @@ struct Start<'a> {
     state: &'a NativeState,
     /// The step's length.
     dt: f64,
-    accel: &'a [f64],
     loaded: &'a [u64],
+}
+
+/// An island's part of the whole scene's ordinary step, handed to its own `step_locating` as
+/// its first sub-step (the step problem is separable over islands).
+struct Taken {
+    state: NativeState,
+    solution: StepSolution,
+    problem: StepProblem,
+    closed: Vec<bool>,
 }
 
 /// The ordinary (unsplit) step of the whole scene, for `Stepper::locate_per_island`.
@@ -541,10 +549,12 @@ impl Stepper {
         }
         let mut contacts = self.detect_waking(s);
         let t_end = s.t + dt;
-        if self.settings.stepper == StepperKind::Impact && self.approaching(s, &contacts) {
+        if self.settings.stepper == StepperKind::Impact
+            && let Some(struck) = self.approaching(s, &contacts)
+        {
             // A closed point that approaches (an impact the last step did not resolve): the
             // mean-velocity law would reflect it, so the plastic impact first.
-            self.impact(s, &contacts, &[])
+            self.impact(s, &struck, &[])
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
                     t: s.t,
@@ -554,7 +564,7 @@ impl Stepper {
             contacts = self.detect_waking(s);
         }
         let sol = if self.settings.stepper == StepperKind::Impact && self.settings.locate_impacts {
-            self.step_locating(s, contacts, dt)?
+            self.step_locating(s, contacts, dt, None)?
         } else {
             let (sol, _, _) = self.sub_step(s, &contacts, dt, true)?;
             self.last_contacts = contacts;
@@ -624,13 +634,38 @@ impl Stepper {
     }
 
     /// Whether a closed point (gap within `CLOSED_GAP`) approaches faster than it would close
-    /// `CLOSED_GAP` in a step.
-    fn approaching(&self, s: &NativeState, contacts: &[ContactPoint]) -> bool {
+    /// `CLOSED_GAP` in a step: if so, the points of the islands that hold such a point (all of
+    /// them without `island_impacts`; the other islands need no impact).
+    fn approaching(&self, s: &NativeState, contacts: &[ContactPoint]) -> Option<Vec<ContactPoint>> {
         let ps = poses(&s.q);
-        contacts.iter().filter(|c| c.gap <= CLOSED_GAP).any(|c| {
-            let (nrow, len) = normal_row(c, &ps);
-            self.normal_speed(c, &nrow[..len], &s.v, s.ground_w) * self.settings.dt < -CLOSED_GAP
-        })
+        let approaches = |c: &ContactPoint| {
+            c.gap <= CLOSED_GAP && {
+                let (nrow, len) = normal_row(c, &ps);
+                self.normal_speed(c, &nrow[..len], &s.v, s.ground_w) * self.settings.dt
+                    < -CLOSED_GAP
+            }
+        };
+        if !contacts.iter().any(approaches) {
+            return None;
+        }
+        if !self.settings.island_impacts || self.bodies.len() == 1 {
+            return Some(contacts.to_vec());
+        }
+        let island = super::islands::components_of_points(self.bodies.len(), contacts);
+        let mut struck: Vec<usize> = contacts
+            .iter()
+            .filter(|c| approaches(c))
+            .filter_map(|c| island[c.b])
+            .collect();
+        struck.sort_unstable();
+        struck.dedup();
+        Some(
+            contacts
+                .iter()
+                .filter(|c| island[c.b].is_some_and(|i| struck.binary_search(&i).is_ok()))
+                .copied()
+                .collect(),
+        )
     }
 
     /// One step with the impact instants located.
@@ -647,21 +682,29 @@ impl Stepper {
         s: &mut NativeState,
         mut contacts: Vec<ContactPoint>,
         dt: f64,
+        mut taken: Option<Taken>,
     ) -> Result<StepSolution, StepError> {
         let t_end = s.t + dt;
         let mut iterations = 0;
         let mut located_here: Vec<u64> = Vec::new();
         let rounds = LOCATED_PER_STEP;
-        // Impacts located per island: the state before the step (see `locate_per_island`).
+        // Impacts located per island: the points loaded before the step (see
+        // `locate_per_island`).
         let per_island = self.settings.island_impacts
             && self.scope.is_none()
             && self.sleep.is_none()
             && self.bodies.len() > 1;
-        let before = per_island.then(|| (self.accel.clone(), self.loaded.clone()));
+        let loaded_before = per_island.then(|| self.loaded.clone());
         for round in 0..=rounds {
             let h = t_end - s.t;
             let s0 = s.clone();
-            let (mut sol, pr, carries) = self.sub_step(s, &contacts, h, true)?;
+            let (mut sol, pr, carries) = match taken.take() {
+                Some(t) => {
+                    *s = t.state;
+                    (t.solution, t.problem, t.closed)
+                }
+                None => self.sub_step(s, &contacts, h, true)?,
+            };
             // New impacts, those slower than `locate_speed` left to the ordinary step.
             let slowest = self.settings.locate_speed;
             let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
@@ -677,12 +720,11 @@ impl Stepper {
                 .collect();
             if round == 0
                 && !fresh.is_empty()
-                && let Some((accel0, loaded0)) = &before
+                && let Some(loaded0) = &loaded_before
             {
                 let start = Start {
                     state: &s0,
                     dt,
-                    accel: accel0,
                     loaded: loaded0,
                 };
                 let ordinary = Ordinary {
@@ -784,10 +826,11 @@ impl Stepper {
     }
 
     /// Impacts located per island (`native.island_impacts`): after the ordinary step of the
-    /// whole scene found new impacts (`fresh`, indices into `contacts`), only the islands of
-    /// touching blocks that hold them are stepped again from the start, each alone
-    /// (`step_locating` on its own blocks and points); every other island keeps its ordinary
-    /// step, which is its exact step (the step problem is separable over islands). So an
+    /// whole scene found new impacts (`fresh`, indices into `contacts`), each island of
+    /// touching blocks that holds one goes on alone from its part of the ordinary step
+    /// (`step_locating` on its own blocks and points, handed that part as its first sub-step);
+    /// every other island keeps its ordinary step, which is its exact step (the step problem
+    /// is separable over islands). So an
     /// island's step is split at its own impact instants only, whatever else the scene holds.
     /// `s` holds the ordinary step on entry and the step on return. Returns `None` (nothing
     /// done) when the islands with impacts are all the islands with contact points.
@@ -821,21 +864,43 @@ impl Stepper {
             .collect();
         let mut last: Vec<ContactPoint> =
             contacts.iter().filter(|c| !in_hit(c.b)).copied().collect();
-        let mut accel = self.accel.clone();
+        // The acceleration of the ordinary step: the predictor of the free trial that follows.
+        let after = self.accel.clone();
+        let mut accel = after.clone();
         let mut sol = ordinary.solution.clone();
+        let (pr, whole) = (ordinary.problem, ordinary.solution);
         for &i in &hit {
             let blocks: Vec<usize> = (0..n).filter(|&b| island[b] == Some(i)).collect();
-            let points: Vec<ContactPoint> = contacts
-                .iter()
-                .filter(|c| island[c.b] == Some(i))
-                .copied()
+            let mine: Vec<usize> = (0..contacts.len())
+                .filter(|&k| island[contacts[k].b] == Some(i))
                 .collect();
+            let points: Vec<ContactPoint> = mine.iter().map(|&k| contacts[k]).collect();
+            let taken = Taken {
+                state: s.clone(),
+                solution: StepSolution {
+                    dq: whole.dq.clone(),
+                    normal: mine.iter().map(|&k| whole.normal[k]).collect(),
+                    tangential: mine.iter().map(|&k| whole.tangential[k]).collect(),
+                    // Counted with the whole step's.
+                    iterations: 0,
+                    polished: false,
+                },
+                problem: StepProblem {
+                    theta: pr.theta,
+                    dt: pr.dt,
+                    mass: pr.mass.clone(),
+                    force: pr.force.clone(),
+                    v0: pr.v0.clone(),
+                    contacts: mine.iter().map(|&k| pr.contacts[k].clone()).collect(),
+                },
+                closed: mine.iter().map(|&k| ordinary.closed[k]).collect(),
+            };
             let mut alone = start.state.clone();
-            self.accel.copy_from_slice(start.accel);
+            self.accel.copy_from_slice(&after);
             self.loaded.clear();
             self.loaded.extend_from_slice(start.loaded);
             self.scope = Some(blocks);
-            let run = self.step_locating(&mut alone, points, start.dt);
+            let run = self.step_locating(&mut alone, points, start.dt, Some(taken));
             let blocks = self.scope.take().expect("set above");
             sol.iterations += run?.iterations;
             for b in blocks {
@@ -1061,14 +1126,53 @@ impl Stepper {
             .map(|i| h * s.v[i] + 0.5 * h * h * self.accel[i])
             .collect();
         let mut iterations = 0;
+        // Once some islands' points stop drifting, only the others are solved again (the
+        // problem is separable over islands): an island's solves are those it needs alone.
+        let mut island: Vec<Option<usize>> = Vec::new();
+        let mut iterating: Option<Vec<bool>> = None;
+        let mut last: Option<StepSolution> = None;
         for solve in 1..=DISCRETE_GRADIENT_SOLVES {
+            let of = |k: usize| island.get(contacts[k].b).copied().flatten();
+            let solved_again = |k: usize| {
+                iterating
+                    .as_ref()
+                    .is_none_or(|it| of(k).is_some_and(|i| it[i]))
+            };
             {
                 let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
-                for (r, m) in pr.contacts.iter_mut().zip(&points) {
-                    m.set_rows(r, &whole, &half, &self.bodies.mass);
+                for (k, (r, m)) in pr.contacts.iter_mut().zip(&points).enumerate() {
+                    if solved_again(k) {
+                        m.set_rows(r, &whole, &half, &self.bodies.mass);
+                    }
                 }
             }
-            let mut sol = self.solve_law(pr)?;
+            let mut sol = match (&iterating, last.take()) {
+                (Some(it), Some(mut sol)) => {
+                    let again: Vec<usize> =
+                        (0..contacts.len()).filter(|&k| solved_again(k)).collect();
+                    let part = self.solve_law(&StepProblem {
+                        theta: pr.theta,
+                        dt: pr.dt,
+                        mass: pr.mass.clone(),
+                        force: pr.force.clone(),
+                        v0: pr.v0.clone(),
+                        contacts: again.iter().map(|&k| pr.contacts[k].clone()).collect(),
+                    })?;
+                    for (b, i) in island.iter().enumerate() {
+                        if i.is_some_and(|i| it[i]) {
+                            sol.dq[3 * b..3 * b + 3].copy_from_slice(&part.dq[3 * b..3 * b + 3]);
+                        }
+                    }
+                    for (l, &k) in again.iter().enumerate() {
+                        sol.normal[k] = part.normal[l];
+                        sol.tangential[k] = part.tangential[l];
+                    }
+                    sol.iterations = part.iterations;
+                    sol.polished |= part.polished;
+                    sol
+                }
+                _ => self.solve_law(pr)?,
+            };
             iterations += sol.iterations;
             dq.copy_from_slice(&sol.dq);
             let carries = closed(pr, &sol, self.settings.friction_law);
@@ -1076,23 +1180,42 @@ impl Stepper {
             // The drift of the points that carry a force, and of the unloaded ones that end
             // closed or through their face: the rows of those were built at the predicted
             // end, which the solution may have left (a light plank struck in the sub-step).
-            let drift = points
+            let drift: Vec<f64> = points
                 .iter()
                 .zip(&pr.contacts)
                 .zip(contacts.iter().zip(&carries))
-                .filter_map(|((m, r), (c, &loaded))| {
+                .map(|((m, r), (c, &loaded))| {
                     let (dn, dt) = m.increments(&whole);
                     let closes = c.gap + dn < CLOSED_GAP;
                     let dn = dn - row_dot(&r.nrow, &dq);
                     let dt = dt - row_dot(&r.trow, &dq);
-                    (loaded || closes).then_some(dn.abs().max(dt.abs()))
+                    if loaded || closes {
+                        dn.abs().max(dt.abs())
+                    } else {
+                        0.0
+                    }
                 })
-                .fold(0.0f64, f64::max);
-            if drift <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
+                .collect();
+            let worst = drift.iter().fold(0.0f64, |a, &b| a.max(b));
+            if worst <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
                 self.gradient_solves += solve as u64;
                 sol.iterations = iterations;
                 return Ok((sol, points, carries));
             }
+            if island.is_empty() {
+                island = super::islands::components(self.bodies.len(), &pr.contacts);
+            }
+            let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
+            let mut it = vec![false; n_islands];
+            for (k, &d) in drift.iter().enumerate() {
+                if let Some(i) = island.get(contacts[k].b).copied().flatten()
+                    && d > DRIFT_TOLERANCE
+                {
+                    it[i] = true;
+                }
+            }
+            iterating = it.contains(&false).then_some(it);
+            last = Some(sol);
         }
         unreachable!("the last solve returns")
     }
@@ -1123,6 +1246,8 @@ impl Stepper {
         // Coulomb: per body pair, the sum of its stopping points' tangential rows and offsets.
         let mut stuck: Vec<((Option<usize>, usize), ContactRows, usize)> = Vec::new();
         let mut worst = 0.0f64;
+        // How far each row's point approaches (for the islands that need settling).
+        let mut approach: Vec<f64> = Vec::new();
         let increment = Increment::new(&sol.dq, 1.0);
         for (k, ((c, m), l)) in contacts.iter().zip(points).zip(carries).enumerate() {
             if !*l {
@@ -1139,8 +1264,10 @@ impl Stepper {
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
             let vt = r.g_t + row_dot(&r.trow, &s.v);
             if !coulomb {
-                worst = worst.max(mu * vt.abs() - vn);
+                let a = mu * vt.abs() - vn;
+                worst = worst.max(a);
                 rows.push(r);
+                approach.push(a);
                 continue;
             }
             // Coulomb. A point that did not slip in the step (judged by its slip, not its
@@ -1152,10 +1279,13 @@ impl Stepper {
             let step_row = &pr.contacts[k];
             let slip = step_row.g_t + row_dot(&step_row.trow, &sol.dq);
             if slip.abs() <= COULOMB_TOLERANCE {
-                worst = worst.max(mu * vt.abs() - vn);
+                let a = mu * vt.abs() - vn;
+                worst = worst.max(a);
                 rows.push(r);
+                approach.push(a);
             } else if vt * slip < 0.0 {
-                worst = worst.max(vn.abs()).max(vt.abs());
+                let a = vn.abs().max(vt.abs());
+                worst = worst.max(a);
                 let pair = (c.a, c.b);
                 match stuck.iter_mut().find(|(p, _, _)| *p == pair) {
                     Some((_, t, count)) => {
@@ -1165,10 +1295,12 @@ impl Stepper {
                     None => stuck.push((pair, r.clone(), 1)),
                 }
                 rows.extend(equal_to_zero(r.key, r.g_n, &r.nrow, 1.0));
+                approach.extend([a, a]);
             } else {
                 worst = worst.max(-vn);
                 r.mu = 0.0;
                 rows.push(r);
+                approach.push(-vn);
             }
         }
         // No relative tangential velocity of a body pair's stopping points, on average (the
@@ -1183,6 +1315,29 @@ impl Stepper {
         }
         if worst * pr.dt <= VELOCITY_TOLERANCE {
             return Ok(0);
+        }
+        // Only the islands with a point that approaches: the problem is separable over
+        // islands, and each other island's velocity is its own closest admissible one.
+        let island = super::islands::components(self.bodies.len(), &rows);
+        let island_of = |r: &ContactRows| r.nrow.first().and_then(|e| island[e.0 / 3]);
+        let mut settles = vec![false; island.iter().flatten().max().map_or(0, |m| m + 1)];
+        for (r, &a) in rows.iter().zip(&approach) {
+            if let Some(i) = island_of(r)
+                && a * pr.dt > VELOCITY_TOLERANCE
+            {
+                settles[i] = true;
+            }
+        }
+        if settles.contains(&false) {
+            let keep: Vec<bool> = rows
+                .iter()
+                .map(|r| island_of(r).is_none_or(|i| settles[i]))
+                .collect();
+            let mut k = 0;
+            rows.retain(|_| {
+                k += 1;
+                keep[k - 1]
+            });
         }
         self.settled_velocities += 1;
         // Under Coulomb too the rows are solved as they are: each carries its own friction.
