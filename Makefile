@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-gallery \
 	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -245,6 +245,13 @@ bench-steps:
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)
+
+# The gallery series: 1, 4, 16 and 64 statues on pedestals (rockbench::gallery) under El Centro
+# 1940 x 2 for 15 s, native and rapier, then the native engine with every impact splitting the
+# whole scene's step (native.island_impacts = false); out/bench-gallery/{on,off}. About a minute.
+bench-gallery: records
+	$(CARGO) run --release --example bench_dynamic -- --gallery 1,4,16,64 --duration 15 --out out/bench-gallery/on
+	$(CARGO) run --release --example bench_dynamic -- --gallery 1,4,16,64 --duration 15 --engines native --island-impacts false --out out/bench-gallery/off
 
 # The work-precision benchmark of the slender block (every engine, step sizes, native variants).
 bench: build .venv
