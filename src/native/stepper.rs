@@ -152,6 +152,39 @@ fn first_root(g0: f64, b: f64, c: f64, h: f64) -> Option<f64> {
         .min_by(|a, b| a.total_cmp(b))
 }
 
+/// Keep the rows of the islands (`native::islands`) with a row whose point approaches,
+/// `approach * h > VELOCITY_TOLERANCE` (`approach` row by row, the rows after it belong to
+/// islands counted through those before): the velocity problem is separable over islands,
+/// and each other island's velocity is its own closest admissible one.
+fn keep_islands_that_approach(
+    n_blocks: usize,
+    rows: &mut Vec<ContactRows>,
+    approach: &[f64],
+    h: f64,
+) {
+    let island = super::islands::components(n_blocks, rows);
+    let island_of = |r: &ContactRows| r.nrow.first().and_then(|e| island[e.0 / 3]);
+    let mut settles = vec![false; island.iter().flatten().max().map_or(0, |m| m + 1)];
+    for (r, &a) in rows.iter().zip(approach) {
+        if let Some(i) = island_of(r)
+            && a * h > VELOCITY_TOLERANCE
+        {
+            settles[i] = true;
+        }
+    }
+    if settles.contains(&false) {
+        let keep: Vec<bool> = rows
+            .iter()
+            .map(|r| island_of(r).is_none_or(|i| settles[i]))
+            .collect();
+        let mut k = 0;
+        rows.retain(|_| {
+            k += 1;
+            keep[k - 1]
+        });
+    }
+}
+
 /// What a step started from, for `Stepper::locate_per_island`.
 struct Start<'a> {
     state: &'a NativeState,
@@ -239,6 +272,8 @@ pub struct Stepper {
     scope: Option<Vec<usize>>,
     /// Steps of one island located apart from the others (`island_impacts`).
     pub island_steps: u64,
+    /// `settle_velocity`'s working storage: how far each row's point approaches.
+    approach: Vec<f64>,
 }
 
 /// A step that could not be taken.
@@ -295,6 +330,7 @@ impl Stepper {
             sleep,
             scope: None,
             island_steps: 0,
+            approach: Vec::new(),
         }
     }
 
@@ -378,17 +414,13 @@ impl Stepper {
             return out;
         }
         let rects = &self.bodies.rects;
-        let every: Vec<usize>;
-        let members: &[usize] = match &self.scope {
-            Some(blocks) => blocks,
-            None => {
-                every = (0..rects.len()).collect();
-                &every
-            }
-        };
-        let placed: Vec<Placed> = members
-            .iter()
-            .map(|&i| {
+        // The blocks detection considers: the island stepped alone, or every block.
+        let scope = self.scope.as_deref();
+        let member = |k: usize| scope.map_or(k, |blocks| blocks[k]);
+        let count = scope.map_or(rects.len(), <[usize]>::len);
+        let placed: Vec<Placed> = (0..count)
+            .map(member)
+            .map(|i| {
                 let p = Pose {
                     x: s.q[3 * i],
                     z: s.q[3 * i + 1],
@@ -397,7 +429,8 @@ impl Stepper {
                 Placed::new(&rects[i], &p)
             })
             .collect();
-        for (&i, placed_i) in members.iter().zip(&placed) {
+        for (k, placed_i) in placed.iter().enumerate() {
+            let i = member(k);
             if asleep(i) {
                 continue;
             }
@@ -409,12 +442,12 @@ impl Stepper {
         }
         let margin = |k: usize| {
             // A reach, not a geometric quantity: sqrt is enough (and cheaper than hypot).
-            let i = members[k];
+            let i = member(k);
             let (vx, vz) = (s.v[3 * i], s.v[3 * i + 1]);
             frac * rects[i].min_dim() + 3.0 * (vx * vx + vz * vz).sqrt() * dt
         };
         for (ki, kj) in broad_phase(&placed, &margin) {
-            let (i, j) = (members[ki], members[kj]);
+            let (i, j) = (member(ki), member(kj));
             if asleep(i) && asleep(j) {
                 continue;
             }
@@ -688,13 +721,11 @@ impl Stepper {
         let mut iterations = 0;
         let mut located_here: Vec<u64> = Vec::new();
         let rounds = LOCATED_PER_STEP;
-        // Impacts located per island: the points loaded before the step (see
-        // `locate_per_island`).
+        // Impacts located per island (see `locate_per_island`).
         let per_island = self.settings.island_impacts
             && self.scope.is_none()
             && self.sleep.is_none()
             && self.bodies.len() > 1;
-        let loaded_before = per_island.then(|| self.loaded.clone());
         for round in 0..=rounds {
             let h = t_end - s.t;
             let s0 = s.clone();
@@ -718,14 +749,13 @@ impl Stepper {
                         })
                 })
                 .collect();
-            if round == 0
-                && !fresh.is_empty()
-                && let Some(loaded0) = &loaded_before
-            {
+            if round == 0 && per_island && !fresh.is_empty() {
+                // `self.loaded` is still the last step's: only the rounds below change it.
+                let loaded0 = self.loaded.clone();
                 let start = Start {
                     state: &s0,
                     dt,
-                    loaded: loaded0,
+                    loaded: &loaded0,
                 };
                 let ordinary = Ordinary {
                     problem: &pr,
@@ -1180,36 +1210,37 @@ impl Stepper {
             // The drift of the points that carry a force, and of the unloaded ones that end
             // closed or through their face: the rows of those were built at the predicted
             // end, which the solution may have left (a light plank struck in the sub-step).
-            let drift: Vec<f64> = points
-                .iter()
-                .zip(&pr.contacts)
-                .zip(contacts.iter().zip(&carries))
-                .map(|((m, r), (c, &loaded))| {
-                    let (dn, dt) = m.increments(&whole);
-                    let closes = c.gap + dn < CLOSED_GAP;
-                    let dn = dn - row_dot(&r.nrow, &dq);
-                    let dt = dt - row_dot(&r.trow, &dq);
-                    if loaded || closes {
-                        dn.abs().max(dt.abs())
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let worst = drift.iter().fold(0.0f64, |a, &b| a.max(b));
+            let drift = |k: usize| {
+                let (dn, dt) = points[k].increments(&whole);
+                let closes = contacts[k].gap + dn < CLOSED_GAP;
+                let r = &pr.contacts[k];
+                let dn = dn - row_dot(&r.nrow, &dq);
+                let dt = dt - row_dot(&r.trow, &dq);
+                if carries[k] || closes {
+                    dn.abs().max(dt.abs())
+                } else {
+                    0.0
+                }
+            };
+            let worst = (0..points.len()).map(drift).fold(0.0f64, f64::max);
             if worst <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
                 self.gradient_solves += solve as u64;
                 sol.iterations = iterations;
                 return Ok((sol, points, carries));
+            }
+            if self.bodies.len() == 1 {
+                // One island: solved again whole.
+                last = Some(sol);
+                continue;
             }
             if island.is_empty() {
                 island = super::islands::components(self.bodies.len(), &pr.contacts);
             }
             let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
             let mut it = vec![false; n_islands];
-            for (k, &d) in drift.iter().enumerate() {
-                if let Some(i) = island.get(contacts[k].b).copied().flatten()
-                    && d > DRIFT_TOLERANCE
+            for (k, c) in contacts.iter().enumerate() {
+                if let Some(i) = island.get(c.b).copied().flatten()
+                    && drift(k) > DRIFT_TOLERANCE
                 {
                     it[i] = true;
                 }
@@ -1246,8 +1277,11 @@ impl Stepper {
         // Coulomb: per body pair, the sum of its stopping points' tangential rows and offsets.
         let mut stuck: Vec<((Option<usize>, usize), ContactRows, usize)> = Vec::new();
         let mut worst = 0.0f64;
-        // How far each row's point approaches (for the islands that need settling).
-        let mut approach: Vec<f64> = Vec::new();
+        // How far each row's point approaches (for the islands that need settling; one block
+        // is one island).
+        let several = self.bodies.len() > 1;
+        let mut approach = std::mem::take(&mut self.approach);
+        approach.clear();
         let increment = Increment::new(&sol.dq, 1.0);
         for (k, ((c, m), l)) in contacts.iter().zip(points).zip(carries).enumerate() {
             if !*l {
@@ -1267,7 +1301,9 @@ impl Stepper {
                 let a = mu * vt.abs() - vn;
                 worst = worst.max(a);
                 rows.push(r);
-                approach.push(a);
+                if several {
+                    approach.push(a);
+                }
                 continue;
             }
             // Coulomb. A point that did not slip in the step (judged by its slip, not its
@@ -1282,7 +1318,9 @@ impl Stepper {
                 let a = mu * vt.abs() - vn;
                 worst = worst.max(a);
                 rows.push(r);
-                approach.push(a);
+                if several {
+                    approach.push(a);
+                }
             } else if vt * slip < 0.0 {
                 let a = vn.abs().max(vt.abs());
                 worst = worst.max(a);
@@ -1295,12 +1333,16 @@ impl Stepper {
                     None => stuck.push((pair, r.clone(), 1)),
                 }
                 rows.extend(equal_to_zero(r.key, r.g_n, &r.nrow, 1.0));
-                approach.extend([a, a]);
+                if several {
+                    approach.extend([a, a]);
+                }
             } else {
                 worst = worst.max(-vn);
                 r.mu = 0.0;
                 rows.push(r);
-                approach.push(-vn);
+                if several {
+                    approach.push(-vn);
+                }
             }
         }
         // No relative tangential velocity of a body pair's stopping points, on average (the
@@ -1313,31 +1355,12 @@ impl Stepper {
                 1.0 / count as f64,
             ));
         }
+        if several && worst * pr.dt > VELOCITY_TOLERANCE {
+            keep_islands_that_approach(self.bodies.len(), &mut rows, &approach, pr.dt);
+        }
+        self.approach = approach;
         if worst * pr.dt <= VELOCITY_TOLERANCE {
             return Ok(0);
-        }
-        // Only the islands with a point that approaches: the problem is separable over
-        // islands, and each other island's velocity is its own closest admissible one.
-        let island = super::islands::components(self.bodies.len(), &rows);
-        let island_of = |r: &ContactRows| r.nrow.first().and_then(|e| island[e.0 / 3]);
-        let mut settles = vec![false; island.iter().flatten().max().map_or(0, |m| m + 1)];
-        for (r, &a) in rows.iter().zip(&approach) {
-            if let Some(i) = island_of(r)
-                && a * pr.dt > VELOCITY_TOLERANCE
-            {
-                settles[i] = true;
-            }
-        }
-        if settles.contains(&false) {
-            let keep: Vec<bool> = rows
-                .iter()
-                .map(|r| island_of(r).is_none_or(|i| settles[i]))
-                .collect();
-            let mut k = 0;
-            rows.retain(|_| {
-                k += 1;
-                keep[k - 1]
-            });
         }
         self.settled_velocities += 1;
         // Under Coulomb too the rows are solved as they are: each carries its own friction.
