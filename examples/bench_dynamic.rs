@@ -184,19 +184,14 @@ fn main() -> anyhow::Result<()> {
     let record = std::fs::canonicalize("validation/records/elcentro-1940.AT2").map_err(|e| {
         anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)")
     })?;
-    let unit = if gallery.is_some() {
-        "pairs"
+    let (unit, what) = if gallery.is_some() {
+        ("pairs", "Galleries")
     } else {
-        "courses"
+        ("courses", "Walls in motion")
     };
     let mut csv = format!(
         "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
     );
-    let what = if gallery.is_some() {
-        "Galleries"
-    } else {
-        "Walls in motion"
-    };
     let mut md = format!(
         "# {what}: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
         budget.as_secs_f64()

@@ -79,13 +79,7 @@ impl GallerySpec {
                  [[blocks]]\nname = \"s{k}\"\nwidth = {width}\nheight = 1.8\nx = {x}\n"
             );
         }
-        let _ = writeln!(s, "[contact]\nfriction = {}\n", self.friction);
-        if let Some((file, scale)) = &self.record {
-            let _ = writeln!(
-                s,
-                "[excitation.horizontal]\nkind = \"record\"\nfile = \"{file}\"\nscale = {scale}"
-            );
-        }
+        crate::walls::write_contact_and_record(&mut s, self.friction, self.record.as_ref());
         s
     }
 }

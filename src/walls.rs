@@ -87,14 +87,24 @@ impl WallSpec {
                 self.height
             );
         }
-        let _ = writeln!(s, "[contact]\nfriction = {}\n", self.friction);
-        if let Some((file, scale)) = &self.record {
-            let _ = writeln!(
-                s,
-                "[excitation.horizontal]\nkind = \"record\"\nfile = \"{file}\"\nscale = {scale}"
-            );
-        }
+        write_contact_and_record(&mut s, self.friction, self.record.as_ref());
         s
+    }
+}
+
+/// The `[contact]` table and, if any, the horizontal record of a generated scene (walls and
+/// galleries, `rockbench::gallery`).
+pub(crate) fn write_contact_and_record(
+    s: &mut String,
+    friction: f64,
+    record: Option<&(String, f64)>,
+) {
+    let _ = writeln!(s, "[contact]\nfriction = {friction}\n");
+    if let Some((file, scale)) = record {
+        let _ = writeln!(
+            s,
+            "[excitation.horizontal]\nkind = \"record\"\nfile = \"{file}\"\nscale = {scale}"
+        );
     }
 }
 
