@@ -253,8 +253,9 @@ fn the_interior_point_rescue_gives_the_answer_of_the_cold_retry() {
 }
 
 /// The largest difference, over every step of the gallery's 15 s, between each pair's
-/// positions in the gallery and in a run of that pair alone.
-fn gallery_against_pairs_alone(set: &[&str]) -> f64 {
+/// positions in the gallery and in a run of that pair alone; and the gallery's steps of one
+/// island located apart from the others.
+fn gallery_against_pairs_alone(set: &[&str]) -> (f64, u64) {
     let mut gallery = GallerySpec::row(4);
     gallery.record = Some((record(), 2.0));
     let pairs = gallery.pairs.clone();
@@ -275,7 +276,7 @@ fn gallery_against_pairs_alone(set: &[&str]) -> f64 {
         .filter(|k| sg.q[6 * k + 5].abs() > 1.0)
         .count();
     assert!(overturned >= 2, "{overturned} statues overturned");
-    worst
+    (worst, g.island_steps)
 }
 
 /// Impacts located per island (`native.island_impacts`): four statues on their pedestals, 5 m
@@ -286,14 +287,16 @@ fn gallery_against_pairs_alone(set: &[&str]) -> f64 {
 /// alone.
 #[test]
 fn a_statue_in_a_gallery_moves_as_it_does_alone() {
-    let apart = gallery_against_pairs_alone(&[]);
+    let (apart, island_steps) = gallery_against_pairs_alone(&[]);
     assert_eq!(
         apart, 0.0,
         "island impacts: {apart:.3e} from the pairs alone"
     );
-    let together = gallery_against_pairs_alone(&["native.island_impacts=false"]);
+    assert!(island_steps > 0, "no island stepped alone");
+    let (together, island_steps) = gallery_against_pairs_alone(&["native.island_impacts=false"]);
     assert!(
         together > 1e-3,
         "impacts splitting the whole gallery's step: {together:.3e} from the pairs alone"
     );
+    assert_eq!(island_steps, 0);
 }
