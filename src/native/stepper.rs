@@ -860,10 +860,10 @@ impl Stepper {
     /// touching blocks that holds one goes on alone from its part of the ordinary step
     /// (`step_locating` on its own blocks and points, handed that part as its first sub-step);
     /// every other island keeps its ordinary step, which is its exact step (the step problem
-    /// is separable over islands). So an
-    /// island's step is split at its own impact instants only, whatever else the scene holds.
-    /// `s` holds the ordinary step on entry and the step on return. Returns `None` (nothing
-    /// done) when the islands with impacts are all the islands with contact points.
+    /// is separable over islands). So an island's step is split at its own impact instants
+    /// only, whatever else the scene holds. `s` holds the ordinary step on entry and the step
+    /// on return. Returns `None` (nothing done) when the islands with impacts are all the
+    /// islands with contact points.
     fn locate_per_island(
         &mut self,
         s: &mut NativeState,
