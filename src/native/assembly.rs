@@ -60,13 +60,16 @@ impl Bodies {
 }
 
 pub fn poses(q: &[f64]) -> Vec<Pose> {
-    q.chunks_exact(3)
-        .map(|c| Pose {
-            x: c[0],
-            z: c[1],
-            phi: c[2],
-        })
-        .collect()
+    (0..q.len() / 3).map(|i| pose(q, i)).collect()
+}
+
+/// Block `i`'s pose from the positions `q` (x, z, phi per block).
+pub fn pose(q: &[f64], i: usize) -> Pose {
+    Pose {
+        x: q[3 * i],
+        z: q[3 * i + 1],
+        phi: q[3 * i + 2],
+    }
 }
 
 /// Coefficients of `d·du_i(p)` on body i's DOFs for a direction d.

@@ -37,6 +37,18 @@ pub fn components(n_blocks: usize, contacts: &[ContactRows]) -> Vec<Option<usize
     scratch.island
 }
 
+/// Which islands (numbered as by [`components`], `island` block by block) hold one of
+/// `blocks`.
+pub fn holding(island: &[Option<usize>], blocks: impl IntoIterator<Item = usize>) -> Vec<bool> {
+    let mut held = vec![false; island.iter().flatten().max().map_or(0, |m| m + 1)];
+    for b in blocks {
+        if let Some(i) = island[b] {
+            held[i] = true;
+        }
+    }
+    held
+}
+
 /// [`components`] of detected contact points (before any rows are built).
 pub fn components_of_points(n_blocks: usize, points: &[ContactPoint]) -> Vec<Option<usize>> {
     let mut scratch = Components::default();

@@ -29,7 +29,7 @@
 //! Inertial route: coordinates relative to the ground, forces `-m a_eff`. Moving-ground route:
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
-use super::assembly::{Bodies, contact_rows, normal_row, poses};
+use super::assembly::{Bodies, contact_rows, normal_row, pose, poses};
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
 use super::material::{Increment, MaterialContact};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
@@ -153,36 +153,25 @@ fn first_root(g0: f64, b: f64, c: f64, h: f64) -> Option<f64> {
 }
 
 /// Keep the rows of the islands (`native::islands`) with a row whose point approaches,
-/// `approach * h > VELOCITY_TOLERANCE` (`approach` row by row, the rows after it belong to
-/// islands counted through those before): the velocity problem is separable over islands,
-/// and each other island's velocity is its own closest admissible one.
+/// `approach * h > VELOCITY_TOLERANCE` (`approach` holds the first rows' values; rows past its
+/// end are in the islands of those before them): the velocity problem is separable over
+/// islands, and each other island's velocity is its own closest admissible one.
 fn keep_islands_that_approach(
     n_blocks: usize,
     rows: &mut Vec<ContactRows>,
     approach: &[f64],
     h: f64,
 ) {
+    let block = |r: &ContactRows| r.nrow.first().map(|e| e.0 / 3);
     let island = super::islands::components(n_blocks, rows);
-    let island_of = |r: &ContactRows| r.nrow.first().and_then(|e| island[e.0 / 3]);
-    let mut settles = vec![false; island.iter().flatten().max().map_or(0, |m| m + 1)];
-    for (r, &a) in rows.iter().zip(approach) {
-        if let Some(i) = island_of(r)
-            && a * h > VELOCITY_TOLERANCE
-        {
-            settles[i] = true;
-        }
-    }
-    if settles.contains(&false) {
-        let keep: Vec<bool> = rows
-            .iter()
-            .map(|r| island_of(r).is_none_or(|i| settles[i]))
-            .collect();
-        let mut k = 0;
-        rows.retain(|_| {
-            k += 1;
-            keep[k - 1]
-        });
-    }
+    let settles = super::islands::holding(
+        &island,
+        rows.iter()
+            .zip(approach)
+            .filter(|(_, a)| **a * h > VELOCITY_TOLERANCE)
+            .filter_map(|(r, _)| block(r)),
+    );
+    rows.retain(|r| block(r).and_then(|b| island[b]).is_none_or(|i| settles[i]));
 }
 
 /// What a step started from, for `Stepper::locate_per_island`.
@@ -420,14 +409,7 @@ impl Stepper {
         let count = scope.map_or(rects.len(), <[usize]>::len);
         let placed: Vec<Placed> = (0..count)
             .map(member)
-            .map(|i| {
-                let p = Pose {
-                    x: s.q[3 * i],
-                    z: s.q[3 * i + 1],
-                    phi: s.q[3 * i + 2],
-                };
-                Placed::new(&rects[i], &p)
-            })
+            .map(|i| Placed::new(&rects[i], &pose(&s.q, i)))
             .collect();
         for (k, placed_i) in placed.iter().enumerate() {
             let i = member(k);
@@ -685,17 +667,14 @@ impl Stepper {
             return Some(contacts.to_vec());
         }
         let island = super::islands::components_of_points(self.bodies.len(), contacts);
-        let mut struck: Vec<usize> = contacts
-            .iter()
-            .filter(|c| approaches(c))
-            .filter_map(|c| island[c.b])
-            .collect();
-        struck.sort_unstable();
-        struck.dedup();
+        let struck = super::islands::holding(
+            &island,
+            contacts.iter().filter(|c| approaches(c)).map(|c| c.b),
+        );
         Some(
             contacts
                 .iter()
-                .filter(|c| island[c.b].is_some_and(|i| struck.binary_search(&i).is_ok()))
+                .filter(|c| island[c.b].is_some_and(|i| struck[i]))
                 .copied()
                 .collect(),
         )
@@ -874,17 +853,11 @@ impl Stepper {
     ) -> Result<Option<StepSolution>, StepError> {
         let n = self.bodies.len();
         let island = super::islands::components(n, &ordinary.problem.contacts);
-        let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
-        let mut hit: Vec<usize> = fresh
-            .iter()
-            .filter_map(|&k| island[contacts[k].b])
-            .collect();
-        hit.sort_unstable();
-        hit.dedup();
-        if hit.len() == n_islands {
+        let hit = super::islands::holding(&island, fresh.iter().map(|&k| contacts[k].b));
+        if hit.iter().all(|&h| h) {
             return Ok(None);
         }
-        let in_hit = |b: usize| island[b].is_some_and(|i| hit.binary_search(&i).is_ok());
+        let in_hit = |b: usize| island[b].is_some_and(|i| hit[i]);
         // A point's key holds its upper block (`assembly::contact_rows`), which is in the
         // point's island.
         let block_of_key = |key: u64| ((key >> 16) & 0xFF_FFFF) as usize;
@@ -899,7 +872,7 @@ impl Stepper {
         let mut accel = after.clone();
         let mut sol = ordinary.solution.clone();
         let (pr, whole) = (ordinary.problem, ordinary.solution);
-        for &i in &hit {
+        for i in (0..hit.len()).filter(|&i| hit[i]) {
             let blocks: Vec<usize> = (0..n).filter(|&b| island[b] == Some(i)).collect();
             let mine: Vec<usize> = (0..contacts.len())
                 .filter(|&k| island[contacts[k].b] == Some(i))
@@ -1236,15 +1209,12 @@ impl Stepper {
             if island.is_empty() {
                 island = super::islands::components(self.bodies.len(), &pr.contacts);
             }
-            let n_islands = island.iter().flatten().max().map_or(0, |m| m + 1);
-            let mut it = vec![false; n_islands];
-            for (k, c) in contacts.iter().enumerate() {
-                if let Some(i) = island.get(c.b).copied().flatten()
-                    && drift(k) > DRIFT_TOLERANCE
-                {
-                    it[i] = true;
-                }
-            }
+            let it = super::islands::holding(
+                &island,
+                (0..contacts.len())
+                    .filter(|&k| drift(k) > DRIFT_TOLERANCE)
+                    .map(|k| contacts[k].b),
+            );
             iterating = it.contains(&false).then_some(it);
             last = Some(sol);
         }

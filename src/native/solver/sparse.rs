@@ -61,16 +61,15 @@ use crate::native::problem::{StepProblem, StepSolution};
 /// (`D_i u + r_i < l_i / rho_i`) too thin a margin, so a rocking column re-factorises ten
 /// times a step; 1e4 needs about two factorisations a step there and none at rest.
 pub const RHO: f64 = 1e4;
-/// Normalised penalty a problem starts from on a wide envelope (`WIDE_ENVELOPE`) and on a
-/// still narrow one (`STILL_SPEED`), except on its last retry (which starts from `RHO`).
-/// Measured on the walls under El Centro x2 (a probe stepping the stepper, dt 1e-3; base 1e4 /
-/// 1e5 / 1e6 / 1e7 / 1e8): the 215-block wall's 5 s
-/// 2.02 / 1.21 / 1.21 / 0.754 / 0.757 ms a step (5.4 / 2.3 / 2.6 / 0.92 / 1.2 factorisations a
-/// step), the 860-block wall's first second 5.20 / 3.46 / 2.58 / 2.17 / 2.04 ms a step (13.9 /
-/// 7.5 / 4.7 / 3.2 / 2.7 Newton steps): from a stiff start the warm-started multipliers settle
-/// in one or two updates where the ladder from 1e4 took up to ten (see docs/method.md). The
-/// 430-block wall's cold last retries fail from 1e7 (at 4.216 s, every retry and Clarabel) and
-/// not from 1e4.
+/// Normalised penalty a problem starts from on a wide envelope (`WIDE_ENVELOPE`) and on a still
+/// narrow one (`STILL_SPEED`), except on its last retry (which starts from `RHO`). Measured on the
+/// walls under El Centro x2 (a probe stepping the stepper, dt 1e-3; base 1e4 / 1e5 / 1e6 / 1e7 /
+/// 1e8): the 215-block wall's 5 s 2.02 / 1.21 / 1.21 / 0.754 / 0.757 ms a step (5.4 / 2.3 / 2.6 /
+/// 0.92 / 1.2 factorisations a step), the 860-block wall's first second 5.20 / 3.46 / 2.58 / 2.17 /
+/// 2.04 ms a step (13.9 / 7.5 / 4.7 / 3.2 / 2.7 Newton steps): from a stiff start the warm-started
+/// multipliers settle in one or two updates where the ladder from 1e4 took up to ten (see
+/// docs/method.md). The 430-block wall's cold last retries fail from 1e7 (at 4.216 s, every retry
+/// and Clarabel) and not from 1e4.
 pub const RHO_WIDE: f64 = 1e7;
 /// A problem on a narrower envelope starts from `RHO_WIDE` too when it has the rows of the
 /// last one and the last solution moved no DOF faster than this (m/s, rad/s; `u = dq/dt`): a
@@ -78,9 +77,9 @@ pub const RHO_WIDE: f64 = 1e7;
 /// wall's. Measured (running-bond walls of 2-5 courses of 21 blocks under El Centro x2, 5 s,
 /// `bench_dynamic`, 1e4 start -> this rule): 43 / 64 / 86 / 107 blocks 0.122 / 0.244 / 0.384 /
 /// 0.543 -> 0.072 / 0.119 / 0.182 / 0.254 ms a step (the 107-block wall the same at 1e-4
-/// m/s). Where blocks move
-/// the soft start stays: a tilted column of 25 blocks rocking freely took 25 factorisations a
-/// problem from the stiff start against 7.9 from 1e4 (the thin margins of `RHO`'s text).
+/// m/s). Where blocks move the soft start stays: a tilted column of 25 blocks rocking freely
+/// took 25 factorisations a problem from the stiff start against 7.9 from 1e4 (the thin
+/// margins of `RHO`'s text).
 pub const STILL_SPEED: f64 = 1e-6;
 /// Largest normalised penalty: when the multipliers converge slowly (a change not below a
 /// quarter of the previous one) every penalty grows tenfold, up to this.
