@@ -252,6 +252,7 @@ pub struct Stepper {
     /// Sorted keys of the points that carried a normal force at the end of the last step
     /// (impact location: a point that did is not a new impact).
     loaded: Vec<u64>,
+    struck: Vec<u64>,
     /// Non-associative friction (warm start and counters).
     pub coulomb: Coulomb,
     /// Sleeping islands (`native.sleep`, excitation applied as horizontal inertial forces).
@@ -315,6 +316,7 @@ impl Stepper {
             settled_velocities: 0,
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
+            struck: Vec::new(),
             coulomb: Coulomb::default(),
             sleep,
             scope: None,
@@ -474,6 +476,7 @@ impl Stepper {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
+        let free_motion = std::cell::OnceCell::new();
         let rows = contacts
             .iter()
             .map(|c| {
@@ -499,6 +502,29 @@ impl Stepper {
                         // plastic, no rebound.
                         r.g_n += -c.gap - (1.0 - th) * dt * vn;
                         r.g_t += -(1.0 - th) * dt * vt;
+                    }
+                    let leaves = || {
+                        // The point's gap at the end of the step's free motion,
+                        // `dq = h v0 + h^2/2 M^-1 f` (exact gap function).
+                        let dq = free_motion.get_or_init(|| {
+                            (0..3 * n)
+                                .map(|i| {
+                                    dt * s.v[i] + 0.5 * dt * dt * force[i] / self.bodies.mass[i]
+                                })
+                                .collect::<Vec<f64>>()
+                        });
+                        let mut g = MaterialContact::new(c, &ps)
+                            .gaps(&Increment::new(dq, 1.0))
+                            .0;
+                        if c.a.is_none() {
+                            g -= c.normal.0 * ground_step.0 + c.normal.1 * ground_step.1;
+                        }
+                        g
+                    };
+                    if self.free_until_it_closes(c, r.key, vn, dt, leaves) {
+                        // Open, or leaving its face: no force before it touches (the gap row
+                        // alone); its closing is located.
+                        r.mu = 0.0;
                     }
                 }
                 r
@@ -528,6 +554,43 @@ impl Stepper {
     fn approach_speed(&self, c: &ContactPoint, ps: &[Pose], s: &NativeState, h: f64) -> f64 {
         let r = contact_rows(c, ps, 0.0, (0.0, 0.0));
         (-self.normal_speed(c, &r.nrow, &s.v, s.ground_w)).max(c.gap / h)
+    }
+
+    /// Whether a point (detected as `c`, its rows' key `key`, normal relative velocity `vn` at
+    /// the start of a (sub-)step of length `h`; `free_gap` gives its gap at the end of the
+    /// step's free motion) is free of the friction cone until it closes, under the associative
+    /// law with impacts located:
+    /// - a point that does not touch its face (open, and not located in the last step) and
+    ///   would be located if it closed (approaching at least as fast as `locate_speed`);
+    /// - a point that touches its face and leaves it: it separates (`vn h > CLOSED_GAP`) and
+    ///   its free motion ends the step open (a plastic impact with slip leaves a point at
+    ///   `v_n = mu |v_t|`; a block lifts the pivot it rocks off). Not a pivot: its normal
+    ///   velocity at a step's start, O(h^2) from the chord of the step, is below `g h / 2`.
+    ///
+    /// Such a point carries no force before it touches, as the law says of an open point; the
+    /// cone, anchored where the step starts, would bear on it once it slid `|slip| >= gap / mu`
+    /// (an O(h) force on a point in the air: the two-block case's pedestal hops after its ground
+    /// impact came out different at every dt). Its rows have `mu = 0` (the gap alone), and its
+    /// closing is a new impact, located, whose plastic law is the cone.
+    fn free_until_it_closes(
+        &self,
+        c: &ContactPoint,
+        key: u64,
+        vn: f64,
+        h: f64,
+        free_gap: impl FnOnce() -> f64,
+    ) -> bool {
+        if self.settings.friction_law != FrictionLaw::Associative || !self.settings.locate_impacts {
+            return false;
+        }
+        let touches = c.gap <= CLOSED_GAP || self.loaded.binary_search(&key).is_ok();
+        if touches {
+            self.struck.binary_search(&key).is_ok()
+                && vn * h > CLOSED_GAP
+                && free_gap() > CLOSED_GAP
+        } else {
+            (-vn).max(c.gap / h) >= self.settings.locate_speed
+        }
     }
 
     /// Normal relative velocity of a point for block velocities `v` and ground velocity `w`
@@ -718,14 +781,22 @@ impl Stepper {
             // New impacts, those slower than `locate_speed` left to the ordinary step.
             let slowest = self.settings.locate_speed;
             let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
+            // Points that touched their faces at the start and left them and end closed are
+            // new impacts too (`free_until_it_closes`: their rows had no cone).
+            let left = |k: usize| {
+                pr.contacts[k].mu == 0.0
+                    && (contacts[k].gap <= CLOSED_GAP
+                        || self.loaded.binary_search(&pr.contacts[k].key).is_ok())
+            };
             let fresh: Vec<usize> = (0..contacts.len())
                 .filter(|&k| {
-                    contacts[k].gap > CLOSED_GAP
-                        && carries[k]
-                        && self.loaded.binary_search(&pr.contacts[k].key).is_err()
-                        && ps0.as_ref().is_none_or(|ps| {
-                            self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
-                        })
+                    carries[k]
+                        && ((contacts[k].gap > CLOSED_GAP
+                            && self.loaded.binary_search(&pr.contacts[k].key).is_err()
+                            && ps0.as_ref().is_none_or(|ps| {
+                                self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
+                            }))
+                            || left(k))
                 })
                 .collect();
             if round == 0 && per_island && !fresh.is_empty() {
@@ -775,6 +846,9 @@ impl Stepper {
                 // `g h^2/2`).
                 self.loaded = closed_keys(&pr, &carries);
                 self.loaded.extend(&located_here);
+                located_here.sort_unstable();
+                located_here.dedup();
+                self.struck = located_here;
                 self.loaded.sort_unstable();
                 self.loaded.dedup();
                 sol.iterations += iterations;
@@ -825,6 +899,9 @@ impl Stepper {
                     failure,
                 })?;
             located_here.extend(&located);
+            self.struck.extend(&located);
+            self.struck.sort_unstable();
+            self.struck.dedup();
             self.loaded.extend(&located);
             self.loaded.sort_unstable();
             self.loaded.dedup();
@@ -870,6 +947,9 @@ impl Stepper {
         // The acceleration of the ordinary step: the predictor of the free trial that follows.
         let after = self.accel.clone();
         let mut accel = after.clone();
+        // The last step's struck points; after this one, those struck in it (by islands).
+        let struck_before = std::mem::take(&mut self.struck);
+        let mut struck = Vec::new();
         let mut sol = ordinary.solution.clone();
         let (pr, whole) = (ordinary.problem, ordinary.solution);
         for i in (0..hit.len()).filter(|&i| hit[i]) {
@@ -902,6 +982,7 @@ impl Stepper {
             self.accel.copy_from_slice(&after);
             self.loaded.clear();
             self.loaded.extend_from_slice(start.loaded);
+            self.struck.clone_from(&struck_before);
             self.scope = Some(blocks);
             let run = self.step_locating(&mut alone, points, start.dt, Some(taken));
             let blocks = self.scope.take().expect("set above");
@@ -913,12 +994,15 @@ impl Stepper {
                 accel[d.clone()].copy_from_slice(&self.accel[d]);
             }
             loaded.append(&mut self.loaded);
+            struck.append(&mut self.struck);
             last.append(&mut self.last_contacts);
             self.island_steps += 1;
         }
         loaded.sort_unstable();
         loaded.dedup();
         self.loaded = loaded;
+        struck.sort_unstable();
+        self.struck = struck;
         self.accel = accel;
         self.last_contacts = last;
         Ok(Some(sol))
@@ -972,8 +1056,11 @@ impl Stepper {
                 let dd = (s1.ground_d.0 - s0.ground_d.0, s1.ground_d.1 - s0.ground_d.1);
                 g1 -= c.normal.0 * dd.0 + c.normal.1 * dd.1;
             }
-            let c2 = (g1 - c.gap - vn0 * h) / (h * h);
-            if let Some(t) = first_root(c.gap, vn0, c2, h) {
+            // A point that left its face from within `CLOSED_GAP` of it closes where it
+            // comes back to the face, not where it crosses a round-off penetration.
+            let g0 = c.gap.max(0.0);
+            let c2 = (g1 - g0 - vn0 * h) / (h * h);
+            if let Some(t) = first_root(g0, vn0, c2, h) {
                 tau = Some(tau.map_or(t, |x: f64| x.min(t)));
             }
         }
