@@ -58,8 +58,9 @@ fragility-engines: fragility-rapier fragility-mujoco fragility-pybullet
 test: test-no-default-features test-rust test-python wheel-test
 
 # The validation tests load the earthquake case, whose record `make records` downloads; the
-# MuJoCo and PyBullet tests run the worker of the `.venv`.
-test-no-default-features: chromium ffmpeg records siconos .venv
+# MuJoCo and PyBullet tests run the worker of the `.venv`; the fragility tests write `--paper`
+# figures (rsvg-convert).
+test-no-default-features: chromium ffmpeg records paper-tools siconos .venv
 	$(CARGO) test --release --no-default-features
 
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
