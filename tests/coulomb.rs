@@ -11,6 +11,8 @@ use rockbench::scene::{Scene, load_scene_with_overrides, parse_scene_str};
 use rockbench::trajectory::Trajectory;
 use std::path::Path;
 
+mod common;
+
 fn scene_path(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("validation/scenes/{name}.toml"))
 }
@@ -579,17 +581,13 @@ start = 4.6871818064231116e-2
 /// step 1e-4 gives 0.6182, 1.7461, 2.4743, 3.0040, 3.4059 s (docs/method.md).
 #[test]
 fn the_two_block_case_converges_with_coulomb_friction_under_the_impact_stepper() {
-    let events = |dt: &str| -> Vec<f64> {
+    let events = |dt: &str| {
         let set = [
             COULOMB.to_string(),
             "native.stepper=\"impact\"".to_string(),
             format!("native.dt={dt}"),
         ];
-        let s = load_scene_with_overrides(&scene_path("two-block-free-rocking"), &set).unwrap();
-        let (_, summary) = run_timed(engine_by_name("native").unwrap().as_ref(), &s).unwrap();
-        let mut e = vec![summary.blocks[0].impacts[0]];
-        e.extend(&summary.blocks[1].impacts[..5]);
-        e
+        common::two_block_events(&set, 5)
     };
     let (coarse, fine) = (events("1e-3"), events("2.5e-4"));
     for (k, (a, b)) in coarse.iter().zip(&fine).enumerate() {

@@ -569,14 +569,7 @@ fn an_impact_slower_than_locate_speed_closes_at_the_end_of_its_step() {
 /// 5e-4 and 0.605648; 0.616720, 1.813391, 2.564563 s at 2.5e-4 (27 us; docs/method.md).
 #[test]
 fn the_two_block_case_converges_under_the_associative_law() {
-    let events = |dt: &str| -> Vec<f64> {
-        let set = [format!("native.dt={dt}")];
-        let s = load_scene_with_overrides(&scene_path("two-block-free-rocking"), &set).unwrap();
-        let (_, summary) = run_timed(engine_by_name("native").unwrap().as_ref(), &s).unwrap();
-        let mut e = vec![summary.blocks[0].impacts[0]];
-        e.extend(&summary.blocks[1].impacts[..3]);
-        e
-    };
+    let events = |dt: &str| common::two_block_events(&[format!("native.dt={dt}")], 3);
     let (coarse, fine) = (events("5e-4"), events("2.5e-4"));
     for (k, (a, b)) in coarse.iter().zip(&fine).enumerate() {
         eprintln!("event {k}: {a:.6} s at dt 5e-4, {b:.6} s at 2.5e-4");

@@ -105,3 +105,16 @@ pub fn assert_report_renders(out: &Path) {
         "no plotted curve in the screenshot ({blue} blue pixels)"
     );
 }
+
+/// The two-block case (`validation/scenes/two-block-free-rocking.toml`) on the native engine with
+/// the settings `set`: the pedestal's ground impact, then the statue's first `crossings` zero
+/// crossings, s (the events of the run's summary).
+pub fn two_block_events(set: &[String], crossings: usize) -> Vec<f64> {
+    use rockbench::engines::{engine_by_name, run_timed};
+    let path = root().join("validation/scenes/two-block-free-rocking.toml");
+    let scene = rockbench::scene::load_scene_with_overrides(&path, set).unwrap();
+    let (_, summary) = run_timed(engine_by_name("native").unwrap().as_ref(), &scene).unwrap();
+    let mut events = vec![summary.blocks[0].impacts[0]];
+    events.extend(&summary.blocks[1].impacts[..crossings]);
+    events
+}
