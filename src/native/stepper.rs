@@ -252,6 +252,9 @@ pub struct Stepper {
     /// Sorted keys of the points that carried a normal force at the end of the last step
     /// (impact location: a point that did is not a new impact).
     loaded: Vec<u64>,
+    /// Sorted keys of the points struck by a located impact in the last step (and in this one
+    /// as it goes on): such a point that leaves its face is free of the cone
+    /// (`free_until_it_closes`).
     struck: Vec<u64>,
     /// Non-associative friction (warm start and counters).
     pub coulomb: Coulomb,
@@ -562,10 +565,12 @@ impl Stepper {
     /// law with impacts located:
     /// - a point that does not touch its face (open, and not located in the last step) and
     ///   would be located if it closed (approaching at least as fast as `locate_speed`);
-    /// - a point that touches its face and leaves it: it separates (`vn h > CLOSED_GAP`) and
-    ///   its free motion ends the step open (a plastic impact with slip leaves a point at
-    ///   `v_n = mu |v_t|`; a block lifts the pivot it rocks off). Not a pivot: its normal
-    ///   velocity at a step's start, O(h^2) from the chord of the step, is below `g h / 2`.
+    /// - a point struck by a located impact in this step or the last that touches its face and
+    ///   leaves it: it separates (`vn h > CLOSED_GAP`) and its free motion ends the step open
+    ///   (a plastic impact with slip leaves a point at `v_n = mu |v_t|`). A pivot the block
+    ///   keeps is never freed: its normal velocity at a step's start, O(h^2) from the chord of
+    ///   the step, is below the fall of its free motion. The pivot a rocking block lifts off
+    ///   was struck by nothing and keeps its cone.
     ///
     /// Such a point carries no force before it touches, as the law says of an open point; the
     /// cone, anchored where the step starts, would bear on it once it slid `|slip| >= gap / mu`
