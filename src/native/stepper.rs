@@ -787,9 +787,11 @@ impl Stepper {
             let slowest = self.settings.locate_speed;
             let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
             // Points that touched their faces at the start and left them and end closed are
-            // new impacts too (`free_until_it_closes`: their rows had no cone).
+            // new impacts too (`free_until_it_closes`: their rows had no cone; a frictionless
+            // interface's rows never have one, and its points are freed of nothing).
             let left = |k: usize| {
                 pr.contacts[k].mu == 0.0
+                    && self.bodies.friction(&contacts[k]) > 0.0
                     && (contacts[k].gap <= CLOSED_GAP
                         || self.loaded.binary_search(&pr.contacts[k].key).is_ok())
             };
