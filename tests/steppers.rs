@@ -590,7 +590,7 @@ fn a_frictionless_interface_locates_only_real_impacts() {
         );
         let scene = rockbench::scene::parse_scene_str(&text, false, "frictionless", &[]).unwrap();
         let (mut stepper, mut state) = stepper_for(&scene).unwrap();
-        let steps = (duration / 1e-3_f64).round() as usize; // the default dt
+        let steps = (duration / rockbench::native::NativeSettings::default().dt).round() as usize;
         for _ in 0..steps {
             stepper.step(&mut state).unwrap();
         }

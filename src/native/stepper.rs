@@ -559,6 +559,12 @@ impl Stepper {
         (-self.normal_speed(c, &r.nrow, &s.v, s.ground_w)).max(c.gap / h)
     }
 
+    /// Whether a point (detected as `c`, its rows' key `key`) touches its face at the start of a
+    /// (sub-)step: closed, or loaded at the end of the last step (its closing is no new impact).
+    fn touches(&self, c: &ContactPoint, key: u64) -> bool {
+        c.gap <= CLOSED_GAP || self.loaded.binary_search(&key).is_ok()
+    }
+
     /// Whether a point (detected as `c`, its rows' key `key`, normal relative velocity `vn` at
     /// the start of a (sub-)step of length `h`; `free_gap` gives its gap at the end of the
     /// step's free motion) is free of the friction cone until it closes, under the associative
@@ -588,8 +594,7 @@ impl Stepper {
         if self.settings.friction_law != FrictionLaw::Associative || !self.settings.locate_impacts {
             return false;
         }
-        let touches = c.gap <= CLOSED_GAP || self.loaded.binary_search(&key).is_ok();
-        if touches {
+        if self.touches(c, key) {
             self.struck.binary_search(&key).is_ok()
                 && vn * h > CLOSED_GAP
                 && free_gap() > CLOSED_GAP
@@ -787,19 +792,15 @@ impl Stepper {
             let slowest = self.settings.locate_speed;
             let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
             // Points that touched their faces at the start and left them and end closed are
-            // new impacts too (`free_until_it_closes`: their rows had no cone; a frictionless
-            // interface's rows never have one, and its points are freed of nothing).
-            let left = |k: usize| {
-                pr.contacts[k].mu == 0.0
-                    && self.bodies.friction(&contacts[k]) > 0.0
-                    && (contacts[k].gap <= CLOSED_GAP
-                        || self.loaded.binary_search(&pr.contacts[k].key).is_ok())
-            };
+            // new impacts too (`free_until_it_closes`: their rows had less friction than their
+            // interface, i.e. none; a frictionless interface's points are freed of nothing).
+            let touched = |k: usize| self.touches(&contacts[k], pr.contacts[k].key);
+            let left =
+                |k: usize| touched(k) && pr.contacts[k].mu < self.bodies.friction(&contacts[k]);
             let fresh: Vec<usize> = (0..contacts.len())
                 .filter(|&k| {
                     carries[k]
-                        && ((contacts[k].gap > CLOSED_GAP
-                            && self.loaded.binary_search(&pr.contacts[k].key).is_err()
+                        && ((!touched(k)
                             && ps0.as_ref().is_none_or(|ps| {
                                 self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
                             }))
