@@ -60,7 +60,15 @@ impl Bodies {
 }
 
 pub fn poses(q: &[f64]) -> Vec<Pose> {
-    (0..q.len() / 3).map(|i| pose(q, i)).collect()
+    let mut ps = Vec::new();
+    poses_into(q, &mut ps);
+    ps
+}
+
+/// [`poses`] into the caller's buffer.
+pub fn poses_into(q: &[f64], ps: &mut Vec<Pose>) {
+    ps.clear();
+    ps.extend((0..q.len() / 3).map(|i| pose(q, i)));
 }
 
 /// Block `i`'s pose from the positions `q` (x, z, phi per block).
@@ -93,15 +101,15 @@ fn body_terms(row: &mut SparseRow, i: usize, pose: &Pose, p: (f64, f64), d: (f64
     row.extend(body_entries(i, pose, p, d, sign));
 }
 
-/// The normal row of one contact point (the `nrow` of [`contact_rows`]) without allocating:
-/// its entries and their number.
-pub fn normal_row(c: &ContactPoint, poses: &[Pose]) -> ([(usize, f64); 6], usize) {
+/// The normal row of one contact point (the `nrow` of [`contact_rows`]) at the positions `q`,
+/// without allocating: its entries and their number.
+pub fn normal_row(c: &ContactPoint, q: &[f64]) -> ([(usize, f64); 6], usize) {
     let mut row = [(0, 0.0); 6];
-    row[..3].copy_from_slice(&body_entries(c.b, &poses[c.b], c.point, c.normal, 1.0));
+    row[..3].copy_from_slice(&body_entries(c.b, &pose(q, c.b), c.point, c.normal, 1.0));
     let Some(a) = c.a else {
         return (row, 3);
     };
-    row[3..].copy_from_slice(&body_entries(a, &poses[a], c.point, c.normal, -1.0));
+    row[3..].copy_from_slice(&body_entries(a, &pose(q, a), c.point, c.normal, -1.0));
     (row, 6)
 }
 

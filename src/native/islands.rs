@@ -24,7 +24,7 @@ use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::solver::{ContactSolver, SolveFailure};
 use crate::geometry::ContactPoint;
 use rayon::prelude::*;
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 
 /// Islands of at least this many DOFs are worth solving on a thread of their own.
 pub const PARALLEL_DOFS: usize = 150;
@@ -137,7 +137,7 @@ struct Part {
 pub struct Islands {
     make: Box<dyn Fn() -> Box<dyn ContactSolver> + Send>,
     name: &'static str,
-    solvers: HashMap<usize, Box<dyn ContactSolver>>,
+    solvers: BTreeMap<usize, Box<dyn ContactSolver>>,
     /// Fallbacks, factorisations and rescues of back-ends already dropped.
     retired: (u64, u64, u64),
     /// Islands solved in all (for diagnostics).
@@ -150,7 +150,7 @@ impl Islands {
         Islands {
             make,
             name,
-            solvers: HashMap::new(),
+            solvers: BTreeMap::new(),
             retired: (0, 0, 0),
             islands_solved: 0,
             components: Components::default(),

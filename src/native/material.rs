@@ -35,17 +35,49 @@ pub struct Increment<'a> {
     dq: &'a [f64],
     k: f64,
     /// Computed when a point first asks (a step of one island among many asks for few bodies).
-    turns: Vec<OnceCell<(f64, f64, f64)>>,
+    turns: Turns,
+}
+
+/// A body's rotation over an increment, `(sin a, cos a, cos a - 1)`.
+type Turn = (f64, f64, f64);
+
+/// Bodies whose turns an [`Increment`] holds inline: the steps of small scenes, the cheapest,
+/// build several increments each and allocate none.
+const INLINE_BODIES: usize = 4;
+
+/// One lazily computed turn per body.
+enum Turns {
+    Inline([OnceCell<Turn>; INLINE_BODIES]),
+    Heap(Vec<OnceCell<Turn>>),
+}
+
+impl Turns {
+    fn new(bodies: usize) -> Self {
+        if bodies <= INLINE_BODIES {
+            Turns::Inline([const { OnceCell::new() }; INLINE_BODIES])
+        } else {
+            Turns::Heap((0..bodies).map(|_| OnceCell::new()).collect())
+        }
+    }
+    fn of(&self, b: usize) -> &OnceCell<Turn> {
+        match self {
+            Turns::Inline(cells) => &cells[b],
+            Turns::Heap(cells) => &cells[b],
+        }
+    }
 }
 
 impl<'a> Increment<'a> {
     pub fn new(dq: &'a [f64], k: f64) -> Self {
-        let turns = (0..dq.len() / 3).map(|_| OnceCell::new()).collect();
-        Increment { dq, k, turns }
+        Increment {
+            dq,
+            k,
+            turns: Turns::new(dq.len() / 3),
+        }
     }
     /// `(sin a, cos a, cos a - 1)` of body `b`'s rotation `a` over the increment.
-    fn turn(&self, b: usize) -> (f64, f64, f64) {
-        *self.turns[b].get_or_init(|| {
+    fn turn(&self, b: usize) -> Turn {
+        *self.turns.of(b).get_or_init(|| {
             let a = self.k * self.dq[3 * b + 2];
             let (s, c) = a.sin_cos();
             let h = (0.5 * a).sin();

@@ -157,7 +157,7 @@ pub struct ContactRows {
 }
 
 /// Everything a contact solver needs for one step.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct StepProblem {
     pub theta: f64,
     pub dt: f64,

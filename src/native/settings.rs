@@ -98,8 +98,8 @@ pub struct NativeSettings {
     /// `primal` (displacement-based) or `dual` (force-based) QP (default primal).
     #[serde(default)]
     pub formulation: Formulation,
-    /// `paper` (the paper's theta-method with the position-level law, the default; `position`
-    /// is accepted for it) or `impact` (impact-consistent, second order).
+    /// `impact` (impact-consistent, second order; the default) or `paper` (the paper's
+    /// theta-method with the position-level law; `position` is accepted for it).
     #[serde(default)]
     pub stepper: StepperKind,
     /// Impact-consistent stepper only: locate the instant within a step at which a new contact

@@ -5,10 +5,10 @@
 //! `q = q0 + dq`.
 //!
 //! Two contact laws in time (`native.stepper`):
-//! - `paper` (the paper's scheme, the default): every contact point gets
+//! - `paper` (the paper's scheme): every contact point gets
 //!   `g0 + (nrow ± mu trow) dq >= 0`. The step that closes a contact returns a rebound
 //!   `e ~ (1 - theta)/theta`.
-//! - `impact` (impact-consistent, second order): midpoint kinematics, `dq = h (v0 + v)/2`;
+//! - `impact` (impact-consistent, second order; the default): midpoint kinematics, `dq = h (v0 + v)/2`;
 //!   the rows are discrete gradients of each point's gap functions between the ends of the step
 //!   (`native::material`, re-evaluated until the loaded points do not drift), so a closed
 //!   contact keeps its gap exactly and its force does no work; the end velocity is made
@@ -29,7 +29,7 @@
 //! Inertial route: coordinates relative to the ground, forces `-m a_eff`. Moving-ground route:
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
-use super::assembly::{Bodies, contact_rows, normal_row, pose, poses};
+use super::assembly::{Bodies, contact_rows, normal_row, pose, poses, poses_into};
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
 use super::material::{Increment, MaterialContact};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
@@ -94,31 +94,36 @@ fn row_dot(row: &[(usize, f64)], x: &[f64]) -> f64 {
 /// DOFs, and each back-end splits the load between its two points its own way; deciding by
 /// force, Clarabel and the active-set back-end gave the two-block case's first crossing of the
 /// statue 7 ms apart).
-fn closed(pr: &StepProblem, sol: &StepSolution, law: FrictionLaw) -> Vec<bool> {
-    pr.contacts
-        .iter()
-        .map(|c| {
-            let n = c.g_n + row_dot(&c.nrow, &sol.dq);
-            let gap = match law {
-                FrictionLaw::Associative => n - c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs(),
-                FrictionLaw::Coulomb => n,
-            };
-            gap <= CLOSED_GAP
-        })
-        .collect()
+fn closed_into(pr: &StepProblem, sol: &StepSolution, law: FrictionLaw, closed: &mut Vec<bool>) {
+    closed.clear();
+    closed.extend(pr.contacts.iter().map(|c| {
+        let n = c.g_n + row_dot(&c.nrow, &sol.dq);
+        let gap = match law {
+            FrictionLaw::Associative => n - c.mu * (c.g_t + row_dot(&c.trow, &sol.dq)).abs(),
+            FrictionLaw::Coulomb => n,
+        };
+        gap <= CLOSED_GAP
+    }));
 }
 
-/// Sorted keys of the points of `pr` that `closed` (from [`closed`]) marks.
+/// Sorted keys of the points of `pr` that `closed` (from [`closed_into`]) marks, into `keys`.
+fn closed_keys_into(pr: &StepProblem, closed: &[bool], keys: &mut Vec<u64>) {
+    keys.clear();
+    keys.extend(
+        pr.contacts
+            .iter()
+            .zip(closed)
+            .filter(|(_, l)| **l)
+            .map(|(c, _)| c.key),
+    );
+    keys.sort_unstable();
+}
+
+/// Sorted keys of the points of `pr` that `closed` marks.
 fn closed_keys(pr: &StepProblem, closed: &[bool]) -> Vec<u64> {
-    let mut k: Vec<u64> = pr
-        .contacts
-        .iter()
-        .zip(closed)
-        .filter(|(_, l)| **l)
-        .map(|(c, _)| c.key)
-        .collect();
-    k.sort_unstable();
-    k
+    let mut keys = Vec::new();
+    closed_keys_into(pr, closed, &mut keys);
+    keys
 }
 
 /// Smallest root in (0, h] of `g0 + b tau + c tau^2` with `g0 > 0`; without a real root, the
@@ -199,7 +204,7 @@ struct Ordinary<'a> {
 }
 
 /// State of the native engine between steps.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct NativeState {
     pub t: f64,
     pub step: u64,
@@ -210,6 +215,54 @@ pub struct NativeState {
     pub ground_d: (f64, f64),
     pub ground_w: (f64, f64),
 }
+
+impl Clone for NativeState {
+    fn clone(&self) -> Self {
+        NativeState {
+            t: self.t,
+            step: self.step,
+            q: self.q.clone(),
+            v: self.v.clone(),
+            ground_d: self.ground_d,
+            ground_w: self.ground_w,
+        }
+    }
+    /// Into the buffers already held (a located step copies its start state every round).
+    fn clone_from(&mut self, source: &Self) {
+        self.t = source.t;
+        self.step = source.step;
+        self.q.clone_from(&source.q);
+        self.v.clone_from(&source.v);
+        self.ground_d = source.ground_d;
+        self.ground_w = source.ground_w;
+    }
+}
+
+/// Buffers that the impact stepper's sub-steps reuse, so that a step of a small scene does not
+/// spend its time allocating (measured: a quarter of a one-block step's instructions went to
+/// malloc and free).
+#[derive(Default)]
+struct Workspace {
+    /// Problems given back after their sub-step ([`Stepper::give_back`]).
+    problems: Vec<StepProblem>,
+    /// The state at the start of a located round.
+    start: Option<NativeState>,
+    /// Poses at the start of a sub-step.
+    poses: Vec<Pose>,
+    /// A sub-step's points as material points (`solve_discrete_gradient`, `settle_velocity`).
+    points: Vec<MaterialContact>,
+    /// The discrete-gradient iteration's predicted increment.
+    dq: Vec<f64>,
+    /// Which points of a sub-step end closed, given back by `step_locating`.
+    closed: Vec<bool>,
+    /// Detection's placed rectangles.
+    placed: Vec<Placed>,
+    /// The contact points of the step before last, whose buffer detection fills again.
+    contacts: Vec<ContactPoint>,
+}
+
+/// Spare problems a stepper keeps (a located step holds at most three at once).
+const SPARE_PROBLEMS: usize = 4;
 
 /// Ground increment of one step.
 #[derive(Debug, Clone, Copy)]
@@ -267,6 +320,7 @@ pub struct Stepper {
     pub island_steps: u64,
     /// `settle_velocity`'s working storage: how far each row's point approaches.
     approach: Vec<f64>,
+    work: Workspace,
 }
 
 /// A step that could not be taken.
@@ -325,6 +379,7 @@ impl Stepper {
             scope: None,
             island_steps: 0,
             approach: Vec::new(),
+            work: Workspace::default(),
         }
     }
 
@@ -387,6 +442,14 @@ impl Stepper {
 
     /// Contact points at the current geometry.
     pub fn detect(&self, s: &NativeState) -> Vec<ContactPoint> {
+        let mut out = Vec::new();
+        self.detect_into(s, &mut Vec::new(), &mut out);
+        out
+    }
+
+    /// [`Stepper::detect`] into `out`, with `placed` as working storage.
+    fn detect_into(&self, s: &NativeState, placed: &mut Vec<Placed>, out: &mut Vec<ContactPoint>) {
+        out.clear();
         let dt = self.settings.dt;
         let frac = self.settings.contact_reach;
         let ground_z = match self.applied_as {
@@ -403,19 +466,20 @@ impl Stepper {
             (vx - om * rz).hypot(vz + om * rx)
         };
         let asleep = |i: usize| self.sleep.as_ref().is_some_and(|sl| sl.asleep(i));
-        let mut out = Vec::new();
         if self.sleep.as_ref().is_some_and(Sleep::all_asleep) {
-            return out;
+            return;
         }
         let rects = &self.bodies.rects;
         // The blocks detection considers: the island stepped alone, or every block.
         let scope = self.scope.as_deref();
         let member = |k: usize| scope.map_or(k, |blocks| blocks[k]);
         let count = scope.map_or(rects.len(), <[usize]>::len);
-        let placed: Vec<Placed> = (0..count)
-            .map(member)
-            .map(|i| Placed::new(&rects[i], &pose(&s.q, i)))
-            .collect();
+        placed.clear();
+        placed.extend(
+            (0..count)
+                .map(member)
+                .map(|i| Placed::new(&rects[i], &pose(&s.q, i))),
+        );
         for (k, placed_i) in placed.iter().enumerate() {
             let i = member(k);
             if asleep(i) {
@@ -425,7 +489,7 @@ impl Stepper {
             let reach = |p: (f64, f64), gap: f64| {
                 gap < lim || gap < 3.0 * (speed(i, p) + ground_speed) * dt
             };
-            ground_contacts(i, placed_i, ground_z, &reach, &mut out);
+            ground_contacts(i, placed_i, ground_z, &reach, out);
         }
         let margin = |k: usize| {
             // A reach, not a geometric quantity: sqrt is enough (and cheaper than hypot).
@@ -433,7 +497,7 @@ impl Stepper {
             let (vx, vz) = (s.v[3 * i], s.v[3 * i + 1]);
             frac * rects[i].min_dim() + 3.0 * (vx * vx + vz * vz).sqrt() * dt
         };
-        for (ki, kj) in broad_phase(&placed, &margin) {
+        for (ki, kj) in broad_phase(placed, &margin) {
             let (i, j) = (member(ki), member(kj));
             if asleep(i) && asleep(j) {
                 continue;
@@ -441,26 +505,29 @@ impl Stepper {
             let lim = frac * rects[i].min_dim().min(rects[j].min_dim());
             let reach =
                 |p: (f64, f64), gap: f64| gap < lim || gap < 3.0 * (speed(i, p) + speed(j, p)) * dt;
-            block_contacts((i, &placed[ki]), (j, &placed[kj]), &reach, &mut out);
+            block_contacts((i, &placed[ki]), (j, &placed[kj]), &reach, out);
         }
-        out
     }
 
-    /// Build the problem of the next step (also returns the ground increment).
+    /// Build the problem of the next step into `pr` (its buffers reused), from the poses `ps`
+    /// of `s`; returns the ground increment.
     fn problem(
         &self,
         s: &NativeState,
         contacts: &[ContactPoint],
         dt: f64,
-    ) -> (StepProblem, GroundStep) {
+        ps: &[Pose],
+        pr: &mut StepProblem,
+    ) -> GroundStep {
         let g = self.ground_step(s, dt);
-        let ps = poses(&s.q);
         let n = self.bodies.len();
         let (ax, az) = match self.applied_as {
             AppliedAs::InertialForces => g.a_eff,
             AppliedAs::MovingGround => (0.0, 0.0),
         };
-        let mut force = vec![0.0; 3 * n];
+        let force = &mut pr.force;
+        force.clear();
+        force.resize(3 * n, 0.0);
         for i in 0..n {
             if self.sleep.as_ref().is_some_and(|sl| sl.asleep(i)) {
                 // No force and no contact point: the step leaves a sleeping block in place.
@@ -479,77 +546,86 @@ impl Stepper {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
+        let force = &pr.force;
         let free_motion = std::cell::OnceCell::new();
-        let rows = contacts
-            .iter()
-            .map(|c| {
-                let mut r = contact_rows(c, &ps, self.bodies.friction(c), ground_step);
-                if self.settings.stepper == StepperKind::Impact {
-                    // Relative velocity at the start of the step.
-                    let (mut vn, mut vt) = (row_dot(&r.nrow, &s.v), row_dot(&r.trow, &s.v));
-                    if c.a.is_none() {
-                        let n = c.normal;
-                        vn -= n.0 * w0.0 + n.1 * w0.1;
-                        vt -= n.1 * w0.0 - n.0 * w0.1;
-                    }
-                    if c.gap <= CLOSED_GAP {
-                        // Closed: `g0+ + G dq >= 0` with the discrete-gradient rows, i.e. the
-                        // mean relative velocity of the step does not approach (a penetration
-                        // at round-off level is held, not pushed out: that would do work).
-                        r.g_n += c.gap.max(0.0) - c.gap;
-                    } else if !self.settings.locate_impacts && c.gap + (1.0 - th) * dt * vn <= 0.0 {
-                        // Closing within the first half of the step, impacts not located: the
-                        // velocity-level law on the end-of-step relative
-                        // velocity, (n ± mu t)·v >= 0, i.e.
-                        // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0:
-                        // plastic, no rebound.
-                        r.g_n += -c.gap - (1.0 - th) * dt * vn;
-                        r.g_t += -(1.0 - th) * dt * vt;
-                    }
-                    let leaves = || {
-                        // The point's gap at the end of the step's free motion,
-                        // `dq = h v0 + h^2/2 M^-1 f` (exact gap function).
-                        let dq = free_motion.get_or_init(|| {
-                            (0..3 * n)
-                                .map(|i| {
-                                    dt * s.v[i] + 0.5 * dt * dt * force[i] / self.bodies.mass[i]
-                                })
-                                .collect::<Vec<f64>>()
-                        });
-                        let mut g = MaterialContact::new(c, &ps)
-                            .gaps(&Increment::new(dq, 1.0))
-                            .0;
-                        if c.a.is_none() {
-                            g -= c.normal.0 * ground_step.0 + c.normal.1 * ground_step.1;
-                        }
-                        g
-                    };
-                    if self.free_until_it_closes(c, r.key, vn, dt, leaves) {
-                        // Open, or leaving its face: no force before it touches (the gap row
-                        // alone); its closing is located.
-                        r.mu = 0.0;
-                    }
+        pr.contacts.clear();
+        pr.contacts.extend(contacts.iter().map(|c| {
+            let mut r = contact_rows(c, ps, self.bodies.friction(c), ground_step);
+            if self.settings.stepper == StepperKind::Impact {
+                // Relative velocity at the start of the step.
+                let (mut vn, mut vt) = (row_dot(&r.nrow, &s.v), row_dot(&r.trow, &s.v));
+                if c.a.is_none() {
+                    let n = c.normal;
+                    vn -= n.0 * w0.0 + n.1 * w0.1;
+                    vt -= n.1 * w0.0 - n.0 * w0.1;
                 }
-                r
-            })
-            .collect();
-        (
-            StepProblem {
-                theta: th,
-                dt,
-                mass: self.bodies.mass.clone(),
-                force,
-                v0: s.v.clone(),
-                contacts: rows,
-            },
-            g,
-        )
+                if c.gap <= CLOSED_GAP {
+                    // Closed: `g0+ + G dq >= 0` with the discrete-gradient rows, i.e. the
+                    // mean relative velocity of the step does not approach (a penetration
+                    // at round-off level is held, not pushed out: that would do work).
+                    r.g_n += c.gap.max(0.0) - c.gap;
+                } else if !self.settings.locate_impacts && c.gap + (1.0 - th) * dt * vn <= 0.0 {
+                    // Closing within the first half of the step, impacts not located: the
+                    // velocity-level law on the end-of-step relative
+                    // velocity, (n ± mu t)·v >= 0, i.e.
+                    // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0:
+                    // plastic, no rebound.
+                    r.g_n += -c.gap - (1.0 - th) * dt * vn;
+                    r.g_t += -(1.0 - th) * dt * vt;
+                }
+                let leaves = || {
+                    // The point's gap at the end of the step's free motion,
+                    // `dq = h v0 + h^2/2 M^-1 f` (exact gap function).
+                    let dq = free_motion.get_or_init(|| {
+                        (0..3 * n)
+                            .map(|i| dt * s.v[i] + 0.5 * dt * dt * force[i] / self.bodies.mass[i])
+                            .collect::<Vec<f64>>()
+                    });
+                    let mut g = MaterialContact::new(c, ps).gaps(&Increment::new(dq, 1.0)).0;
+                    if c.a.is_none() {
+                        g -= c.normal.0 * ground_step.0 + c.normal.1 * ground_step.1;
+                    }
+                    g
+                };
+                if self.free_until_it_closes(c, r.key, vn, dt, leaves) {
+                    // Open, or leaving its face: no force before it touches (the gap row
+                    // alone); its closing is located.
+                    r.mu = 0.0;
+                }
+            }
+            r
+        }));
+        pr.theta = th;
+        pr.dt = dt;
+        pr.mass.clone_from(&self.bodies.mass);
+        pr.v0.clone_from(&s.v);
+        g
     }
 
     /// The problem the next step would solve (for replay and cross-checks).
     pub fn next_problem(&self, s: &NativeState) -> StepProblem {
         let c = self.detect(s);
-        self.problem(s, &c, self.settings.dt).0
+        let mut pr = StepProblem::default();
+        self.problem(s, &c, self.settings.dt, &poses(&s.q), &mut pr);
+        pr
+    }
+
+    /// A step problem to fill: a spare one given back after an earlier sub-step, or a new one.
+    fn spare_problem(&mut self) -> StepProblem {
+        self.work.problems.pop().unwrap_or_default()
+    }
+
+    /// The step's contact points become `last_contacts`; the buffer of the last ones is
+    /// detection's next.
+    fn keep_contacts(&mut self, contacts: Vec<ContactPoint>) {
+        self.work.contacts = std::mem::replace(&mut self.last_contacts, contacts);
+    }
+
+    /// Keep a problem that is no longer needed for a later sub-step to fill.
+    fn give_back(&mut self, pr: StepProblem) {
+        if self.work.problems.len() < SPARE_PROBLEMS {
+            self.work.problems.push(pr);
+        }
     }
 
     /// How fast an open point `c` approaches over a (sub-)step of length `h` from `s`: its
@@ -655,7 +731,7 @@ impl Stepper {
             self.step_locating(s, contacts, dt, None)?
         } else {
             let (sol, _, _) = self.sub_step(s, &contacts, dt, true)?;
-            self.last_contacts = contacts;
+            self.keep_contacts(contacts);
             sol
         };
         s.t = t_end;
@@ -667,13 +743,16 @@ impl Stepper {
     /// Contact points at the current geometry ([`Stepper::detect`]), after waking every
     /// sleeping island a point joins to an awake block.
     fn detect_waking(&mut self, s: &NativeState) -> Vec<ContactPoint> {
+        let mut contacts = std::mem::take(&mut self.work.contacts);
+        let mut placed = std::mem::take(&mut self.work.placed);
         loop {
-            let contacts = self.detect(s);
+            self.detect_into(s, &mut placed, &mut contacts);
             let woke = self
                 .sleep
                 .as_mut()
                 .is_some_and(|sl| sl.wake_touched(&contacts));
             if !woke {
+                self.work.placed = placed;
                 return contacts;
             }
         }
@@ -725,10 +804,9 @@ impl Stepper {
     /// `CLOSED_GAP` in a step: if so, the points of the islands that hold such a point (all of
     /// them without `island_impacts`; the other islands need no impact).
     fn approaching(&self, s: &NativeState, contacts: &[ContactPoint]) -> Option<Vec<ContactPoint>> {
-        let ps = poses(&s.q);
         let approaches = |c: &ContactPoint| {
             c.gap <= CLOSED_GAP && {
-                let (nrow, len) = normal_row(c, &ps);
+                let (nrow, len) = normal_row(c, &s.q);
                 self.normal_speed(c, &nrow[..len], &s.v, s.ground_w) * self.settings.dt
                     < -CLOSED_GAP
             }
@@ -780,7 +858,8 @@ impl Stepper {
             && self.bodies.len() > 1;
         for round in 0..=rounds {
             let h = t_end - s.t;
-            let s0 = s.clone();
+            let mut s0 = self.work.start.take().unwrap_or_else(|| s.clone());
+            s0.clone_from(s);
             let (mut sol, pr, carries) = match taken.take() {
                 Some(t) => {
                     *s = t.state;
@@ -790,7 +869,7 @@ impl Stepper {
             };
             // New impacts, those slower than `locate_speed` left to the ordinary step.
             let slowest = self.settings.locate_speed;
-            let ps0 = (slowest > 0.0).then(|| poses(&s0.q));
+            let ps0 = std::cell::OnceCell::new();
             // Points that touched their faces at the start and left them and end closed are
             // new impacts too (`free_until_it_closes`: their rows had less friction than their
             // interface, i.e. none; a frictionless interface's points are freed of nothing).
@@ -801,7 +880,8 @@ impl Stepper {
                 .filter(|&k| {
                     carries[k]
                         && ((!touched(k)
-                            && ps0.as_ref().is_none_or(|ps| {
+                            && (slowest <= 0.0 || {
+                                let ps = ps0.get_or_init(|| poses(&s0.q));
                                 self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
                             }))
                             || left(k))
@@ -835,7 +915,8 @@ impl Stepper {
                     .filter(|k| !fresh.contains(k))
                     .map(|k| contacts[k])
                     .collect();
-                let (trial, _, _) = self.sub_step(s, &free, h, false)?;
+                let (trial, trial_problem, _) = self.sub_step(s, &free, h, false)?;
+                self.give_back(trial_problem);
                 iterations += trial.iterations;
                 let tau = self.closing_instant(&s0, s, &contacts, &fresh, h);
                 if tau.is_none() {
@@ -844,15 +925,16 @@ impl Stepper {
                     *s = after_ordinary;
                     iterations -= sol.iterations;
                 } else {
-                    *s = s0;
+                    s.clone_from(&s0);
                 }
                 tau.map(|t| (t, free))
             };
+            self.work.start = Some(s0);
             let Some((tau, free)) = tau else {
                 // The located points have just closed: not a new impact in the next step even if
                 // the short rest of this one left them without a force (gap within the fall of
                 // `g h^2/2`).
-                self.loaded = closed_keys(&pr, &carries);
+                closed_keys_into(&pr, &carries, &mut self.loaded);
                 self.loaded.extend(&located_here);
                 located_here.sort_unstable();
                 located_here.dedup();
@@ -860,9 +942,13 @@ impl Stepper {
                 self.loaded.sort_unstable();
                 self.loaded.dedup();
                 sol.iterations += iterations;
-                self.last_contacts = contacts;
+                self.keep_contacts(contacts);
+                self.give_back(pr);
+                self.work.closed = carries;
                 return Ok(sol);
             };
+            self.give_back(pr);
+            self.work.closed = carries;
             let located: Vec<u64> = {
                 let ps = poses(&s.q);
                 fresh
@@ -884,7 +970,8 @@ impl Stepper {
             while tau > 1e-9 * h {
                 let (first, pr, first_closed) = self.sub_step(s, &free, tau, true)?;
                 iterations += first.iterations;
-                self.loaded = closed_keys(&pr, &first_closed);
+                closed_keys_into(&pr, &first_closed, &mut self.loaded);
+                self.give_back(pr);
                 if !self.passed_through(&start, s, &contacts, &fresh) {
                     reached = true;
                     break;
@@ -1092,46 +1179,50 @@ impl Stepper {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
         };
-        let rows: Vec<_> = contacts
-            .iter()
-            .map(|c| {
-                let mut r = contact_rows(c, &ps, self.bodies.friction(c), w);
-                r.g_n -= c.gap;
-                (c.gap, r)
-            })
-            .filter(|(gap, r)| *gap <= CLOSED_GAP || located.contains(&r.key))
-            .map(|(_, r)| r)
-            .collect();
-        if rows.is_empty() {
+        let mut pr = self.spare_problem();
+        pr.contacts.clear();
+        pr.contacts.extend(
+            contacts
+                .iter()
+                .map(|c| {
+                    let mut r = contact_rows(c, &ps, self.bodies.friction(c), w);
+                    r.g_n -= c.gap;
+                    (c.gap, r)
+                })
+                .filter(|(gap, r)| *gap <= CLOSED_GAP || located.contains(&r.key))
+                .map(|(_, r)| r),
+        );
+        if pr.contacts.is_empty() {
+            self.give_back(pr);
             return Ok(0);
         }
-        let iterations = self.closest_admissible_velocity(s, rows, self.settings.friction_law)?;
+        let iterations = self.closest_admissible_velocity(s, pr, self.settings.friction_law)?;
         self.iterations += iterations as u64;
         Ok(iterations)
     }
 
     /// The velocities become the closest ones (kinetic-energy norm) that satisfy the
-    /// velocity-level law `(n ± mu t)·v >= 0` on the given rows: the step problem with
-    /// theta = dt = 1, no force and `v0 = v`, under the friction law `law`. Positions do not
-    /// change. Returns the solver iterations.
+    /// velocity-level law `(n ± mu t)·v >= 0` on the rows of `pr.contacts`: the step problem
+    /// with theta = dt = 1, no force and `v0 = v` (set here), under the friction law `law`.
+    /// Positions do not change. Returns the solver iterations.
     fn closest_admissible_velocity(
         &mut self,
         s: &mut NativeState,
-        rows: Vec<ContactRows>,
+        mut pr: StepProblem,
         law: FrictionLaw,
     ) -> Result<u32, SolveFailure> {
-        let pr = StepProblem {
-            theta: 1.0,
-            dt: 1.0,
-            mass: self.bodies.mass.clone(),
-            force: vec![0.0; s.v.len()],
-            v0: s.v.clone(),
-            contacts: rows,
-        };
-        let sol = match law {
+        pr.theta = 1.0;
+        pr.dt = 1.0;
+        pr.mass.clone_from(&self.bodies.mass);
+        pr.force.clear();
+        pr.force.resize(s.v.len(), 0.0);
+        pr.v0.clone_from(&s.v);
+        let solved = match law {
             FrictionLaw::Associative => self.velocity_solver.solve(&pr),
             FrictionLaw::Coulomb => self.coulomb.solve(self.velocity_solver.as_mut(), &pr),
-        }?;
+        };
+        self.give_back(pr);
+        let sol = solved?;
         s.v.copy_from_slice(&sol.dq);
         Ok(sol.iterations)
     }
@@ -1147,20 +1238,24 @@ impl Stepper {
         h: f64,
         project: bool,
     ) -> Result<(StepSolution, StepProblem, Vec<bool>), StepError> {
-        let (mut pr, g) = self.problem(s, contacts, h);
+        let mut pr = self.spare_problem();
+        let mut ps = std::mem::take(&mut self.work.poses);
+        poses_into(&s.q, &mut ps);
+        let g = self.problem(s, contacts, h, &ps, &mut pr);
         let fail = |failure| StepError::Solver {
             step: s.step + 1,
             t: s.t,
             failure,
         };
         let impact = self.settings.stepper == StepperKind::Impact;
-        let (mut sol, points, ends_closed) = if impact {
-            self.solve_discrete_gradient(s, contacts, &mut pr, h)
-                .map_err(fail)?
+        let solved = if impact {
+            self.solve_discrete_gradient(s, contacts, &ps, &mut pr, h)
         } else {
             // The paper's stepper locates no impacts: nothing asks which points end closed.
-            (self.solve_law(&pr).map_err(fail)?, Vec::new(), Vec::new())
+            self.solve_law(&pr).map(|sol| (sol, Vec::new()))
         };
+        self.work.poses = ps;
+        let (mut sol, ends_closed) = solved.map_err(fail)?;
         let th = self.kinematic_weight();
         for i in 0..s.q.len() {
             let v = (sol.dq[i] / h - (1.0 - th) * s.v[i]) / th;
@@ -1175,13 +1270,14 @@ impl Stepper {
         s.ground_w = g.w1;
         s.t += h;
         if impact {
-            sol.iterations += self
-                .settle_velocity(s, contacts, &points, &ends_closed, &pr, &sol)
-                .map_err(|failure| StepError::Solver {
-                    step: s.step + 1,
-                    t: s.t,
-                    failure,
-                })?;
+            let points = std::mem::take(&mut self.work.points);
+            let settled = self.settle_velocity(s, contacts, &points, &ends_closed, &pr, &sol);
+            self.work.points = points;
+            sol.iterations += settled.map_err(|failure| StepError::Solver {
+                step: s.step + 1,
+                t: s.t,
+                failure,
+            })?;
         }
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
@@ -1208,21 +1304,38 @@ impl Stepper {
     /// the loaded points' gaps at the solution's end agree with the rows to `DRIFT_TOLERANCE`
     /// (at most `DISCRETE_GRADIENT_SOLVES` solves; every one conserves energy exactly, the
     /// iteration only removes the drift of the closed contacts).
+    /// The points as material points are left in `self.work.points`.
     fn solve_discrete_gradient(
         &mut self,
         s: &NativeState,
         contacts: &[ContactPoint],
+        ps: &[Pose],
         pr: &mut StepProblem,
         h: f64,
-    ) -> Result<(StepSolution, Vec<MaterialContact>, Vec<bool>), SolveFailure> {
-        let ps = poses(&s.q);
-        let points: Vec<MaterialContact> = contacts
-            .iter()
-            .map(|c| MaterialContact::new(c, &ps))
-            .collect();
-        let mut dq: Vec<f64> = (0..s.q.len())
-            .map(|i| h * s.v[i] + 0.5 * h * h * self.accel[i])
-            .collect();
+    ) -> Result<(StepSolution, Vec<bool>), SolveFailure> {
+        let mut points = std::mem::take(&mut self.work.points);
+        points.clear();
+        points.extend(contacts.iter().map(|c| MaterialContact::new(c, ps)));
+        let mut dq = std::mem::take(&mut self.work.dq);
+        dq.clear();
+        dq.extend((0..s.q.len()).map(|i| h * s.v[i] + 0.5 * h * h * self.accel[i]));
+        let mut carries = std::mem::take(&mut self.work.closed);
+        let solved = self.iterate_discrete_gradient(contacts, &points, &mut dq, &mut carries, pr);
+        self.work.points = points;
+        self.work.dq = dq;
+        solved.map(|sol| (sol, carries))
+    }
+
+    /// `solve_discrete_gradient`'s iteration from the predicted increment `dq`; `carries`
+    /// receives which points end closed.
+    fn iterate_discrete_gradient(
+        &mut self,
+        contacts: &[ContactPoint],
+        points: &[MaterialContact],
+        dq: &mut [f64],
+        carries: &mut Vec<bool>,
+        pr: &mut StepProblem,
+    ) -> Result<StepSolution, SolveFailure> {
         let mut iterations = 0;
         // Once some islands' points stop drifting, only the others are solved again (the
         // problem is separable over islands): an island's solves are those it needs alone.
@@ -1237,8 +1350,8 @@ impl Stepper {
                     .is_none_or(|it| of(k).is_some_and(|i| it[i]))
             };
             {
-                let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
-                for (k, (r, m)) in pr.contacts.iter_mut().zip(&points).enumerate() {
+                let (whole, half) = (Increment::new(dq, 1.0), Increment::new(dq, 0.5));
+                for (k, (r, m)) in pr.contacts.iter_mut().zip(points).enumerate() {
                     if solved_again(k) {
                         m.set_rows(r, &whole, &half, &self.bodies.mass);
                     }
@@ -1273,8 +1386,8 @@ impl Stepper {
             };
             iterations += sol.iterations;
             dq.copy_from_slice(&sol.dq);
-            let carries = closed(pr, &sol, self.settings.friction_law);
-            let whole = Increment::new(&dq, 1.0);
+            closed_into(pr, &sol, self.settings.friction_law, carries);
+            let whole = Increment::new(dq, 1.0);
             // The drift of the points that carry a force, and of the unloaded ones that end
             // closed or through their face: the rows of those were built at the predicted
             // end, which the solution may have left (a light plank struck in the sub-step).
@@ -1282,8 +1395,8 @@ impl Stepper {
                 let (dn, dt) = points[k].increments(&whole);
                 let closes = contacts[k].gap + dn < CLOSED_GAP;
                 let r = &pr.contacts[k];
-                let dn = dn - row_dot(&r.nrow, &dq);
-                let dt = dt - row_dot(&r.trow, &dq);
+                let dn = dn - row_dot(&r.nrow, dq);
+                let dt = dt - row_dot(&r.trow, dq);
                 if carries[k] || closes {
                     dn.abs().max(dt.abs())
                 } else {
@@ -1294,7 +1407,7 @@ impl Stepper {
             if worst <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
                 self.gradient_solves += solve as u64;
                 sol.iterations = iterations;
-                return Ok((sol, points, carries));
+                return Ok(sol);
             }
             if self.bodies.len() == 1 {
                 // One island: solved again whole.
@@ -1337,8 +1450,11 @@ impl Stepper {
             AppliedAs::InertialForces => (0.0, 0.0),
         };
         let coulomb = self.settings.friction_law == FrictionLaw::Coulomb;
-        let ps = poses(&s.q);
-        let mut rows = Vec::new();
+        let mut ps = std::mem::take(&mut self.work.poses);
+        poses_into(&s.q, &mut ps);
+        let mut settling = self.spare_problem();
+        let rows = &mut settling.contacts;
+        rows.clear();
         // Coulomb: per body pair, the sum of its stopping points' tangential rows and offsets.
         let mut stuck: Vec<((Option<usize>, usize), ContactRows, usize)> = Vec::new();
         let mut worst = 0.0f64;
@@ -1421,15 +1537,17 @@ impl Stepper {
             ));
         }
         if several && worst * pr.dt > VELOCITY_TOLERANCE {
-            keep_islands_that_approach(self.bodies.len(), &mut rows, &approach, pr.dt);
+            keep_islands_that_approach(self.bodies.len(), rows, &approach, pr.dt);
         }
         self.approach = approach;
+        self.work.poses = ps;
         if worst * pr.dt <= VELOCITY_TOLERANCE {
+            self.give_back(settling);
             return Ok(0);
         }
         self.settled_velocities += 1;
         // Under Coulomb too the rows are solved as they are: each carries its own friction.
-        self.closest_admissible_velocity(s, rows, FrictionLaw::Associative)
+        self.closest_admissible_velocity(s, settling, FrictionLaw::Associative)
     }
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
