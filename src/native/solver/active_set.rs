@@ -62,15 +62,7 @@ impl ActiveSetSolver {
             }
             self.rhs.push(b_a);
             for b in 0..=a {
-                let rb = &self.rows[self.work[b]];
-                let mut v = 0.0;
-                for j in 0..ra.len {
-                    for k in 0..rb.len {
-                        if ra.idx[j] == rb.idx[k] {
-                            v += ra.coef[j] * rb.coef[k] * self.pinv[ra.idx[j]];
-                        }
-                    }
-                }
+                let v = ra.weighted_dot(&self.rows[self.work[b]], &self.pinv);
                 self.s[a * m + b] = v;
                 self.s[b * m + a] = v;
             }

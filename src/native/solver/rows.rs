@@ -21,6 +21,22 @@ impl EdgeRow {
     pub fn dot(&self, u: &[f64]) -> f64 {
         (0..self.len).map(|j| self.coef[j] * u[self.idx[j]]).sum()
     }
+    /// `row · diag(w) · other`. A row holds whole bodies, three consecutive DOFs each (B's,
+    /// then A's: `assembly::contact_rows`), so rows share DOFs only by sharing a body: the
+    /// bodies are matched, not every pair of entries.
+    pub fn weighted_dot(&self, other: &EdgeRow, w: &[f64]) -> f64 {
+        let mut v = 0.0;
+        for j in (0..self.len).step_by(3) {
+            for k in (0..other.len).step_by(3) {
+                if self.idx[j] == other.idx[k] {
+                    for d in 0..3 {
+                        v += self.coef[j + d] * other.coef[k + d] * w[self.idx[j + d]];
+                    }
+                }
+            }
+        }
+        v
+    }
     /// `x += a * row'`.
     pub fn axpy(&self, a: f64, x: &mut [f64]) {
         for j in 0..self.len {
@@ -39,6 +55,11 @@ pub fn edge_rows(pr: &StepProblem, rows: &mut Vec<EdgeRow>, r: &mut Vec<f64>) {
                 key: (c.key << 1) | e,
                 ..Default::default()
             };
+            debug_assert!(
+                c.nrow.len() % 3 == 0
+                    && c.nrow.chunks(3).all(|b| b[1].0 == b[0].0 + 1 && b[2].0 == b[0].0 + 2),
+                "a row holds whole bodies, three consecutive DOFs each"
+            );
             for (j, (&(i, vn), &(it, vt))) in c.nrow.iter().zip(&c.trow).enumerate() {
                 debug_assert_eq!(i, it);
                 row.idx[j] = i;
