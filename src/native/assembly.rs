@@ -126,24 +126,36 @@ pub fn contact_rows(
     let mut trow = SparseRow::new();
     body_terms(&mut nrow, c.b, &poses[c.b], c.point, n, 1.0);
     body_terms(&mut trow, c.b, &poses[c.b], c.point, t, 1.0);
-    let (g_n, g_t) = match c.a {
-        Some(a) => {
-            body_terms(&mut nrow, a, &poses[a], c.point, n, -1.0);
-            body_terms(&mut trow, a, &poses[a], c.point, t, -1.0);
-            (c.gap, 0.0)
-        }
-        None => (
-            c.gap - (n.0 * ground_step.0 + n.1 * ground_step.1),
-            -(t.0 * ground_step.0 + t.1 * ground_step.1),
-        ),
-    };
-    let key = ((c.a.map_or(0, |a| a + 1) as u64) << 40) | ((c.b as u64) << 16) | c.feature as u64;
+    if let Some(a) = c.a {
+        body_terms(&mut nrow, a, &poses[a], c.point, n, -1.0);
+        body_terms(&mut trow, a, &poses[a], c.point, t, -1.0);
+    }
+    let (g_n, g_t) = ground_offsets(c, ground_step);
     ContactRows {
-        key,
+        key: contact_key(c),
         mu,
-        g_n,
+        g_n: c.gap + g_n,
         g_t,
         nrow,
         trow,
     }
+}
+
+/// The offsets a ground point's rows take from the ground's displacement `ground_step`,
+/// `(-n·Δd, -t·Δd)` (none for a point between blocks).
+pub fn ground_offsets(c: &ContactPoint, ground_step: (f64, f64)) -> (f64, f64) {
+    if c.a.is_some() {
+        return (0.0, 0.0);
+    }
+    let n = c.normal;
+    let t = (n.1, -n.0);
+    (
+        -(n.0 * ground_step.0 + n.1 * ground_step.1),
+        -(t.0 * ground_step.0 + t.1 * ground_step.1),
+    )
+}
+
+/// A contact point's identity, stable between steps: its bodies and feature.
+pub fn contact_key(c: &ContactPoint) -> u64 {
+    ((c.a.map_or(0, |a| a + 1) as u64) << 40) | ((c.b as u64) << 16) | c.feature as u64
 }

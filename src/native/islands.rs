@@ -251,18 +251,9 @@ impl Islands {
     }
 }
 
-impl ContactSolver for Islands {
-    fn name(&self) -> &'static str {
-        self.name
-    }
-
-    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if pr.n_dof() == 3 && !pr.contacts.is_empty() {
-            // One block with contact points: one island, no other back-end to retire.
-            self.islands_solved += 1;
-            let make = &self.make;
-            return self.solvers.entry(0).or_insert_with(|| make()).solve(pr);
-        }
+impl Islands {
+    /// Solve a problem of several blocks island by island.
+    fn solve_split(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         self.components.find(pr.n_dof() / 3, &pr.contacts);
         let island = &self.components.island;
         if !island.is_empty() && island.iter().all(|&i| i == Some(0)) {
@@ -335,6 +326,36 @@ impl ContactSolver for Islands {
             }
         }
         Ok(out)
+    }
+}
+
+impl ContactSolver for Islands {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        if pr.n_dof() == 3 && !pr.contacts.is_empty() {
+            // One block with contact points: one island, no other back-end to retire.
+            self.islands_solved += 1;
+            let make = &self.make;
+            return self.solvers.entry(0).or_insert_with(|| make()).solve(pr);
+        }
+        self.solve_split(pr)
+    }
+
+    fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
+        if pr.n_dof() == 3 && !pr.contacts.is_empty() {
+            self.islands_solved += 1;
+            let make = &self.make;
+            return self
+                .solvers
+                .entry(0)
+                .or_insert_with(|| make())
+                .solve_into(pr, out);
+        }
+        *out = self.solve_split(pr)?;
+        Ok(())
     }
 
     fn fallbacks(&self) -> u64 {

@@ -218,7 +218,7 @@ impl StepProblem {
 }
 
 /// A solved step.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepSolution {
     /// Displacement increments.
     pub dq: Vec<f64>,

@@ -29,7 +29,9 @@
 //! Inertial route: coordinates relative to the ground, forces `-m a_eff`. Moving-ground route:
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
-use super::assembly::{Bodies, contact_rows, normal_row, pose, poses, poses_into};
+use super::assembly::{
+    Bodies, contact_key, contact_rows, ground_offsets, normal_row, pose, poses, poses_into,
+};
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
 use super::material::{Increment, MaterialContact};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
@@ -245,6 +247,8 @@ impl Clone for NativeState {
 struct Workspace {
     /// Problems given back after their sub-step ([`Stepper::give_back`]).
     problems: Vec<StepProblem>,
+    /// Solutions given back ([`Stepper::give_back_solution`]).
+    solutions: Vec<StepSolution>,
     /// The state at the start of a located round.
     start: Option<NativeState>,
     /// Poses at the start of a sub-step.
@@ -261,7 +265,7 @@ struct Workspace {
     contacts: Vec<ContactPoint>,
 }
 
-/// Spare problems a stepper keeps (a located step holds at most three at once).
+/// Spare problems (and solutions) a stepper keeps (a located step holds at most three at once).
 const SPARE_PROBLEMS: usize = 4;
 
 /// Ground increment of one step.
@@ -284,6 +288,8 @@ pub struct Stepper {
     velocity_solver: Box<dyn ContactSolver>,
     /// Contacts of the last step (for inspection and tests).
     pub last_contacts: Vec<ContactPoint>,
+    /// The last step's solution (returned by [`Stepper::step`]).
+    last_solution: StepSolution,
     pub iterations: u64,
     /// Sub-steps whose solution was polished on its active set.
     pub polished_steps: u64,
@@ -363,6 +369,7 @@ impl Stepper {
             solver,
             velocity_solver,
             last_contacts: Vec::new(),
+            last_solution: StepSolution::default(),
             iterations: 0,
             polished_steps: 0,
             split_steps: 0,
@@ -499,6 +506,9 @@ impl Stepper {
             let (vx, vz) = (s.v[3 * i], s.v[3 * i + 1]);
             frac * rects[i].min_dim() + 3.0 * (vx * vx + vz * vz).sqrt() * dt
         };
+        if count < 2 {
+            return;
+        }
         for (ki, kj) in broad_phase(placed, &margin) {
             let (i, j) = (member(ki), member(kj));
             if asleep(i) && asleep(j) {
@@ -623,6 +633,18 @@ impl Stepper {
         self.work.contacts = std::mem::replace(&mut self.last_contacts, contacts);
     }
 
+    /// A solution to fill: a spare one given back, or a new one.
+    fn spare_solution(&mut self) -> StepSolution {
+        self.work.solutions.pop().unwrap_or_default()
+    }
+
+    /// Keep a solution that is no longer needed for a later solve to fill.
+    fn give_back_solution(&mut self, sol: StepSolution) {
+        if self.work.solutions.len() < SPARE_PROBLEMS {
+            self.work.solutions.push(sol);
+        }
+    }
+
     /// Keep a problem that is no longer needed for a later sub-step to fill.
     fn give_back(&mut self, pr: StepProblem) {
         if self.work.problems.len() < SPARE_PROBLEMS {
@@ -701,13 +723,16 @@ impl Stepper {
     /// which a point closes that carried no force in the previous step is redone in three
     /// parts: a sub-step to the closing instant, a plastic impact there, and the rest of the
     /// step (see `step_locating`).
-    pub fn step(&mut self, s: &mut NativeState) -> Result<StepSolution, StepError> {
+    /// Returns the step's solution (its last sub-step's), kept until the next step.
+    pub fn step(&mut self, s: &mut NativeState) -> Result<&StepSolution, StepError> {
         self.step_by(s, self.settings.dt)
     }
 
     /// One step of length `dt` (the impact stepper takes any length: a run's last step is
     /// shortened to end at the duration; the paper's stepper is only ever given its own).
-    pub fn step_by(&mut self, s: &mut NativeState, dt: f64) -> Result<StepSolution, StepError> {
+    pub fn step_by(&mut self, s: &mut NativeState, dt: f64) -> Result<&StepSolution, StepError> {
+        let last = std::mem::take(&mut self.last_solution);
+        self.give_back_solution(last);
         // The excitation's acceleration of this step, as the step problem will use it.
         let ax = self.ground_step(s, dt).a_eff.0;
         if let Some(sl) = self.sleep.as_mut() {
@@ -732,14 +757,16 @@ impl Stepper {
         let sol = if self.settings.stepper == StepperKind::Impact && self.settings.locate_impacts {
             self.step_locating(s, contacts, dt, None)?
         } else {
-            let (sol, _, _) = self.sub_step(s, &contacts, dt, true)?;
+            let (sol, pr, _) = self.sub_step(s, &contacts, dt, true)?;
+            self.give_back(pr);
             self.keep_contacts(contacts);
             sol
         };
         s.t = t_end;
         s.step += 1;
         self.fall_asleep(s, ax);
-        Ok(sol)
+        self.last_solution = sol;
+        Ok(&self.last_solution)
     }
 
     /// Contact points at the current geometry ([`Stepper::detect`]), after waking every
@@ -920,6 +947,7 @@ impl Stepper {
                 let (trial, trial_problem, _) = self.sub_step(s, &free, h, false)?;
                 self.give_back(trial_problem);
                 iterations += trial.iterations;
+                self.give_back_solution(trial);
                 let tau = self.closing_instant(&s0, s, &contacts, &fresh, h);
                 if tau.is_none() {
                     // The free motion does not close the points within the step: keep the
@@ -951,6 +979,7 @@ impl Stepper {
             };
             self.give_back(pr);
             self.work.closed = carries;
+            self.give_back_solution(sol);
             let located: Vec<u64> = {
                 let ps = poses(&s.q);
                 fresh
@@ -972,6 +1001,7 @@ impl Stepper {
             while tau > 1e-9 * h {
                 let (first, pr, first_closed) = self.sub_step(s, &free, tau, true)?;
                 iterations += first.iterations;
+                self.give_back_solution(first);
                 closed_keys_into(&pr, &first_closed, &mut self.loaded);
                 self.give_back(pr);
                 if !self.passed_through(&start, s, &contacts, &fresh) {
@@ -1254,7 +1284,9 @@ impl Stepper {
             self.solve_discrete_gradient(s, contacts, &ps, &mut pr, h)
         } else {
             // The paper's stepper locates no impacts: nothing asks which points end closed.
-            self.solve_law(&pr).map(|sol| (sol, Vec::new()))
+            let mut sol = self.spare_solution();
+            self.solve_law_into(&pr, &mut sol)
+                .map(|()| (sol, Vec::new()))
         };
         self.work.poses = ps;
         let (mut sol, ends_closed) = solved.map_err(fail)?;
@@ -1384,7 +1416,14 @@ impl Stepper {
                     sol.polished |= part.polished;
                     sol
                 }
-                _ => self.solve_law(pr)?,
+                (_, unused) => {
+                    if let Some(sol) = unused {
+                        self.give_back_solution(sol);
+                    }
+                    let mut sol = self.spare_solution();
+                    self.solve_law_into(pr, &mut sol)?;
+                    sol
+                }
             };
             iterations += sol.iterations;
             dq.copy_from_slice(&sol.dq);
@@ -1452,8 +1491,6 @@ impl Stepper {
             AppliedAs::InertialForces => (0.0, 0.0),
         };
         let coulomb = self.settings.friction_law == FrictionLaw::Coulomb;
-        let mut ps = std::mem::take(&mut self.work.poses);
-        poses_into(&s.q, &mut ps);
         let mut settling = self.spare_problem();
         let rows = &mut settling.contacts;
         rows.clear();
@@ -1471,13 +1508,17 @@ impl Stepper {
                 continue;
             }
             let mu = self.bodies.friction(c);
-            let mut r = contact_rows(c, &ps, mu, w);
-            r.g_n -= c.gap;
+            let (g_n, g_t) = ground_offsets(c, w);
             let (gn, gt, len) = m.gradients(&increment);
-            r.nrow.clear();
-            r.nrow.extend_from_slice(&gn[..len]);
-            r.trow.clear();
-            r.trow.extend_from_slice(&gt[..len]);
+            // The velocity-level rows: `(n ± mu t)·(v - w) >= 0`.
+            let mut r = ContactRows {
+                key: contact_key(c),
+                mu,
+                g_n,
+                g_t,
+                nrow: gn[..len].iter().copied().collect(),
+                trow: gt[..len].iter().copied().collect(),
+            };
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
             let vt = r.g_t + row_dot(&r.trow, &s.v);
             if !coulomb {
@@ -1542,7 +1583,6 @@ impl Stepper {
             keep_islands_that_approach(self.bodies.len(), rows, &approach, pr.dt);
         }
         self.approach = approach;
-        self.work.poses = ps;
         if worst * pr.dt <= VELOCITY_TOLERANCE {
             self.give_back(settling);
             return Ok(0);
@@ -1587,6 +1627,21 @@ impl Stepper {
         match self.settings.friction_law {
             FrictionLaw::Associative => self.solver.solve(pr),
             FrictionLaw::Coulomb => self.coulomb.solve(self.solver.as_mut(), pr),
+        }
+    }
+
+    /// [`Stepper::solve_law`] into `out`.
+    fn solve_law_into(
+        &mut self,
+        pr: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        match self.settings.friction_law {
+            FrictionLaw::Associative => self.solver.solve_into(pr, out),
+            FrictionLaw::Coulomb => {
+                *out = self.coulomb.solve(self.solver.as_mut(), pr)?;
+                Ok(())
+            }
         }
     }
 

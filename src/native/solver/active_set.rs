@@ -18,7 +18,7 @@
 //! A problem it cannot settle within its move limit, or whose working set turns out
 //! inconsistent, is reported as a failure; the `auto` back-end then falls back to Clarabel.
 
-use super::rows::{EdgeRow, edge_rows, step_solution};
+use super::rows::{EdgeRow, edge_rows, step_solution_into};
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
 
@@ -149,14 +149,20 @@ impl ContactSolver for ActiveSetSolver {
     }
 
     fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let mut out = StepSolution::default();
+        self.solve_into(pr, &mut out)?;
+        Ok(out)
+    }
+
+    fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
         let (mut p, mut q) = (std::mem::take(&mut self.p), std::mem::take(&mut self.q));
         let scale = pr.scale_into(&mut p, &mut q);
         self.pinv.clear();
         self.pinv.extend(p.iter().map(|p| 1.0 / p));
-        let mut result = self.solve_scaled(pr, &q, scale, Rule::MostViolated);
+        let mut result = self.solve_scaled(pr, &q, scale, Rule::MostViolated, out);
         if result.is_err() {
             // Cycling among nearly dependent rows: Bland's rule from a cold start.
-            result = self.solve_scaled(pr, &q, scale, Rule::Bland);
+            result = self.solve_scaled(pr, &q, scale, Rule::Bland, out);
         }
         (self.p, self.q) = (p, q);
         result
@@ -180,7 +186,8 @@ impl ActiveSetSolver {
         q: &[f64],
         scale: f64,
         rule: Rule,
-    ) -> Result<StepSolution, SolveFailure> {
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
         edge_rows(pr, &mut self.rows, &mut self.r);
         let nrows = self.rows.len();
         self.work.clear();
@@ -263,6 +270,7 @@ impl ActiveSetSolver {
         for (a, &i) in self.work.iter().enumerate() {
             self.z[i] = self.lambda[a];
         }
-        Ok(step_solution(pr, scale, &self.u, &self.z, moves as u32 + 1))
+        step_solution_into(pr, scale, &self.u, &self.z, moves as u32 + 1, out);
+        Ok(())
     }
 }

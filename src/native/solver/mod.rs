@@ -29,6 +29,17 @@ pub struct SolveFailure {
 pub trait ContactSolver: Send {
     fn name(&self) -> &'static str;
     fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure>;
+    /// [`ContactSolver::solve`] into `out`, whose buffers a back-end may reuse (the impact
+    /// stepper recycles its solutions: a step of a small scene need not allocate). On an error
+    /// `out` is unspecified.
+    fn solve_into(
+        &mut self,
+        problem: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        *out = self.solve(problem)?;
+        Ok(())
+    }
     /// Steps this back-end handed to its fallback (Clarabel).
     fn fallbacks(&self) -> u64 {
         0
@@ -73,6 +84,18 @@ impl ContactSolver for WithFallback {
         self.fallbacks += 1;
         self.backup.solve(problem)
     }
+    fn solve_into(
+        &mut self,
+        problem: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        if self.primary.solve_into(problem, out).is_ok() {
+            return Ok(());
+        }
+        self.fallbacks += 1;
+        *out = self.backup.solve(problem)?;
+        Ok(())
+    }
     fn fallbacks(&self) -> u64 {
         self.fallbacks + self.primary.fallbacks()
     }
@@ -112,6 +135,16 @@ impl ContactSolver for Auto {
             return Ok(s);
         }
         self.sparse.solve(problem)
+    }
+    fn solve_into(
+        &mut self,
+        problem: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS && self.dense.solve_into(problem, out).is_ok() {
+            return Ok(());
+        }
+        self.sparse.solve_into(problem, out)
     }
     fn fallbacks(&self) -> u64 {
         self.sparse.fallbacks()

@@ -57,7 +57,9 @@ pub fn edge_rows(pr: &StepProblem, rows: &mut Vec<EdgeRow>, r: &mut Vec<f64>) {
             };
             debug_assert!(
                 c.nrow.len() % 3 == 0
-                    && c.nrow.chunks(3).all(|b| b[1].0 == b[0].0 + 1 && b[2].0 == b[0].0 + 2),
+                    && c.nrow
+                        .chunks(3)
+                        .all(|b| b[1].0 == b[0].0 + 1 && b[2].0 == b[0].0 + 2),
                 "a row holds whole bodies, three consecutive DOFs each"
             );
             for (j, (&(i, vn), &(it, vt))) in c.nrow.iter().zip(&c.trow).enumerate() {
@@ -82,19 +84,33 @@ pub fn step_solution(
     lambda: &[f64],
     iterations: u32,
 ) -> StepSolution {
+    let mut out = StepSolution::default();
+    step_solution_into(pr, s, u, lambda, iterations, &mut out);
+    out
+}
+
+/// [`step_solution`] into `out`'s buffers.
+pub fn step_solution_into(
+    pr: &StepProblem,
+    s: f64,
+    u: &[f64],
+    lambda: &[f64],
+    iterations: u32,
+    out: &mut StepSolution,
+) {
     let zscale = s / pr.dt;
-    StepSolution {
-        dq: u.iter().map(|u| u * pr.dt).collect(),
-        normal: (0..pr.contacts.len())
-            .map(|c| (lambda[2 * c] + lambda[2 * c + 1]) * zscale)
-            .collect(),
-        tangential: pr
-            .contacts
+    out.dq.clear();
+    out.dq.extend(u.iter().map(|u| u * pr.dt));
+    out.normal.clear();
+    out.normal
+        .extend((0..pr.contacts.len()).map(|c| (lambda[2 * c] + lambda[2 * c + 1]) * zscale));
+    out.tangential.clear();
+    out.tangential.extend(
+        pr.contacts
             .iter()
             .enumerate()
-            .map(|(c, ct)| ct.mu * (lambda[2 * c] - lambda[2 * c + 1]) * zscale)
-            .collect(),
-        iterations,
-        polished: false,
-    }
+            .map(|(c, ct)| ct.mu * (lambda[2 * c] - lambda[2 * c + 1]) * zscale),
+    );
+    out.iterations = iterations;
+    out.polished = false;
 }
