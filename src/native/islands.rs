@@ -252,8 +252,12 @@ impl Islands {
 }
 
 impl Islands {
-    /// Solve a problem of several blocks island by island.
-    fn solve_split(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+    /// Solve a problem of several blocks island by island, into `out`.
+    fn solve_split(
+        &mut self,
+        pr: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
         self.components.find(pr.n_dof() / 3, &pr.contacts);
         let island = &self.components.island;
         if !island.is_empty() && island.iter().all(|&i| i == Some(0)) {
@@ -264,7 +268,11 @@ impl Islands {
             self.components.island = island;
             self.islands_solved += 1;
             let make = &self.make;
-            return self.solvers.entry(0).or_insert_with(|| make()).solve(pr);
+            return self
+                .solvers
+                .entry(0)
+                .or_insert_with(|| make())
+                .solve_into(pr, out);
         }
         let (parts, free) = Self::split(pr, island);
         let keys: Vec<usize> = parts.iter().map(|p| p.key).collect();
@@ -290,14 +298,14 @@ impl Islands {
             work.iter_mut().map(|(p, s)| s.solve(&p.problem)).collect()
         };
         self.islands_solved += work.len() as u64;
-        let n = pr.n_dof();
-        let mut out = StepSolution {
-            dq: vec![0.0; n],
-            normal: vec![0.0; pr.contacts.len()],
-            tangential: vec![0.0; pr.contacts.len()],
-            iterations: 0,
-            polished: false,
-        };
+        out.dq.clear();
+        out.dq.resize(pr.n_dof(), 0.0);
+        out.normal.clear();
+        out.normal.resize(pr.contacts.len(), 0.0);
+        out.tangential.clear();
+        out.tangential.resize(pr.contacts.len(), 0.0);
+        out.iterations = 0;
+        out.polished = false;
         let mut failure = None;
         for ((p, s), r) in work.into_iter().zip(results) {
             self.solvers.insert(p.key, s);
@@ -325,7 +333,7 @@ impl Islands {
                 out.dq[i] = pr.dt * (pr.v0[i] + pr.theta * pr.dt * pr.force[i] / pr.mass[i]);
             }
         }
-        Ok(out)
+        Ok(())
     }
 }
 
@@ -335,17 +343,14 @@ impl ContactSolver for Islands {
     }
 
     fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if pr.n_dof() == 3 && !pr.contacts.is_empty() {
-            // One block with contact points: one island, no other back-end to retire.
-            self.islands_solved += 1;
-            let make = &self.make;
-            return self.solvers.entry(0).or_insert_with(|| make()).solve(pr);
-        }
-        self.solve_split(pr)
+        let mut out = StepSolution::default();
+        self.solve_into(pr, &mut out)?;
+        Ok(out)
     }
 
     fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
         if pr.n_dof() == 3 && !pr.contacts.is_empty() {
+            // One block with contact points: one island, no other back-end to retire.
             self.islands_solved += 1;
             let make = &self.make;
             return self
@@ -354,8 +359,7 @@ impl ContactSolver for Islands {
                 .or_insert_with(|| make())
                 .solve_into(pr, out);
         }
-        *out = self.solve_split(pr)?;
-        Ok(())
+        self.solve_split(pr, out)
     }
 
     fn fallbacks(&self) -> u64 {

@@ -200,6 +200,26 @@ impl MaterialContact {
     /// then A's (the layout of `assembly::contact_rows`).
     pub fn gradients(&self, dq: Incr) -> (Gradient, Gradient, usize) {
         let n = self.normal(dq);
+        self.gradients_along(dq, n, || self.separation(dq))
+    }
+
+    /// [`Self::increments`] and [`Self::gradients`] at `q0 + dq` together (the normal and the
+    /// separation formed once).
+    pub fn increments_and_gradients(&self, dq: Incr) -> ((f64, f64), (Gradient, Gradient, usize)) {
+        let n = self.normal(dq);
+        let t = (n.1, -n.0);
+        let d = self.separation(dq);
+        ((dot(n, d), dot(t, d)), self.gradients_along(dq, n, || d))
+    }
+
+    /// The gradients at `q0 + dq` whose normal there is `n` (`separation` gives `d`, asked
+    /// only of a point between two blocks).
+    fn gradients_along(
+        &self,
+        dq: Incr,
+        n: (f64, f64),
+        separation: impl FnOnce() -> (f64, f64),
+    ) -> (Gradient, Gradient, usize) {
         let t = (n.1, -n.0);
         let mut gn = [(0, 0.0); 6];
         let mut gt = [(0, 0.0); 6];
@@ -216,7 +236,7 @@ impl MaterialContact {
         };
         let ia = 3 * a.body;
         let ra = perp(a.arm(dq));
-        let d = self.separation(dq);
+        let d = separation();
         gn[3] = (ia, -n.0);
         gn[4] = (ia + 1, -n.1);
         gn[5] = (ia + 2, -dot(n, ra) + dot(perp(n), d));

@@ -33,7 +33,10 @@ use super::assembly::{
     Bodies, contact_key, contact_rows, ground_offsets, normal_row, pose, poses, poses_into,
 };
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
-use super::material::{Increment, MaterialContact};
+use super::material::{Gradient, Increment, MaterialContact};
+
+/// No gradients (a point that does not end closed).
+const NO_GRADIENTS: (Gradient, Gradient, usize) = ([(0, 0.0); 6], [(0, 0.0); 6], 0);
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 use super::sleep::{Sleep, rest_interval};
@@ -253,8 +256,13 @@ struct Workspace {
     start: Option<NativeState>,
     /// Poses at the start of a sub-step.
     poses: Vec<Pose>,
-    /// A sub-step's points as material points (`solve_discrete_gradient`, `settle_velocity`).
+    /// A sub-step's points as material points (`solve_discrete_gradient`).
     points: Vec<MaterialContact>,
+    /// The gradients of each point's gap functions at the end of a sub-step (the points that
+    /// end closed; `NO_GRADIENTS` for the others), for `settle_velocity`.
+    end_gradients: Vec<(Gradient, Gradient, usize)>,
+    /// The discrete-gradient iteration's drift per point.
+    drifts: Vec<f64>,
     /// The discrete-gradient iteration's predicted increment.
     dq: Vec<f64>,
     /// Which points of a sub-step end closed, given back by `step_locating`.
@@ -1304,9 +1312,9 @@ impl Stepper {
         s.ground_w = g.w1;
         s.t += h;
         if impact {
-            let points = std::mem::take(&mut self.work.points);
-            let settled = self.settle_velocity(s, contacts, &points, &ends_closed, &pr, &sol);
-            self.work.points = points;
+            let end = std::mem::take(&mut self.work.end_gradients);
+            let settled = self.settle_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
+            self.work.end_gradients = end;
             sol.iterations += settled.map_err(|failure| StepError::Solver {
                 step: s.step + 1,
                 t: s.t,
@@ -1432,26 +1440,41 @@ impl Stepper {
             // The drift of the points that carry a force, and of the unloaded ones that end
             // closed or through their face: the rows of those were built at the predicted
             // end, which the solution may have left (a light plank struck in the sub-step).
-            let drift = |k: usize| {
-                let (dn, dt) = points[k].increments(&whole);
+            // The carrying points' gradients at the end are kept for `settle_velocity`.
+            let mut drifts = std::mem::take(&mut self.work.drifts);
+            let mut end = std::mem::take(&mut self.work.end_gradients);
+            drifts.clear();
+            end.clear();
+            for (k, m) in points.iter().enumerate() {
+                let (dn, dt) = if carries[k] {
+                    let (increments, gradients) = m.increments_and_gradients(&whole);
+                    end.push(gradients);
+                    increments
+                } else {
+                    end.push(NO_GRADIENTS);
+                    m.increments(&whole)
+                };
                 let closes = contacts[k].gap + dn < CLOSED_GAP;
                 let r = &pr.contacts[k];
                 let dn = dn - row_dot(&r.nrow, dq);
                 let dt = dt - row_dot(&r.trow, dq);
-                if carries[k] || closes {
+                drifts.push(if carries[k] || closes {
                     dn.abs().max(dt.abs())
                 } else {
                     0.0
-                }
-            };
-            let worst = (0..points.len()).map(drift).fold(0.0f64, f64::max);
+                });
+            }
+            self.work.end_gradients = end;
+            let worst = drifts.iter().copied().fold(0.0f64, f64::max);
             if worst <= DRIFT_TOLERANCE || solve == DISCRETE_GRADIENT_SOLVES {
+                self.work.drifts = drifts;
                 self.gradient_solves += solve as u64;
                 sol.iterations = iterations;
                 return Ok(sol);
             }
             if self.bodies.len() == 1 {
                 // One island: solved again whole.
+                self.work.drifts = drifts;
                 last = Some(sol);
                 continue;
             }
@@ -1461,9 +1484,10 @@ impl Stepper {
             let it = super::islands::holding(
                 &island,
                 (0..contacts.len())
-                    .filter(|&k| drift(k) > DRIFT_TOLERANCE)
+                    .filter(|&k| drifts[k] > DRIFT_TOLERANCE)
                     .map(|k| contacts[k].b),
             );
+            self.work.drifts = drifts;
             iterating = it.contains(&false).then_some(it);
             last = Some(sol);
         }
@@ -1481,7 +1505,7 @@ impl Stepper {
         &mut self,
         s: &mut NativeState,
         contacts: &[ContactPoint],
-        points: &[MaterialContact],
+        end: &[(Gradient, Gradient, usize)],
         carries: &[bool],
         pr: &StepProblem,
         sol: &StepSolution,
@@ -1502,14 +1526,14 @@ impl Stepper {
         let several = self.bodies.len() > 1;
         let mut approach = std::mem::take(&mut self.approach);
         approach.clear();
-        let increment = Increment::new(&sol.dq, 1.0);
-        for (k, ((c, m), l)) in contacts.iter().zip(points).zip(carries).enumerate() {
+        for (k, ((c, g), l)) in contacts.iter().zip(end).zip(carries).enumerate() {
             if !*l {
                 continue;
             }
             let mu = self.bodies.friction(c);
             let (g_n, g_t) = ground_offsets(c, w);
-            let (gn, gt, len) = m.gradients(&increment);
+            let (gn, gt, len) = g;
+            let len = *len;
             // The velocity-level rows: `(n ± mu t)·(v - w) >= 0`.
             let mut r = ContactRows {
                 key: contact_key(c),
