@@ -27,62 +27,58 @@ use crate::geometry::{ContactPoint, Pose};
 use std::cell::OnceCell;
 
 /// An increment `k dq` from the start of the step (`k = 1/2`: the midpoint, without a copy of
-/// `dq`), with each body's rotation over it computed once, when a point first asks for it:
-/// `(sin a, cos a, cos a - 1)`, the last as `-2 sin^2(a/2)` (see `Carrier::displacement`).
-/// Build one per increment and evaluate all of a step's points with it: the trigonometry is
-/// per body, not per point.
+/// `dq`), with each body's rotation over it computed once: `(sin a, cos a, cos a - 1)`, the
+/// last as `-2 sin^2(a/2)` (see `Carrier::displacement`). Build one per increment and evaluate
+/// all of a step's points with it: the trigonometry is per body, not per point.
 pub struct Increment<'a> {
     dq: &'a [f64],
     k: f64,
-    /// Computed when a point first asks (a step of one island among many asks for few bodies).
     turns: Turns,
 }
 
 /// A body's rotation over an increment, `(sin a, cos a, cos a - 1)`.
 type Turn = (f64, f64, f64);
 
-/// Bodies whose turns an [`Increment`] holds inline: the steps of small scenes, the cheapest,
-/// build several increments each and allocate none.
+/// Bodies whose turns an [`Increment`] computes at once and holds inline: the steps of small
+/// scenes, the cheapest, build several increments each and allocate none.
 const INLINE_BODIES: usize = 4;
 
-/// One lazily computed turn per body.
+/// The turns of an increment's bodies.
 enum Turns {
-    Inline([OnceCell<Turn>; INLINE_BODIES]),
-    Heap(Vec<OnceCell<Turn>>),
+    /// Every body's, computed at once (at most `INLINE_BODIES`).
+    Few([Turn; INLINE_BODIES]),
+    /// Computed when a point first asks (a step of one island among many asks for few bodies).
+    Many(Vec<OnceCell<Turn>>),
 }
 
-impl Turns {
-    fn new(bodies: usize) -> Self {
-        if bodies <= INLINE_BODIES {
-            Turns::Inline([const { OnceCell::new() }; INLINE_BODIES])
-        } else {
-            Turns::Heap((0..bodies).map(|_| OnceCell::new()).collect())
-        }
-    }
-    fn of(&self, b: usize) -> &OnceCell<Turn> {
-        match self {
-            Turns::Inline(cells) => &cells[b],
-            Turns::Heap(cells) => &cells[b],
-        }
-    }
+/// Body `b`'s turn over the increment `k dq`.
+fn turn_of(dq: &[f64], k: f64, b: usize) -> Turn {
+    let a = k * dq[3 * b + 2];
+    let (s, c) = a.sin_cos();
+    let h = (0.5 * a).sin();
+    (s, c, -2.0 * h * h)
 }
 
 impl<'a> Increment<'a> {
     pub fn new(dq: &'a [f64], k: f64) -> Self {
-        Increment {
-            dq,
-            k,
-            turns: Turns::new(dq.len() / 3),
-        }
+        let bodies = dq.len() / 3;
+        let turns = if bodies <= INLINE_BODIES {
+            let mut few = [(0.0, 1.0, 0.0); INLINE_BODIES];
+            for (b, turn) in few.iter_mut().enumerate().take(bodies) {
+                *turn = turn_of(dq, k, b);
+            }
+            Turns::Few(few)
+        } else {
+            Turns::Many((0..bodies).map(|_| OnceCell::new()).collect())
+        };
+        Increment { dq, k, turns }
     }
     /// `(sin a, cos a, cos a - 1)` of body `b`'s rotation `a` over the increment.
     fn turn(&self, b: usize) -> Turn {
-        *self.turns.of(b).get_or_init(|| {
-            let a = self.k * self.dq[3 * b + 2];
-            let (s, c) = a.sin_cos();
-            let h = (0.5 * a).sin();
-            (s, c, -2.0 * h * h)
-        })
+        match &self.turns {
+            Turns::Few(turns) => turns[b],
+            Turns::Many(cells) => *cells[b].get_or_init(|| turn_of(self.dq, self.k, b)),
+        }
     }
     fn at(&self, i: usize) -> f64 {
         self.k * self.dq[i]

@@ -742,7 +742,11 @@ impl Stepper {
         let last = std::mem::take(&mut self.last_solution);
         self.give_back_solution(last);
         // The excitation's acceleration of this step, as the step problem will use it.
-        let ax = self.ground_step(s, dt).a_eff.0;
+        // (Read only by sleeping.)
+        let ax = match self.sleep {
+            Some(_) => self.ground_step(s, dt).a_eff.0,
+            None => 0.0,
+        };
         if let Some(sl) = self.sleep.as_mut() {
             sl.wake_for_excitation(ax);
         }

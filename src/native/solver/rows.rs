@@ -18,12 +18,14 @@ pub struct EdgeRow {
 }
 
 impl EdgeRow {
+    #[inline]
     pub fn dot(&self, u: &[f64]) -> f64 {
         (0..self.len).map(|j| self.coef[j] * u[self.idx[j]]).sum()
     }
     /// `row · diag(w) · other`. A row holds whole bodies, three consecutive DOFs each (B's,
     /// then A's: `assembly::contact_rows`), so rows share DOFs only by sharing a body: the
     /// bodies are matched, not every pair of entries.
+    #[inline]
     pub fn weighted_dot(&self, other: &EdgeRow, w: &[f64]) -> f64 {
         let mut v = 0.0;
         for j in (0..self.len).step_by(3) {
