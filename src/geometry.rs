@@ -116,6 +116,18 @@ pub const ALL_PAIRS_UP_TO: usize = 8;
 /// cost is linear in the number of blocks; a sweep along one axis would test every block of a
 /// column against every other.
 pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usize, usize)> {
+    let mut pairs = Vec::new();
+    broad_phase_into(blocks, margin, &mut pairs);
+    pairs
+}
+
+/// [`broad_phase`] into `pairs`.
+pub fn broad_phase_into(
+    blocks: &[Placed],
+    margin: &dyn Fn(usize) -> f64,
+    pairs: &mut Vec<(usize, usize)>,
+) {
+    pairs.clear();
     let enlarged = |i: usize| {
         let m = margin(i);
         let b = aabb(&blocks[i]);
@@ -130,7 +142,6 @@ pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usi
         for (i, b) in few.iter_mut().enumerate().take(blocks.len()) {
             *b = enlarged(i);
         }
-        let mut pairs = Vec::new();
         for i in 0..blocks.len() {
             for j in i + 1..blocks.len() {
                 if overlaps(&few[i], &few[j]) {
@@ -138,11 +149,10 @@ pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usi
                 }
             }
         }
-        return pairs;
+        return;
     }
     let boxes: Vec<_> = (0..blocks.len()).map(enlarged).collect();
     let overlap = overlaps;
-    let mut pairs = Vec::new();
     let largest = boxes
         .iter()
         .map(|b| (b.1 - b.0).max(b.3 - b.2))
@@ -158,7 +168,7 @@ pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usi
                 }
             }
         }
-        return pairs;
+        return;
     }
     // The margin keeps corner cells of overlapping boxes neighbours despite rounding.
     let cell = largest * (1.0 + 1e-9);
@@ -194,7 +204,6 @@ pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usi
         }
     }
     pairs.sort_unstable();
-    pairs
 }
 
 /// Contacts of block `i` with the flat ground at height `ground_z`: every vertex whose gap is

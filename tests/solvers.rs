@@ -3,7 +3,7 @@
 use rockbench::engines::{RunOutput, engine_by_name, run_timed};
 use rockbench::native::problem::ContactRows;
 use rockbench::native::solver::{ActiveSetSolver, ClarabelSolver, ContactSolver, SparseSolver};
-use rockbench::native::{NativeSettings, StepProblem};
+use rockbench::native::{NativeSettings, StepProblem, StepSolution};
 use rockbench::scene::load_scene_with_overrides;
 use rockbench::summary::Summary;
 use std::path::Path;
@@ -360,4 +360,54 @@ fn auto_needs_no_clarabel_fallback_on_the_two_block_case() {
         stepper.step(&mut state).unwrap();
     }
     assert_eq!(stepper.solver_fallbacks(), 0);
+}
+
+/// `solve_into` gives what `solve` gives, bit for bit, whatever the buffers it is handed held
+/// (longer, shorter, other values), on every back-end and through the islands and `auto`
+/// wrappers: problems of a 3-block column rocking (one island) and of two separate blocks (two
+/// islands), each at several steps.
+#[test]
+fn solve_into_reuses_any_buffer_and_gives_what_solve_gives() {
+    let stale = || StepSolution {
+        dq: vec![7.0; 40],
+        normal: vec![-3.0; 1],
+        tangential: vec![],
+        iterations: 99,
+        polished: true,
+    };
+    let two_blocks = rockbench::scene::parse_scene_str(
+        "name = \"pair\"\nduration = 1.0\n\
+         [[blocks]]\nname = \"a\"\nwidth = 0.4\nheight = 1.0\nx = 0.0\n\
+         [[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1.0\nx = 2.0\n\
+         [initial]\ntilt = 0.1\n",
+        false,
+        "pair",
+        &[],
+    )
+    .unwrap();
+    let mut compared = 0;
+    for scene in [column(3, "auto", 1.0), two_blocks] {
+        let (mut stepper, mut state) = rockbench::native::stepper_for(&scene).unwrap();
+        for step in 0..60 {
+            if step % 20 == 5 {
+                let pr = stepper.next_problem(&state);
+                assert!(!pr.contacts.is_empty());
+                for kind in ["active-set", "sparse", "clarabel", "auto"] {
+                    let settings: NativeSettings =
+                        toml::from_str(&format!("solver = \"{kind}\"")).unwrap();
+                    let (mut a, mut b) = (
+                        rockbench::native::solver::solver_for(&settings),
+                        rockbench::native::solver::solver_for(&settings),
+                    );
+                    let expected = a.solve(&pr).unwrap();
+                    let mut out = stale();
+                    b.solve_into(&pr, &mut out).unwrap();
+                    assert_eq!(out, expected, "{} {kind} step {step}", scene.name);
+                    compared += 1;
+                }
+            }
+            stepper.step(&mut state).unwrap();
+        }
+    }
+    assert_eq!(compared, 24);
 }

@@ -40,13 +40,24 @@ pub fn components(n_blocks: usize, contacts: &[ContactRows]) -> Vec<Option<usize
 /// Which islands (numbered as by [`components`], `island` block by block) hold one of
 /// `blocks`.
 pub fn holding(island: &[Option<usize>], blocks: impl IntoIterator<Item = usize>) -> Vec<bool> {
-    let mut held = vec![false; island.iter().flatten().max().map_or(0, |m| m + 1)];
+    let mut held = Vec::new();
+    holding_into(island, blocks, &mut held);
+    held
+}
+
+/// [`holding`] into `held`.
+pub fn holding_into(
+    island: &[Option<usize>],
+    blocks: impl IntoIterator<Item = usize>,
+    held: &mut Vec<bool>,
+) {
+    held.clear();
+    held.resize(island.iter().flatten().max().map_or(0, |m| m + 1), false);
     for b in blocks {
         if let Some(i) = island[b] {
             held[i] = true;
         }
     }
-    held
 }
 
 /// [`components`] of detected contact points (before any rows are built).
@@ -58,7 +69,7 @@ pub fn components_of_points(n_blocks: usize, points: &[ContactPoint]) -> Vec<Opt
 
 /// [`components`] with its working storage kept from call to call.
 #[derive(Default)]
-struct Components {
+pub struct Components {
     parent: Vec<usize>,
     touched: Vec<bool>,
     number: Vec<usize>,
@@ -67,7 +78,8 @@ struct Components {
 }
 
 impl Components {
-    fn find(&mut self, n_blocks: usize, contacts: &[ContactRows]) {
+    /// [`components`] of `contacts`: the result is [`Components::island`].
+    pub fn find(&mut self, n_blocks: usize, contacts: &[ContactRows]) {
         self.link(
             n_blocks,
             contacts.iter().filter_map(|c| {
@@ -76,6 +88,11 @@ impl Components {
                 first.zip(last)
             }),
         );
+    }
+
+    /// Each block's island found by the last [`Components::find`].
+    pub fn island(&self) -> &[Option<usize>] {
+        &self.island
     }
 
     /// The components of the graph of the blocks joined by `links` (a block linked to itself

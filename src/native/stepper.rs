@@ -37,6 +37,7 @@ use super::material::{Gradient, Increment, MaterialContact};
 
 /// No gradients (a point that does not end closed).
 const NO_GRADIENTS: (Gradient, Gradient, usize) = ([(0, 0.0); 6], [(0, 0.0); 6], 0);
+use super::islands::{Components, holding_into};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 use super::sleep::{Sleep, rest_interval};
@@ -61,7 +62,9 @@ pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
-use crate::geometry::{ContactPoint, Placed, Pose, block_contacts, broad_phase, ground_contacts};
+use crate::geometry::{
+    ContactPoint, Placed, Pose, block_contacts, broad_phase_into, ground_contacts,
+};
 use crate::scene::AppliedAs;
 
 /// Add `r`'s tangential row and offset to `sum`'s (rows of the same body pair share their DOF
@@ -171,17 +174,29 @@ fn keep_islands_that_approach(
     rows: &mut Vec<ContactRows>,
     approach: &[f64],
     h: f64,
+    islands: &mut Islands,
 ) {
     let block = |r: &ContactRows| r.nrow.first().map(|e| e.0 / 3);
-    let island = super::islands::components(n_blocks, rows);
-    let settles = super::islands::holding(
-        &island,
+    islands.components.find(n_blocks, rows);
+    let island = islands.components.island();
+    holding_into(
+        island,
         rows.iter()
             .zip(approach)
             .filter(|(_, a)| **a * h > VELOCITY_TOLERANCE)
             .filter_map(|(r, _)| block(r)),
+        &mut islands.held,
     );
+    let settles = &islands.held;
     rows.retain(|r| block(r).and_then(|b| island[b]).is_none_or(|i| settles[i]));
+}
+
+/// Working storage for the islands of a problem (`native::islands`): their components and
+/// which of them a step marks.
+#[derive(Default)]
+struct Islands {
+    components: Components,
+    held: Vec<bool>,
 }
 
 /// What a step started from, for `Stepper::locate_per_island`.
@@ -263,14 +278,22 @@ struct Workspace {
     end_gradients: Vec<(Gradient, Gradient, usize)>,
     /// The discrete-gradient iteration's drift per point.
     drifts: Vec<f64>,
+    /// The islands of a sub-step's problem (`iterate_discrete_gradient`, `settle_velocity`).
+    islands: Islands,
     /// The discrete-gradient iteration's predicted increment.
     dq: Vec<f64>,
     /// Which points of a sub-step end closed, given back by `step_locating`.
     closed: Vec<bool>,
-    /// Detection's placed rectangles.
-    placed: Vec<Placed>,
+    detection: Detection,
     /// The contact points of the step before last, whose buffer detection fills again.
     contacts: Vec<ContactPoint>,
+}
+
+/// Detection's working storage: the placed rectangles and the broad phase's pairs.
+#[derive(Default)]
+struct Detection {
+    placed: Vec<Placed>,
+    pairs: Vec<(usize, usize)>,
 }
 
 /// Spare problems (and solutions) a stepper keeps (a located step holds at most three at once).
@@ -458,13 +481,14 @@ impl Stepper {
     /// Contact points at the current geometry.
     pub fn detect(&self, s: &NativeState) -> Vec<ContactPoint> {
         let mut out = Vec::new();
-        self.detect_into(s, &mut Vec::new(), &mut out);
+        self.detect_into(s, &mut Detection::default(), &mut out);
         out
     }
 
-    /// [`Stepper::detect`] into `out`, with `placed` as working storage.
-    fn detect_into(&self, s: &NativeState, placed: &mut Vec<Placed>, out: &mut Vec<ContactPoint>) {
+    /// [`Stepper::detect`] into `out`, with `scratch` as working storage.
+    fn detect_into(&self, s: &NativeState, scratch: &mut Detection, out: &mut Vec<ContactPoint>) {
         out.clear();
+        let Detection { placed, pairs } = scratch;
         let dt = self.settings.dt;
         let frac = self.settings.contact_reach;
         let ground_z = match self.applied_as {
@@ -517,7 +541,8 @@ impl Stepper {
         if count < 2 {
             return;
         }
-        for (ki, kj) in broad_phase(placed, &margin) {
+        broad_phase_into(placed, &margin, pairs);
+        for &(ki, kj) in pairs.iter() {
             let (i, j) = (member(ki), member(kj));
             if asleep(i) && asleep(j) {
                 continue;
@@ -785,15 +810,15 @@ impl Stepper {
     /// sleeping island a point joins to an awake block.
     fn detect_waking(&mut self, s: &NativeState) -> Vec<ContactPoint> {
         let mut contacts = std::mem::take(&mut self.work.contacts);
-        let mut placed = std::mem::take(&mut self.work.placed);
+        let mut scratch = std::mem::take(&mut self.work.detection);
         loop {
-            self.detect_into(s, &mut placed, &mut contacts);
+            self.detect_into(s, &mut scratch, &mut contacts);
             let woke = self
                 .sleep
                 .as_mut()
                 .is_some_and(|sl| sl.wake_touched(&contacts));
             if !woke {
-                self.work.placed = placed;
+                self.work.detection = scratch;
                 return contacts;
             }
         }
@@ -1261,14 +1286,20 @@ impl Stepper {
         pr.force.clear();
         pr.force.resize(s.v.len(), 0.0);
         pr.v0.clone_from(&s.v);
+        let mut sol = self.spare_solution();
         let solved = match law {
-            FrictionLaw::Associative => self.velocity_solver.solve(&pr),
-            FrictionLaw::Coulomb => self.coulomb.solve(self.velocity_solver.as_mut(), &pr),
+            FrictionLaw::Associative => self.velocity_solver.solve_into(&pr, &mut sol),
+            FrictionLaw::Coulomb => self
+                .coulomb
+                .solve(self.velocity_solver.as_mut(), &pr)
+                .map(|coulomb| sol = coulomb),
         };
         self.give_back(pr);
-        let sol = solved?;
+        solved?;
         s.v.copy_from_slice(&sol.dq);
-        Ok(sol.iterations)
+        let iterations = sol.iterations;
+        self.give_back_solution(sol);
+        Ok(iterations)
     }
 
     /// Advance by `h` from the given contacts; `project`: project out a penetration after the
@@ -1366,35 +1397,50 @@ impl Stepper {
         dq.clear();
         dq.extend((0..s.q.len()).map(|i| h * s.v[i] + 0.5 * h * h * self.accel[i]));
         let mut carries = std::mem::take(&mut self.work.closed);
-        let solved = self.iterate_discrete_gradient(contacts, &points, &mut dq, &mut carries, pr);
+        let mut islands = std::mem::take(&mut self.work.islands);
+        let solved = self.iterate_discrete_gradient(
+            contacts,
+            &points,
+            &mut dq,
+            &mut carries,
+            &mut islands,
+            pr,
+        );
+        self.work.islands = islands;
         self.work.points = points;
         self.work.dq = dq;
         solved.map(|sol| (sol, carries))
     }
 
     /// `solve_discrete_gradient`'s iteration from the predicted increment `dq`; `carries`
-    /// receives which points end closed.
+    /// receives which points end closed; `islands` is working storage.
     fn iterate_discrete_gradient(
         &mut self,
         contacts: &[ContactPoint],
         points: &[MaterialContact],
         dq: &mut [f64],
         carries: &mut Vec<bool>,
+        islands: &mut Islands,
         pr: &mut StepProblem,
     ) -> Result<StepSolution, SolveFailure> {
         let mut iterations = 0;
         // Once some islands' points stop drifting, only the others are solved again (the
         // problem is separable over islands): an island's solves are those it needs alone.
-        let mut island: Vec<Option<usize>> = Vec::new();
-        let mut iterating: Option<Vec<bool>> = None;
+        // `iterating`: `islands.held` marks the islands solved again (found once, when first
+        // needed).
+        let mut found = false;
+        let mut iterating = false;
         let mut last: Option<StepSolution> = None;
         for solve in 1..=DISCRETE_GRADIENT_SOLVES {
-            let of = |k: usize| island.get(contacts[k].b).copied().flatten();
-            let solved_again = |k: usize| {
-                iterating
-                    .as_ref()
-                    .is_none_or(|it| of(k).is_some_and(|i| it[i]))
+            let of = |k: usize| {
+                islands
+                    .components
+                    .island()
+                    .get(contacts[k].b)
+                    .copied()
+                    .flatten()
             };
+            let solved_again = |k: usize| !iterating || of(k).is_some_and(|i| islands.held[i]);
             {
                 let (whole, half) = (Increment::new(dq, 1.0), Increment::new(dq, 0.5));
                 for (k, (r, m)) in pr.contacts.iter_mut().zip(points).enumerate() {
@@ -1403,8 +1449,8 @@ impl Stepper {
                     }
                 }
             }
-            let mut sol = match (&iterating, last.take()) {
-                (Some(it), Some(mut sol)) => {
+            let mut sol = match (iterating, last.take()) {
+                (true, Some(mut sol)) => {
                     let again: Vec<usize> =
                         (0..contacts.len()).filter(|&k| solved_again(k)).collect();
                     let part = self.solve_law(&StepProblem {
@@ -1415,8 +1461,8 @@ impl Stepper {
                         v0: pr.v0.clone(),
                         contacts: again.iter().map(|&k| pr.contacts[k].clone()).collect(),
                     })?;
-                    for (b, i) in island.iter().enumerate() {
-                        if i.is_some_and(|i| it[i]) {
+                    for (b, i) in islands.components.island().iter().enumerate() {
+                        if i.is_some_and(|i| islands.held[i]) {
                             sol.dq[3 * b..3 * b + 3].copy_from_slice(&part.dq[3 * b..3 * b + 3]);
                         }
                     }
@@ -1482,17 +1528,19 @@ impl Stepper {
                 last = Some(sol);
                 continue;
             }
-            if island.is_empty() {
-                island = super::islands::components(self.bodies.len(), &pr.contacts);
+            if !found {
+                islands.components.find(self.bodies.len(), &pr.contacts);
+                found = true;
             }
-            let it = super::islands::holding(
-                &island,
+            holding_into(
+                islands.components.island(),
                 (0..contacts.len())
                     .filter(|&k| drifts[k] > DRIFT_TOLERANCE)
                     .map(|k| contacts[k].b),
+                &mut islands.held,
             );
             self.work.drifts = drifts;
-            iterating = it.contains(&false).then_some(it);
+            iterating = islands.held.contains(&false);
             last = Some(sol);
         }
         unreachable!("the last solve returns")
@@ -1608,7 +1656,9 @@ impl Stepper {
             ));
         }
         if several && worst * pr.dt > VELOCITY_TOLERANCE {
-            keep_islands_that_approach(self.bodies.len(), rows, &approach, pr.dt);
+            let mut islands = std::mem::take(&mut self.work.islands);
+            keep_islands_that_approach(self.bodies.len(), rows, &approach, pr.dt, &mut islands);
+            self.work.islands = islands;
         }
         self.approach = approach;
         if worst * pr.dt <= VELOCITY_TOLERANCE {
