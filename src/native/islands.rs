@@ -269,6 +269,20 @@ impl Islands {
 }
 
 impl Islands {
+    /// Solve a problem that is one island with the back-end of block 0's island, into `out`.
+    fn solve_whole(
+        &mut self,
+        pr: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        self.islands_solved += 1;
+        let make = &self.make;
+        self.solvers
+            .entry(0)
+            .or_insert_with(|| make())
+            .solve_into(pr, out)
+    }
+
     /// Solve a problem of several blocks island by island, into `out`.
     fn solve_split(
         &mut self,
@@ -283,13 +297,7 @@ impl Islands {
             let island = std::mem::take(&mut self.components.island);
             self.retire(&[0], &island);
             self.components.island = island;
-            self.islands_solved += 1;
-            let make = &self.make;
-            return self
-                .solvers
-                .entry(0)
-                .or_insert_with(|| make())
-                .solve_into(pr, out);
+            return self.solve_whole(pr, out);
         }
         let (parts, free) = Self::split(pr, island);
         let keys: Vec<usize> = parts.iter().map(|p| p.key).collect();
@@ -368,13 +376,7 @@ impl ContactSolver for Islands {
     fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
         if pr.n_dof() == 3 && !pr.contacts.is_empty() {
             // One block with contact points: one island, no other back-end to retire.
-            self.islands_solved += 1;
-            let make = &self.make;
-            return self
-                .solvers
-                .entry(0)
-                .or_insert_with(|| make())
-                .solve_into(pr, out);
+            return self.solve_whole(pr, out);
         }
         self.solve_split(pr, out)
     }

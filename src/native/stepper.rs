@@ -8,12 +8,13 @@
 //! - `paper` (the paper's scheme): every contact point gets
 //!   `g0 + (nrow ± mu trow) dq >= 0`. The step that closes a contact returns a rebound
 //!   `e ~ (1 - theta)/theta`.
-//! - `impact` (impact-consistent, second order; the default): midpoint kinematics, `dq = h (v0 + v)/2`;
-//!   the rows are discrete gradients of each point's gap functions between the ends of the step
-//!   (`native::material`, re-evaluated until the loaded points do not drift), so a closed
-//!   contact keeps its gap exactly and its force does no work; the end velocity is made
-//!   admissible on the loaded points (`settle_velocity`); new impacts are located within the
-//!   step and plastic (`step_locating`). See docs/method.md for the equations and figures.
+//! - `impact` (impact-consistent, second order; the default): midpoint kinematics,
+//!   `dq = h (v0 + v)/2`; the rows are discrete gradients of each point's gap functions between
+//!   the ends of the step (`native::material`, re-evaluated until the loaded points do not
+//!   drift), so a closed contact keeps its gap exactly and its force does no work; the end
+//!   velocity is made admissible on the loaded points (`settle_velocity`); new impacts are
+//!   located within the step and plastic (`step_locating`). See docs/method.md for the
+//!   equations and figures.
 //!
 //! Ground motion is discretised once per step and shared by both routes, so that inertial
 //! forces and a moving ground give the same relative motion to round-off:
@@ -33,11 +34,8 @@ use super::assembly::{
     Bodies, contact_key, contact_rows, ground_offsets, normal_row, pose, poses, poses_into,
 };
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
-use super::material::{Gradient, Increment, MaterialContact};
-
-/// No gradients (a point that does not end closed).
-const NO_GRADIENTS: (Gradient, Gradient, usize) = ([(0, 0.0); 6], [(0, 0.0); 6], 0);
 use super::islands::{Components, holding_into};
+use super::material::{Gradient, Increment, MaterialContact};
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
 use super::settings::{FrictionLaw, NativeSettings, StepperKind};
 use super::sleep::{Sleep, rest_interval};
@@ -66,6 +64,9 @@ use crate::geometry::{
     ContactPoint, Placed, Pose, block_contacts, broad_phase_into, ground_contacts,
 };
 use crate::scene::AppliedAs;
+
+/// No gradients (a point that does not end closed).
+const NO_GRADIENTS: (Gradient, Gradient, usize) = ([(0, 0.0); 6], [(0, 0.0); 6], 0);
 
 /// Add `r`'s tangential row and offset to `sum`'s (rows of the same body pair share their DOF
 /// layout).
@@ -1380,8 +1381,8 @@ impl Stepper {
     /// the last smooth acceleration, `q1 = q0 + h v0 + h^2 a/2`, then from each solution, until
     /// the loaded points' gaps at the solution's end agree with the rows to `DRIFT_TOLERANCE`
     /// (at most `DISCRETE_GRADIENT_SOLVES` solves; every one conserves energy exactly, the
-    /// iteration only removes the drift of the closed contacts).
-    /// The points as material points are left in `self.work.points`.
+    /// iteration only removes the drift of the closed contacts). The closed points' gradients
+    /// at the end are left in `self.work.end_gradients` (for `settle_velocity`).
     fn solve_discrete_gradient(
         &mut self,
         s: &NativeState,
