@@ -367,12 +367,6 @@ impl ContactSolver for Islands {
         self.name
     }
 
-    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        let mut out = StepSolution::default();
-        self.solve_into(pr, &mut out)?;
-        Ok(out)
-    }
-
     fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
         if pr.n_dof() == 3 && !pr.contacts.is_empty() {
             // One block with contact points: one island, no other back-end to retire.

@@ -1703,10 +1703,9 @@ impl Stepper {
 
     /// Solve a step problem under the configured friction law.
     fn solve_law(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        match self.settings.friction_law {
-            FrictionLaw::Associative => self.solver.solve(pr),
-            FrictionLaw::Coulomb => self.coulomb.solve(self.solver.as_mut(), pr),
-        }
+        let mut out = StepSolution::default();
+        self.solve_law_into(pr, &mut out)?;
+        Ok(out)
     }
 
     /// [`Stepper::solve_law`] into `out`.

@@ -148,12 +148,6 @@ impl ContactSolver for ActiveSetSolver {
         "active-set"
     }
 
-    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        let mut out = StepSolution::default();
-        self.solve_into(pr, &mut out)?;
-        Ok(out)
-    }
-
     fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
         let (mut p, mut q) = (std::mem::take(&mut self.p), std::mem::take(&mut self.q));
         let scale = pr.scale_into(&mut p, &mut q);

@@ -311,7 +311,19 @@ impl ContactSolver for ClarabelSolver {
         }
     }
 
-    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
+    fn solve_into(
+        &mut self,
+        problem: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        *out = self.solve_problem(problem)?;
+        Ok(())
+    }
+}
+
+impl ClarabelSolver {
+    /// The step problem in the configured formulation (free flight without a solver).
+    fn solve_problem(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
         if problem.contacts.is_empty() {
             // Free flight: the unconstrained minimiser u = -q / P, no solver needed.
             let sc = problem.scaled();

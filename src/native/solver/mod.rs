@@ -28,17 +28,19 @@ pub struct SolveFailure {
 /// A contact solver back-end.
 pub trait ContactSolver: Send {
     fn name(&self) -> &'static str;
-    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure>;
-    /// [`ContactSolver::solve`] into `out`, whose buffers a back-end may reuse (the impact
-    /// stepper recycles its solutions: a step of a small scene need not allocate). On an error
-    /// `out` is unspecified.
+    /// Solve `problem` into `out`, whose buffers a back-end may reuse (the impact stepper
+    /// recycles its solutions: a step of a small scene need not allocate). On an error `out` is
+    /// unspecified.
     fn solve_into(
         &mut self,
         problem: &StepProblem,
         out: &mut StepSolution,
-    ) -> Result<(), SolveFailure> {
-        *out = self.solve(problem)?;
-        Ok(())
+    ) -> Result<(), SolveFailure>;
+    /// [`ContactSolver::solve_into`] a new solution.
+    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let mut out = StepSolution::default();
+        self.solve_into(problem, &mut out)?;
+        Ok(out)
     }
     /// Steps this back-end handed to its fallback (Clarabel).
     fn fallbacks(&self) -> u64 {
@@ -77,13 +79,6 @@ impl ContactSolver for WithFallback {
     fn name(&self) -> &'static str {
         self.primary.name()
     }
-    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if let Ok(s) = self.primary.solve(problem) {
-            return Ok(s);
-        }
-        self.fallbacks += 1;
-        self.backup.solve(problem)
-    }
     fn solve_into(
         &mut self,
         problem: &StepProblem,
@@ -93,8 +88,7 @@ impl ContactSolver for WithFallback {
             return Ok(());
         }
         self.fallbacks += 1;
-        *out = self.backup.solve(problem)?;
-        Ok(())
+        self.backup.solve_into(problem, out)
     }
     fn fallbacks(&self) -> u64 {
         self.fallbacks + self.primary.fallbacks()
@@ -127,14 +121,6 @@ pub struct Auto {
 impl ContactSolver for Auto {
     fn name(&self) -> &'static str {
         "auto (active-set up to 42 DOFs, sparse above)"
-    }
-    fn solve(&mut self, problem: &StepProblem) -> Result<StepSolution, SolveFailure> {
-        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS
-            && let Ok(s) = self.dense.solve(problem)
-        {
-            return Ok(s);
-        }
-        self.sparse.solve(problem)
     }
     fn solve_into(
         &mut self,

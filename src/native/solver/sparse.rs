@@ -486,6 +486,14 @@ impl ContactSolver for SparseSolver {
         self.rescues
     }
 
+    /// See [`SparseSolver::solve_step`].
+    fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
+        *out = self.solve_step(pr)?;
+        Ok(())
+    }
+}
+
+impl SparseSolver {
     /// Warm from the last problem's solution and multipliers; on a wide envelope a problem that
     /// does not converge from there goes to the interior-point rescue; a problem still unsolved
     /// is solved again cold before it counts as failed. (The impact
@@ -499,7 +507,7 @@ impl ContactSolver for SparseSolver {
     /// (The 29 problems of the 215-block wall under El Centro x2, 5 s, that fell back to
     /// Clarabel before closed rows were held in the Newton matrix, `CLOSED_MARGIN`, did not
     /// converge in 60 Newton steps warm or cold.)
-    fn solve(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+    fn solve_step(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let warm = !self.u.is_empty() || !self.previous_keys.is_empty();
         let mut result = self.solve_warm(pr);
         if result.is_err() && self.wide && self.rescue {
