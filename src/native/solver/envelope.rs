@@ -246,6 +246,15 @@ impl Envelope {
     /// `K += a * c c'` for a sparse vector `c` given by DOF indices and coefficients; the DOFs
     /// must belong to blocks coupled in the envelope (or to one block).
     pub fn add_outer(&mut self, a: f64, idx: &[usize], coef: &[f64]) {
+        if let Some(bases) = self.whole_blocks(idx) {
+            self.add_blocks_outer(a, bases, coef);
+        } else {
+            self.add_outer_by_dof(a, idx, coef);
+        }
+    }
+
+    /// [`Envelope::add_outer`] entry by entry, for any DOFs.
+    fn add_outer_by_dof(&mut self, a: f64, idx: &[usize], coef: &[f64]) {
         for (x, (&i, &ci)) in idx.iter().zip(coef).enumerate() {
             for (y, (&j, &cj)) in idx.iter().zip(coef).enumerate().take(x + 1) {
                 let (pi, pj) = (self.pos[i], self.pos[j]);
@@ -254,6 +263,64 @@ impl Envelope {
                 // Two entries on the same DOF add their cross term twice.
                 let twice = if y != x && i == j { 2.0 } else { 1.0 };
                 self.val[self.start[hi] + lo - self.first[hi]] += twice * a * ci * cj;
+            }
+        }
+    }
+
+    /// The elimination positions of the first DOF of each block of `idx` when it holds one or
+    /// two distinct blocks whole (three consecutive DOFs each, as a contact row does).
+    fn whole_blocks(&self, idx: &[usize]) -> Option<([usize; 2], usize)> {
+        let whole = |b: &[usize]| b[0] % DOFS == 0 && b[1] == b[0] + 1 && b[2] == b[0] + 2;
+        match idx.len() {
+            3 if whole(idx) => Some(([self.pos[idx[0]], 0], 1)),
+            6 if whole(&idx[..3]) && whole(&idx[3..]) && idx[0] != idx[3] => {
+                Some(([self.pos[idx[0]], self.pos[idx[3]]], 2))
+            }
+            _ => None,
+        }
+    }
+
+    /// [`Envelope::add_outer`] for whole blocks (see [`Envelope::whole_blocks`]): the same
+    /// products added to the same entries, with each entry's place found from its blocks' rows
+    /// (a block's three rows share their first column) instead of DOF by DOF.
+    fn add_blocks_outer(&mut self, a: f64, (bases, blocks): ([usize; 2], usize), coef: &[f64]) {
+        // `row[k][d] + column` is the place of (row bases[k] + d, column) in `val`: the row's
+        // start less its first column (wrapping: the sum with a column of the row is in range).
+        let mut row = [[0usize; DOFS]; 2];
+        for k in 0..blocks {
+            let first = self.first[bases[k]];
+            for d in 0..DOFS {
+                row[k][d] = self.start[bases[k] + d].wrapping_sub(first);
+            }
+        }
+        // Each block's own lower triangle.
+        for k in 0..blocks {
+            for dx in 0..DOFS {
+                let ax = a * coef[DOFS * k + dx];
+                for dy in 0..=dx {
+                    let at = row[k][dx].wrapping_add(bases[k] + dy);
+                    self.val[at] += ax * coef[DOFS * k + dy];
+                }
+            }
+        }
+        if blocks == 2 {
+            // The coupling of the second block's DOFs (x) with the first's (y), stored in the
+            // rows of whichever block is eliminated later.
+            let later = usize::from(bases[1] > bases[0]);
+            for dx in 0..DOFS {
+                let ax = a * coef[DOFS + dx];
+                for dy in 0..DOFS {
+                    let at = if later == 1 {
+                        row[1][dx].wrapping_add(bases[0] + dy)
+                    } else {
+                        row[0][dy].wrapping_add(bases[1] + dx)
+                    };
+                    debug_assert!(
+                        bases[1 - later] >= self.first[bases[later]],
+                        "entry outside the envelope"
+                    );
+                    self.val[at] += ax * coef[dy];
+                }
             }
         }
     }
@@ -397,6 +464,37 @@ mod tests {
             let r = &dense * DVector::from_vec(x) - DVector::from_vec(b);
             assert!(r.amax() < 1e-6, "{n_blocks} blocks: residual {}", r.amax());
         }
+    }
+
+    /// Rows of whole blocks (one block, or two in either elimination order) are added by their
+    /// blocks' rows: the same values, to the bit, as entry by entry.
+    #[test]
+    fn whole_block_rows_are_added_as_entry_by_entry() {
+        let mut rnd = sequence(11);
+        let n_blocks = 12;
+        let pairs: Vec<(usize, usize)> = (0..n_blocks)
+            .flat_map(|a| [(a, (a + 1) % n_blocks), (a, (a + 5) % n_blocks)])
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        let mut by_blocks = Envelope::new(n_blocks, &pairs);
+        let mut by_dof = by_blocks.clone();
+        let mut fast = 0;
+        for (k, &(a, b)) in pairs.iter().cycle().take(4 * pairs.len()).enumerate() {
+            // Alternate which block comes first, and add single-block rows.
+            let (a, b) = if k % 2 == 0 { (a, b) } else { (b, a) };
+            let mut idx: Vec<usize> = (0..3).map(|d| 3 * a + d).collect();
+            if k % 3 != 0 {
+                idx.extend((0..3).map(|d| 3 * b + d));
+            }
+            let coef: Vec<f64> = idx.iter().map(|_| rnd()).collect();
+            let w = 1e3 * (rnd() + 1.5);
+            fast += usize::from(by_blocks.whole_blocks(&idx).is_some());
+            by_blocks.add_outer(w, &idx, &coef);
+            by_dof.add_outer_by_dof(w, &idx, &coef);
+        }
+        assert_eq!(fast, 4 * pairs.len(), "every row took the blocks' path");
+        assert_eq!(by_blocks.val, by_dof.val);
+        assert!(by_dof.val.iter().filter(|v| **v != 0.0).count() > 100);
     }
 
     /// The reverse Cuthill-McKee order of a chain of blocks in scrambled numbering keeps every
