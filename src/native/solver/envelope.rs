@@ -270,7 +270,7 @@ impl Envelope {
     /// The elimination positions of the first DOF of each block of `idx` when it holds one or
     /// two distinct blocks whole (three consecutive DOFs each, as a contact row does).
     fn whole_blocks(&self, idx: &[usize]) -> Option<([usize; 2], usize)> {
-        let whole = |b: &[usize]| b[0] % DOFS == 0 && b[1] == b[0] + 1 && b[2] == b[0] + 2;
+        let whole = |b: &[usize]| b[0].is_multiple_of(DOFS) && b[1] == b[0] + 1 && b[2] == b[0] + 2;
         match idx.len() {
             3 if whole(idx) => Some(([self.pos[idx[0]], 0], 1)),
             6 if whole(&idx[..3]) && whole(&idx[3..]) && idx[0] != idx[3] => {
@@ -289,8 +289,8 @@ impl Envelope {
         let mut row = [[0usize; DOFS]; 2];
         for k in 0..blocks {
             let first = self.first[bases[k]];
-            for d in 0..DOFS {
-                row[k][d] = self.start[bases[k] + d].wrapping_sub(first);
+            for (d, place) in row[k].iter_mut().enumerate() {
+                *place = self.start[bases[k] + d].wrapping_sub(first);
             }
         }
         // Each block's own lower triangle.
