@@ -42,42 +42,27 @@ pub struct Envelope {
 
 /// `sum_l a_l b_l` over slices of equal length, in four interleaved partial sums: the
 /// factorisation's and the solves' inner loop, which one running sum would hold to the latency
-/// of an addition per term.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    debug_assert_eq!(a.len(), b.len());
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    let mut s = [0.0f64; 4];
-    for (x, y) in ca.zip(cb) {
-        for i in 0..4 {
-            s[i] += x[i] * y[i];
-        }
-    }
+/// of an addition per term. With `AVX` the four sums are one AVX register (the caller has
+/// checked that the processor has AVX); without fused multiply-adds each product and sum is
+/// rounded as in the portable loop, so the result is the same to the bit.
+#[inline(always)]
+fn dot<const AVX: bool>(a: &[f64], b: &[f64]) -> f64 {
+    let [s] = partial_sums::<AVX, 1>([a], b);
+    let whole = b.len() - b.len() % 4;
+    let tail: f64 = a[whole..].iter().zip(&b[whole..]).map(|(x, y)| x * y).sum();
     (s[0] + s[2]) + (s[1] + s[3]) + tail
 }
 
 /// Three inner products with the same `b`, each summed exactly as [`dot`] sums it.
-fn dot3(a: [&[f64]; 3], b: &[f64]) -> [f64; 3] {
-    let m = b.len();
-    let whole = m - m % 4;
-    let mut s = [[0.0f64; 4]; 3];
-    for i in (0..whole).step_by(4) {
-        for (t, at) in a.iter().enumerate() {
-            for q in 0..4 {
-                s[t][q] += at[i + q] * b[i + q];
-            }
-        }
-    }
+#[inline(always)]
+fn dot3<const AVX: bool>(a: [&[f64]; 3], b: &[f64]) -> [f64; 3] {
+    let s = partial_sums::<AVX, 3>(a, b);
+    let whole = b.len() - b.len() % 4;
     let mut out = [0.0; 3];
     for (t, at) in a.iter().enumerate() {
-        let tail: f64 = at[whole..m]
+        let tail: f64 = at[whole..]
             .iter()
-            .zip(&b[whole..m])
+            .zip(&b[whole..])
             .map(|(x, y)| x * y)
             .sum();
         out[t] = (s[t][0] + s[t][2]) + (s[t][1] + s[t][3]) + tail;
@@ -85,11 +70,68 @@ fn dot3(a: [&[f64]; 3], b: &[f64]) -> [f64; 3] {
     out
 }
 
+/// The four partial sums `s_q = sum_i a[4i + q] b[4i + q]` of each `a[t]` with `b` over their
+/// whole chunks of four (every slice as long as `b`).
+#[inline(always)]
+fn partial_sums<const AVX: bool, const T: usize>(a: [&[f64]; T], b: &[f64]) -> [[f64; 4]; T] {
+    let whole = b.len() - b.len() % 4;
+    for at in &a {
+        assert_eq!(at.len(), b.len());
+    }
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is set only where the processor has AVX, and every slice holds
+        // `whole` entries (asserted above).
+        return unsafe { partial_sums_avx(a, b, whole) };
+    }
+    let mut s = [[0.0f64; 4]; T];
+    for i in (0..whole).step_by(4) {
+        for (t, at) in a.iter().enumerate() {
+            for q in 0..4 {
+                s[t][q] += at[i + q] * b[i + q];
+            }
+        }
+    }
+    s
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn partial_sums_avx<const T: usize>(
+    a: [&[f64]; T],
+    b: &[f64],
+    whole: usize,
+) -> [[f64; 4]; T] {
+    use std::arch::x86_64::{__m256d, _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd};
+    use std::arch::x86_64::{_mm256_setzero_pd, _mm256_storeu_pd};
+    let mut acc: [__m256d; T] = [_mm256_setzero_pd(); T];
+    let mut i = 0;
+    while i < whole {
+        // SAFETY: i + 4 <= whole <= every slice's length.
+        unsafe {
+            let bv = _mm256_loadu_pd(b.as_ptr().add(i));
+            for t in 0..T {
+                let av = _mm256_loadu_pd(a[t].as_ptr().add(i));
+                acc[t] = _mm256_add_pd(acc[t], _mm256_mul_pd(av, bv));
+            }
+        }
+        i += 4;
+    }
+    let mut s = [[0.0f64; 4]; T];
+    for t in 0..T {
+        // SAFETY: `s[t]` holds four values.
+        unsafe { _mm256_storeu_pd(s[t].as_mut_ptr(), acc[t]) };
+    }
+    s
+}
+
 /// The diagonal entry `row[m]` of a row whose entries left of it are done: false when the pivot
 /// is not positive (relative to the matrix's diagonal `diag`).
-fn finish_row(row: &mut [f64], m: usize, diag: f64) -> bool {
+#[inline(always)]
+fn finish_row<const AVX: bool>(row: &mut [f64], m: usize, diag: f64) -> bool {
     let (off, pivot) = row.split_at_mut(m);
-    let d = pivot[0] - dot(off, off);
+    let d = pivot[0] - dot::<AVX>(off, off);
     if d.is_nan() || d <= 1e-15 * diag {
         return false;
     }
@@ -328,6 +370,29 @@ impl Envelope {
     /// Factorise in place. False when a pivot is not positive (to relative 1e-15 of the
     /// original diagonal): the matrix is not numerically positive definite.
     pub fn factor(&mut self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the processor has AVX (checked just above).
+            return unsafe { self.factor_avx() };
+        }
+        self.factor_any()
+    }
+
+    /// [`Envelope::factor`] compiled for AVX: the inner products' four partial sums in one
+    /// register. Without fused multiply-adds every product and sum is rounded as in
+    /// [`Envelope::factor_any`], so the factor is the same to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn factor_avx(&mut self) -> bool {
+        self.factor_with::<true>()
+    }
+
+    fn factor_any(&mut self) -> bool {
+        self.factor_with::<false>()
+    }
+
+    #[inline(always)]
+    fn factor_with<const AVX: bool>(&mut self) -> bool {
         let n = self.first.len();
         for j in 0..n {
             self.diag[j] = self.val[self.start[j + 1] - 1];
@@ -346,7 +411,7 @@ impl Envelope {
                 let l0 = fj.max(fk);
                 let row_k = &done[self.start[k]..self.start[k + 1]];
                 let (a, b) = (l0 - fj, k - fj);
-                let sums = dot3(
+                let sums = dot3::<AVX>(
                     [&row0[a..b], &row1[a..b], &row2[a..b]],
                     &row_k[l0 - fk..k - fk],
                 );
@@ -357,16 +422,16 @@ impl Envelope {
             }
             // Within the block, row by row.
             let m = j0 - fj;
-            if !finish_row(row0, m, self.diag[j0]) {
+            if !finish_row::<AVX>(row0, m, self.diag[j0]) {
                 return false;
             }
-            row1[m] = (row1[m] - dot(&row1[..m], &row0[..m])) / row0[m];
-            if !finish_row(row1, m + 1, self.diag[j0 + 1]) {
+            row1[m] = (row1[m] - dot::<AVX>(&row1[..m], &row0[..m])) / row0[m];
+            if !finish_row::<AVX>(row1, m + 1, self.diag[j0 + 1]) {
                 return false;
             }
-            row2[m] = (row2[m] - dot(&row2[..m], &row0[..m])) / row0[m];
-            row2[m + 1] = (row2[m + 1] - dot(&row2[..m + 1], &row1[..m + 1])) / row1[m + 1];
-            if !finish_row(row2, m + 2, self.diag[j0 + 2]) {
+            row2[m] = (row2[m] - dot::<AVX>(&row2[..m], &row0[..m])) / row0[m];
+            row2[m + 1] = (row2[m + 1] - dot::<AVX>(&row2[..m + 1], &row1[..m + 1])) / row1[m + 1];
+            if !finish_row::<AVX>(row2, m + 2, self.diag[j0 + 2]) {
                 return false;
             }
         }
@@ -375,6 +440,27 @@ impl Envelope {
 
     /// Solve `K x = b` in place with the factor (original DOF indexing).
     pub fn solve(&mut self, b: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the processor has AVX (checked just above).
+            return unsafe { self.solve_avx(b) };
+        }
+        self.solve_any(b)
+    }
+
+    /// [`Envelope::solve`] compiled for AVX (the same to the bit, as [`Envelope::factor_avx`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn solve_avx(&mut self, b: &mut [f64]) {
+        self.solve_with::<true>(b)
+    }
+
+    fn solve_any(&mut self, b: &mut [f64]) {
+        self.solve_with::<false>(b)
+    }
+
+    #[inline(always)]
+    fn solve_with<const AVX: bool>(&mut self, b: &mut [f64]) {
         let n = self.first.len();
         let y = &mut self.work;
         for (i, &bi) in b.iter().enumerate() {
@@ -383,7 +469,7 @@ impl Envelope {
         for j in 0..n {
             let fj = self.first[j];
             let row = &self.val[self.start[j]..self.start[j + 1]];
-            y[j] = (y[j] - dot(&row[..j - fj], &y[fj..j])) / row[j - fj];
+            y[j] = (y[j] - dot::<AVX>(&row[..j - fj], &y[fj..j])) / row[j - fj];
         }
         for j in (0..n).rev() {
             let fj = self.first[j];
@@ -495,6 +581,32 @@ mod tests {
         assert_eq!(fast, 4 * pairs.len(), "every row took the blocks' path");
         assert_eq!(by_blocks.val, by_dof.val);
         assert!(by_dof.val.iter().filter(|v| **v != 0.0).count() > 100);
+    }
+
+    /// The factorisation and the solves dispatched to the processor's kernels (AVX where it
+    /// has it) give the portable loops' factor and solution to the bit.
+    #[test]
+    fn the_avx_kernels_give_the_portable_factor_to_the_bit() {
+        let (n_blocks, pairs) = running_bond(6, 9);
+        let mut rnd = sequence(5);
+        let mut env = Envelope::new(n_blocks, &pairs);
+        for i in 0..3 * n_blocks {
+            env.add_diagonal(i, 1.0 + rnd());
+        }
+        for &(a, b) in &pairs {
+            let idx: Vec<usize> = [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2].into();
+            let coef: Vec<f64> = (0..6).map(|_| rnd()).collect();
+            env.add_outer(1e4 * (rnd() + 1.5), &idx, &coef);
+        }
+        let mut portable = env.clone();
+        assert!(env.factor() && portable.factor_any());
+        assert_eq!(env.val, portable.val);
+        let b: Vec<f64> = (0..3 * n_blocks).map(|_| rnd()).collect();
+        let (mut x, mut y) = (b.clone(), b);
+        env.solve(&mut x);
+        portable.solve_any(&mut y);
+        assert_eq!(x, y);
+        assert!(x.iter().all(|v| v.is_finite()) && x.iter().any(|v| *v != 0.0));
     }
 
     /// The reverse Cuthill-McKee order of a chain of blocks in scrambled numbering keeps every
