@@ -42,7 +42,8 @@
 //! `WIDE_ENVELOPE` DOFs (a wall of more than about six courses) the closed rows are held in the
 //! Newton matrix and a new factor is trusted again until it fails, both of which trade
 //! factorisations for Newton steps; on narrower envelopes (small islands, low walls) they cost
-//! more than they save (measured below).
+//! more than they save (measured below). A problem of `LARGE_PROBLEM` DOFs or more is treated as
+//! wide whatever its envelope (a large wall whose joints open as it moves).
 //!
 //! On a wide envelope a problem whose first solve does not converge in `MAX_NEWTON_WIDE`
 //! Newton steps goes to the interior-point rescue (see [`SparseSolver::rescue`] and
@@ -139,6 +140,17 @@ const CLOSED_MARGIN: f64 = 1e-11;
 /// wall (18.3) 0.693 -> 0.752 ms a step and the toppling 42-block wall (islands up to 16.7)
 /// 30.2 -> 46.4 s, slower.
 const WIDE_ENVELOPE: f64 = 24.0;
+/// A problem of this many DOFs or more is taken as wide whatever its envelope's width (the
+/// rules of `WIDE_ENVELOPE`, the stiff start and the interior-point rescue). A wall that moves
+/// opens joints, and with fewer pairs in contact its envelope can fall below `WIDE_ENVELOPE`:
+/// measured on the 215-block wall sliding under a rectangular pulse of 0.8 g (first 60 steps,
+/// 10 of them in the pulse), 418 of its problems (519 to 645 DOFs) were solved as narrow, 76 of
+/// them failed their warm start of 60 Newton steps and took 167 factorisations each in the cold
+/// retries (12669 of the 32995 factorisations), where the rescue takes some 25; taken as wide,
+/// 6.07 -> 4.52 s (4.67 s from 450 DOFs), the first 150 steps 41.3 -> 38.6 s. A long low wall
+/// (2 courses of 80 blocks, 483 DOFs, El Centro x2, 5 s) 2.19 -> 2.17 s, the 107-block wall (321
+/// DOFs) 1.94 -> 1.78 s; the standing 215-block wall is wide already (unchanged).
+const LARGE_PROBLEM: usize = 300;
 /// On a wide envelope and on the last retry Newton's iteration also stops when its steps stop
 /// shrinking below this (`STAGNATION_TOLERANCE (1 + |u|_inf)`): measured on a 430-block wall,
 /// steps of 6e-12 to 2e-11 for 60 iterations, the round-off of the Newton matrix with its
@@ -210,7 +222,8 @@ pub struct SparseSolver {
     pub rescue: bool,
     /// Whether this is the last retry (`MAX_NEWTON_LAST_RETRY`).
     last_retry: bool,
-    /// Whether the envelope is at least `WIDE_ENVELOPE` wide.
+    /// Whether the envelope is at least `WIDE_ENVELOPE` wide or the problem has at least
+    /// `LARGE_PROBLEM` DOFs.
     wide: bool,
     /// Whether the last solution moved no DOF faster than `STILL_SPEED`.
     still: bool,
@@ -650,7 +663,8 @@ impl SparseSolver {
             }
             self.update_envelope(n / 3);
         }
-        self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64;
+        self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64
+            || n >= LARGE_PROBLEM;
         let start = if (self.wide || (same_rows && self.still)) && !self.last_retry {
             RHO_WIDE / RHO
         } else {
