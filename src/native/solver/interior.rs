@@ -141,17 +141,7 @@ impl InteriorPoint {
             }
             let dual = self.rd.iter().fold(0.0f64, |a, x| a.max(x.abs())) / q_size;
             let mu = self.s.iter().zip(l.iter()).map(|(s, x)| s * x).sum::<f64>() / m as f64;
-            if std::env::var("RB_DBG3").is_ok() {
-                let lmax = l.iter().fold(0.0f64, |a, x| a.max(*x));
-                eprintln!(
-                    "   IPM {iteration} primal {primal:.2e} dual {dual:.2e} mu {mu:.2e} lmax {lmax:.2e}"
-                );
-            }
-            let mutol: f64 = std::env::var("RB_MU")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(tolerance * tolerance);
-            if primal <= tolerance && dual <= tolerance && mu <= mutol {
+            if primal <= tolerance && dual <= tolerance && mu <= tolerance * tolerance {
                 return Ok(iteration - 1);
             }
             // The Newton matrix.
