@@ -53,8 +53,6 @@ pub const DRIFT_TOLERANCE: f64 = 1e-15;
 /// Impact stepper: an end velocity approaching a loaded point by less than this in a step
 /// (m) is kept as it is (see `settle_velocity`).
 pub const VELOCITY_TOLERANCE: f64 = 1e-15;
-/// Impact stepper: most impacts located within one step.
-pub const LOCATED_PER_STEP: usize = 8;
 /// Impact stepper: most solves of one step for its discrete-gradient rows.
 pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 
@@ -906,7 +904,7 @@ impl Stepper {
     /// exact gap at the trial's end (`closing_instant`), and the impact instant is the smallest
     /// root. From the start: a sub-step to that instant (without the impacting points), a
     /// plastic impact on every closed point and the located ones (`impact`), and the rest of the
-    /// step, located again: up to `LOCATED_PER_STEP` impacts a step.
+    /// step, located again: up to `native.located_per_step` impacts a step.
     fn step_locating(
         &mut self,
         s: &mut NativeState,
@@ -917,7 +915,7 @@ impl Stepper {
         let t_end = s.t + dt;
         let mut iterations = 0;
         let mut located_here: Vec<u64> = Vec::new();
-        let rounds = LOCATED_PER_STEP;
+        let rounds = self.settings.located_per_step as usize;
         // Impacts located per island (see `locate_per_island`).
         let per_island = self.settings.island_impacts
             && self.scope.is_none()
