@@ -15,8 +15,13 @@
 //! independent objects, whose cost grows with the number of objects times the problems each
 //! step solves. Its CSV's second column is the number of pairs.
 //!
+//! `--pulse G` puts the walls in motion from the first step instead: a rectangular pulse of `G`
+//! g (above the friction coefficient, 0.7, the walls slide) for the whole run, in place of the
+//! record; with a short `--duration` (0.01 s: ten steps) the per-step figures are those of a
+//! wall in motion (docs/method.md, "Walls in motion, 215 / 430 / 860 blocks").
+//!
 //! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
-//! [--duration 5] [--scale 2] [--engines native,rapier] [--sleep false]
+//! [--duration 5] [--scale 2 | --pulse 0.8] [--engines native,rapier] [--sleep false]
 //! [--island-impacts true] [--budget 600] [--out out/bench-dynamic]` (`--sleep true` and
 //! `--island-impacts false` run the native engine with `native.sleep = true` and
 //! `native.island_impacts = false`).
@@ -168,6 +173,20 @@ fn main() -> anyhow::Result<()> {
         .transpose()?;
     let duration: f64 = arg(&args, "--duration", "5").parse()?;
     let scale: f64 = arg(&args, "--scale", "2").parse()?;
+    let pulse: Option<f64> = args
+        .iter()
+        .any(|a| a == "--pulse")
+        .then(|| arg(&args, "--pulse", "").parse::<f64>())
+        .transpose()
+        .context("--pulse: not a number of g")?;
+    if let Some(g) = pulse {
+        if !(g.is_finite() && g > 0.0) {
+            bail!("--pulse: must be a positive number of g (got {g})");
+        }
+        if gallery.is_some() {
+            bail!("--pulse: for walls only (not with --gallery)");
+        }
+    }
     let engines: Vec<String> = arg(&args, "--engines", "native,rapier")
         .split(',')
         .map(String::from)
@@ -192,8 +211,12 @@ fn main() -> anyhow::Result<()> {
     let mut csv = format!(
         "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
     );
+    let loading = match pulse {
+        Some(g) => format!("a rectangular pulse of {g} g from 0 s"),
+        None => format!("El Centro 1940 x {scale}"),
+    };
     let mut md = format!(
-        "# {what}: El Centro 1940 x {scale}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
         budget.as_secs_f64()
     );
     let record_as_written = Some((record.display().to_string(), scale));
@@ -213,9 +236,19 @@ fn main() -> anyhow::Result<()> {
             .map(|&c| {
                 let mut w = WallSpec::running_bond(c, 21);
                 w.duration = duration;
-                w.record = record_as_written.clone();
                 let n = w.n_blocks();
-                (n, c, format!("wall-{n}.toml"), w.to_toml())
+                let text = match pulse {
+                    Some(g) => format!(
+                        "{}\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {:.6}\nduration = {duration}\nstart = 0\n",
+                        w.to_toml(),
+                        g * 9.81
+                    ),
+                    None => {
+                        w.record = record_as_written.clone();
+                        w.to_toml()
+                    }
+                };
+                (n, c, format!("wall-{n}.toml"), text)
             })
             .collect(),
     };
