@@ -19,9 +19,13 @@
 //! g (above the friction coefficient, 0.7, the walls slide) for the whole run, in place of the
 //! record; with a short `--duration` (0.01 s: ten steps) the per-step figures are those of a
 //! wall in motion (docs/method.md, "Walls in motion, 215 / 430 / 860 blocks").
+//! `--ground-friction F` gives the bottom course's interfaces with the ground the friction `F`
+//! (the joints above keep 0.7): below 0.7 a sliding wall's joints are no longer all at the edge
+//! of their cones (docs/method.md, "Why a sliding wall is the worst case").
 //!
 //! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
-//! [--duration 5] [--scale 2 | --pulse 0.8] [--engines native,rapier] [--sleep false]
+//! [--duration 5] [--scale 2 | --pulse 0.8] [--ground-friction 0.5] [--engines native,rapier]
+//! [--sleep false]
 //! [--island-impacts true] [--budget 600] [--out out/bench-dynamic]` (`--sleep true` and
 //! `--island-impacts false` run the native engine with `native.sleep = true` and
 //! `native.island_impacts = false`).
@@ -179,6 +183,20 @@ fn main() -> anyhow::Result<()> {
         .then(|| arg(&args, "--pulse", "").parse::<f64>())
         .transpose()
         .context("--pulse: not a number of g")?;
+    let ground_friction: Option<f64> = args
+        .iter()
+        .any(|a| a == "--ground-friction")
+        .then(|| arg(&args, "--ground-friction", "").parse::<f64>())
+        .transpose()
+        .context("--ground-friction: not a number")?;
+    if let Some(f) = ground_friction {
+        if !(f.is_finite() && f >= 0.0) {
+            bail!("--ground-friction: must be a friction coefficient, 0 or more (got {f})");
+        }
+        if gallery.is_some() {
+            bail!("--ground-friction: for walls only (not with --gallery)");
+        }
+    }
     if let Some(g) = pulse {
         if !(g.is_finite() && g > 0.0) {
             bail!("--pulse: must be a positive number of g (got {g})");
@@ -211,10 +229,13 @@ fn main() -> anyhow::Result<()> {
     let mut csv = format!(
         "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
     );
-    let loading = match pulse {
+    let mut loading = match pulse {
         Some(g) => format!("a rectangular pulse of {g} g from 0 s"),
         None => format!("El Centro 1940 x {scale}"),
     };
+    if let Some(f) = ground_friction {
+        let _ = write!(loading, ", ground friction {f}");
+    }
     let mut md = format!(
         "# {what}: {loading}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
         budget.as_secs_f64()
@@ -237,7 +258,7 @@ fn main() -> anyhow::Result<()> {
                 let mut w = WallSpec::running_bond(c, 21);
                 w.duration = duration;
                 let n = w.n_blocks();
-                let text = match pulse {
+                let mut text = match pulse {
                     Some(g) => format!(
                         "{}\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {:.6}\nduration = {duration}\nstart = 0\n",
                         w.to_toml(),
@@ -248,6 +269,13 @@ fn main() -> anyhow::Result<()> {
                         w.to_toml()
                     }
                 };
+                if let Some(f) = ground_friction {
+                    for (name, course, _, _) in w.blocks() {
+                        if course == 0 {
+                            let _ = write!(text, "\n[contact.interfaces.{name}]\nfriction = {f}\n");
+                        }
+                    }
+                }
                 (n, c, format!("wall-{n}.toml"), text)
             })
             .collect(),
