@@ -243,7 +243,8 @@ bench-steps:
 # "not finished" (the native engine's 430- and 860-block walls in the record's strong phase);
 # BENCH_DYNAMIC_ARGS narrows it, e.g. BENCH_DYNAMIC_ARGS="--courses 2,5,10 --duration 2";
 # "--sleep true" puts islands at rest to sleep; "--pulse 0.8 --duration 0.01" sets the walls
-# sliding from the first step (a rectangular pulse of 0.8 g, ten steps): the walls in motion.
+# sliding from the first step (a rectangular pulse of 0.8 g, ten steps): the walls in motion;
+# "--ground-friction 0.5" lowers the ground's friction below the joints' (docs/method.md).
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)
