@@ -48,6 +48,15 @@ fn arg(args: &[String], name: &str, default: &str) -> String {
         .unwrap_or_else(|| default.to_string())
 }
 
+/// The number after `name`, if `name` is given.
+fn optional_number(args: &[String], name: &str) -> anyhow::Result<Option<f64>> {
+    args.iter()
+        .any(|a| a == name)
+        .then(|| arg(args, name, "").parse::<f64>())
+        .transpose()
+        .with_context(|| format!("{name}: not a number"))
+}
+
 /// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations" / "N
 /// interior-point rescues".
 fn count_before(notes: &[String], what: &str) -> Option<u64> {
@@ -177,18 +186,8 @@ fn main() -> anyhow::Result<()> {
         .transpose()?;
     let duration: f64 = arg(&args, "--duration", "5").parse()?;
     let scale: f64 = arg(&args, "--scale", "2").parse()?;
-    let pulse: Option<f64> = args
-        .iter()
-        .any(|a| a == "--pulse")
-        .then(|| arg(&args, "--pulse", "").parse::<f64>())
-        .transpose()
-        .context("--pulse: not a number of g")?;
-    let ground_friction: Option<f64> = args
-        .iter()
-        .any(|a| a == "--ground-friction")
-        .then(|| arg(&args, "--ground-friction", "").parse::<f64>())
-        .transpose()
-        .context("--ground-friction: not a number")?;
+    let pulse = optional_number(&args, "--pulse")?;
+    let ground_friction = optional_number(&args, "--ground-friction")?;
     if let Some(f) = ground_friction {
         if !(f.is_finite() && f >= 0.0) {
             bail!("--ground-friction: must be a friction coefficient, 0 or more (got {f})");
