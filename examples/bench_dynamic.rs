@@ -188,21 +188,14 @@ fn main() -> anyhow::Result<()> {
     let scale: f64 = arg(&args, "--scale", "2").parse()?;
     let pulse = optional_number(&args, "--pulse")?;
     let ground_friction = optional_number(&args, "--ground-friction")?;
-    if let Some(f) = ground_friction {
-        if !(f.is_finite() && f >= 0.0) {
-            bail!("--ground-friction: must be a friction coefficient, 0 or more (got {f})");
-        }
-        if gallery.is_some() {
-            bail!("--ground-friction: for walls only (not with --gallery)");
-        }
+    if gallery.is_some() && (pulse.is_some() || ground_friction.is_some()) {
+        bail!("--pulse and --ground-friction are for walls only (not with --gallery)");
     }
-    if let Some(g) = pulse {
-        if !(g.is_finite() && g > 0.0) {
-            bail!("--pulse: must be a positive number of g (got {g})");
-        }
-        if gallery.is_some() {
-            bail!("--pulse: for walls only (not with --gallery)");
-        }
+    if let Some(f) = ground_friction.filter(|f| !(f.is_finite() && *f >= 0.0)) {
+        bail!("--ground-friction: must be a friction coefficient, 0 or more (got {f})");
+    }
+    if let Some(g) = pulse.filter(|g| !(g.is_finite() && *g > 0.0)) {
+        bail!("--pulse: must be a positive number of g (got {g})");
     }
     let engines: Vec<String> = arg(&args, "--engines", "native,rapier")
         .split(',')

@@ -610,7 +610,7 @@ fn a_frictionless_interface_locates_only_real_impacts() {
 /// (42 blocks, the validation scene, its first 0.12 s: 20 steps of the 0.5 g pulse) the default
 /// (8) locates more than two impacts in some steps, and with the setting at 2 no step splits
 /// more than twice while some split twice (measured: 152 split steps and 19 steps of three or
-/// more by default, 38 at 2).
+/// more by default, 38 at 2). The cap is an island's; in this window the wall is one island.
 #[test]
 fn located_per_step_bounds_the_impacts_located_in_a_step() {
     let splits_per_step = |set: &[String]| {
