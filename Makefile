@@ -244,7 +244,8 @@ bench-steps:
 # BENCH_DYNAMIC_ARGS narrows it, e.g. BENCH_DYNAMIC_ARGS="--courses 2,5,10 --duration 2";
 # "--sleep true" puts islands at rest to sleep; "--pulse 0.8 --duration 0.01" sets the walls
 # sliding from the first step (a rectangular pulse of 0.8 g, ten steps): the walls in motion;
-# "--ground-friction 0.5" lowers the ground's friction below the joints' (docs/method.md).
+# "--ground-friction 0.5" lowers the ground's friction below the joints'; "--locate-impacts false"
+# takes every impact at the end of its step (native.locate_impacts = false; docs/method.md).
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)

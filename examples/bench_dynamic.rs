@@ -26,9 +26,11 @@
 //! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
 //! [--duration 5] [--scale 2 | --pulse 0.8] [--ground-friction 0.5] [--engines native,rapier]
 //! [--sleep false]
-//! [--island-impacts true] [--budget 600] [--out out/bench-dynamic]` (`--sleep true` and
-//! `--island-impacts false` run the native engine with `native.sleep = true` and
-//! `native.island_impacts = false`).
+//! [--island-impacts true] [--locate-impacts true] [--budget 600] [--out out/bench-dynamic]`
+//! (`--sleep true`, `--island-impacts false` and `--locate-impacts false` run the native engine
+//! with `native.sleep = true`, `native.island_impacts = false` and
+//! `native.locate_impacts = false`: the last takes every impact at the end of its step, the
+//! cost of a moving wall's step without its located impacts; docs/method.md).
 
 use anyhow::{Context, bail};
 use rockbench::engines::{engine_by_name, run_timed};
@@ -204,6 +206,7 @@ fn main() -> anyhow::Result<()> {
     let out = PathBuf::from(arg(&args, "--out", "out/bench-dynamic"));
     let sleep: bool = arg(&args, "--sleep", "false").parse()?;
     let island_impacts: bool = arg(&args, "--island-impacts", "true").parse()?;
+    let locate_impacts: bool = arg(&args, "--locate-impacts", "true").parse()?;
     let budget: f64 = arg(&args, "--budget", "600").parse()?;
     if !(budget.is_finite() && budget > 0.0) {
         bail!("--budget: must be a positive number of seconds (got {budget})");
@@ -229,7 +232,7 @@ fn main() -> anyhow::Result<()> {
         let _ = write!(loading, ", ground friction {f}");
     }
     let mut md = format!(
-        "# {what}: {loading}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
         budget.as_secs_f64()
     );
     let record_as_written = Some((record.display().to_string(), scale));
@@ -274,10 +277,10 @@ fn main() -> anyhow::Result<()> {
     };
     for (n, c, file, mut text) in series {
         let path = out.join("scenes").join(file);
-        if sleep || !island_impacts {
+        if sleep || !island_impacts || !locate_impacts {
             let _ = write!(
                 text,
-                "\n[native]\nsleep = {sleep}\nisland_impacts = {island_impacts}\n"
+                "\n[native]\nsleep = {sleep}\nisland_impacts = {island_impacts}\nlocate_impacts = {locate_impacts}\n"
             );
         }
         std::fs::write(&path, text)?;
