@@ -59,6 +59,18 @@ fn optional_number(args: &[String], name: &str) -> anyhow::Result<Option<f64>> {
         .with_context(|| format!("{name}: not a number"))
 }
 
+/// The number after `name`, or `default` when `name` is not given.
+fn number(args: &[String], name: &str, default: f64) -> anyhow::Result<f64> {
+    Ok(optional_number(args, name)?.unwrap_or(default))
+}
+
+/// The `true` or `false` after `name`, or `default` when `name` is not given.
+fn flag(args: &[String], name: &str, default: bool) -> anyhow::Result<bool> {
+    arg(args, name, &default.to_string())
+        .parse()
+        .with_context(|| format!("{name}: must be true or false"))
+}
+
 /// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations" / "N
 /// interior-point rescues".
 fn count_before(notes: &[String], what: &str) -> Option<u64> {
@@ -186,8 +198,8 @@ fn main() -> anyhow::Result<()> {
         .any(|a| a == "--gallery")
         .then(|| list("--gallery", ""))
         .transpose()?;
-    let duration: f64 = arg(&args, "--duration", "5").parse()?;
-    let scale: f64 = arg(&args, "--scale", "2").parse()?;
+    let duration = number(&args, "--duration", 5.0)?;
+    let scale = number(&args, "--scale", 2.0)?;
     let pulse = optional_number(&args, "--pulse")?;
     let ground_friction = optional_number(&args, "--ground-friction")?;
     if gallery.is_some() && (pulse.is_some() || ground_friction.is_some()) {
@@ -204,10 +216,10 @@ fn main() -> anyhow::Result<()> {
         .map(String::from)
         .collect();
     let out = PathBuf::from(arg(&args, "--out", "out/bench-dynamic"));
-    let sleep: bool = arg(&args, "--sleep", "false").parse()?;
-    let island_impacts: bool = arg(&args, "--island-impacts", "true").parse()?;
-    let locate_impacts: bool = arg(&args, "--locate-impacts", "true").parse()?;
-    let budget: f64 = arg(&args, "--budget", "600").parse()?;
+    let sleep = flag(&args, "--sleep", false)?;
+    let island_impacts = flag(&args, "--island-impacts", true)?;
+    let locate_impacts = flag(&args, "--locate-impacts", true)?;
+    let budget = number(&args, "--budget", 600.0)?;
     if !(budget.is_finite() && budget > 0.0) {
         bail!("--budget: must be a positive number of seconds (got {budget})");
     }
