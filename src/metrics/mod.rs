@@ -43,6 +43,11 @@
 //!   the ground: sliding) and `max_drift` (largest distance of the centroid from its first
 //!   position: nothing may move in a standing assembly); `max_drift` of block `(run)`: the
 //!   largest of every block's.
+//! - `displaced` (1 or 0, absolute series only): the block overturned, or its centroid ended
+//!   more than its own width from where it started horizontally ([`is_displaced`]). Over the
+//!   assembly (block `(run)`): `overturned_count` and `displaced_count` (run and reference), and
+//!   `overturning_disagreements` and `displacement_disagreements`, the blocks counted in one of
+//!   the two and not the other.
 //! - Cost (block `(run)`): `wall_time` (s), `steps`, `solver_iterations`.
 
 pub mod grid;
@@ -430,6 +435,14 @@ pub fn displacement(tr: &Trajectory, i: usize, window: (f64, f64)) -> (Option<f6
     (Some(h.x[k1 - 1] - x0), Some(drift))
 }
 
+/// Whether a block left its place: it overturned, or its centre ended more than its own width
+/// `width` from where it started horizontally (`final_dx`, over the compared window). A block
+/// that falls off an assembly can come to rest tilted on the debris below its critical angle,
+/// which the overturning test alone does not count (docs/quantities.md).
+pub fn is_displaced(overturned: bool, final_dx: Option<f64>, width: f64) -> bool {
+    overturned || final_dx.is_some_and(|d| d.abs() > width)
+}
+
 /// Every metric of `run` against `reference` (see the module docs).
 pub fn compare_runs(
     scene: &Scene,
@@ -456,8 +469,10 @@ pub fn compare_runs(
             unit: String::from(unit),
         });
     };
-    // Blocks overturned in the run and in the reference, and blocks on which they disagree.
+    // Blocks overturned in the run and in the reference, and blocks on which they disagree;
+    // the same for blocks displaced (overturned, or moved more than their width).
     let mut overturned = (0usize, 0usize, 0usize);
+    let mut displaced = (0usize, 0usize, 0usize);
     for (si, s) in all.iter().enumerate() {
         let (a, r, _) = &eh.series[si];
         let (e, f) = (&ev[si], &er[si]);
@@ -628,6 +643,15 @@ pub fn compare_runs(
             );
             push(lab, "displacement_x_final".into(), dx.0, dr.0, "m");
             push(lab, "max_drift".into(), dx.1, dr.1, "m");
+            let width = scene.blocks[s.block].width;
+            let (de, df) = (
+                is_displaced(e.overturned, dx.0, width),
+                is_displaced(f.overturned, dr.0, width),
+            );
+            push(lab, "displaced".into(), b01(de), b01(df), "1");
+            displaced.0 += usize::from(de);
+            displaced.1 += usize::from(df);
+            displaced.2 += usize::from(de != df);
         }
     }
     // The largest drift of any block (standing assemblies: nothing may move).
@@ -654,6 +678,20 @@ pub fn compare_runs(
         RUN_ROW,
         "overturning_disagreements".into(),
         Some(overturned.2 as f64),
+        None,
+        "1",
+    );
+    push(
+        RUN_ROW,
+        "displaced_count".into(),
+        Some(displaced.0 as f64),
+        Some(displaced.1 as f64),
+        "1",
+    );
+    push(
+        RUN_ROW,
+        "displacement_disagreements".into(),
+        Some(displaced.2 as f64),
         None,
         "1",
     );
@@ -695,6 +733,9 @@ pub fn is_known_metric(name: &str) -> bool {
         "max_drift",
         "overturned_count",
         "overturning_disagreements",
+        "displaced",
+        "displaced_count",
+        "displacement_disagreements",
         "wall_time",
         "steps",
         "solver_iterations",

@@ -319,6 +319,49 @@ fn overturned_blocks_are_counted_over_the_assembly() {
     );
 }
 
+/// The statue (1.0 m wide) slides off its pedestal by 1.5 m in the run and by 0.5 m in the
+/// reference, tilting to 0.1 rad, below its critical angle atan(1/2.5): displaced in the run
+/// only, overturned in neither.
+#[test]
+fn a_block_that_falls_off_without_overturning_is_displaced() {
+    let t = times(2.0, 1e-3);
+    let names = ["pedestal".to_string(), "statue".to_string()];
+    let sliding = |name: &str, dx: f64| {
+        let mut tr = Trajectory::new(&names);
+        for &tk in &t {
+            let s = (tk / 1.5).min(1.0);
+            tr.push(tk, &[[0.0; 6], [dx * s, 0.0, 0.1 * s, 0.0, 0.0, 0.0]]);
+        }
+        Run {
+            name: name.into(),
+            trajectory: tr,
+            exact_impacts: None,
+            cost: Cost::default(),
+        }
+    };
+    let (run, reference) = (sliding("off", 1.5), sliding("on", 0.5));
+    let sc = scene(TWO_BLOCKS);
+    let rows = compare_runs(&sc, &run, &reference, &MetricSettings::default()).unwrap();
+    assert_eq!(get(&rows, "statue", "overturned"), (Some(0.0), Some(0.0)));
+    assert_eq!(get(&rows, "statue", "displaced"), (Some(1.0), Some(0.0)));
+    assert_eq!(get(&rows, "pedestal", "displaced"), (Some(0.0), Some(0.0)));
+    assert_eq!(
+        get(&rows, RUN_ROW, "displaced_count"),
+        (Some(1.0), Some(0.0))
+    );
+    assert_eq!(
+        get(&rows, RUN_ROW, "displacement_disagreements"),
+        (Some(1.0), None)
+    );
+    assert_eq!(
+        get(&rows, RUN_ROW, "overturning_disagreements"),
+        (Some(0.0), None)
+    );
+    // An overturned block is displaced wherever it lies.
+    assert!(is_displaced(true, Some(0.0), 1.0));
+    assert!(!is_displaced(false, None, 1.0));
+}
+
 #[test]
 fn interfaces_use_the_relative_rotation() {
     // Pedestal phi_p = 0.01 sin(pi t); statue phi_s = phi_p + 0.05 sin(2 pi t): the interface
