@@ -667,34 +667,17 @@ pub fn compare_runs(
         drift(&reference.trajectory),
         "m",
     );
-    push(
-        RUN_ROW,
-        "overturned_count".into(),
-        Some(overturned.0 as f64),
-        Some(overturned.1 as f64),
-        "1",
-    );
-    push(
-        RUN_ROW,
-        "overturning_disagreements".into(),
-        Some(overturned.2 as f64),
-        None,
-        "1",
-    );
-    push(
-        RUN_ROW,
-        "displaced_count".into(),
-        Some(displaced.0 as f64),
-        Some(displaced.1 as f64),
-        "1",
-    );
-    push(
-        RUN_ROW,
-        "displacement_disagreements".into(),
-        Some(displaced.2 as f64),
-        None,
-        "1",
-    );
+    for ((count, disagreements), (run_n, ref_n, differ)) in [
+        (
+            ("overturned_count", "overturning_disagreements"),
+            overturned,
+        ),
+        (("displaced_count", "displacement_disagreements"), displaced),
+    ] {
+        let n = |k: usize| Some(k as f64);
+        push(RUN_ROW, count.into(), n(run_n), n(ref_n), "1");
+        push(RUN_ROW, disagreements.into(), n(differ), None, "1");
+    }
     let c = (&run.cost, &reference.cost);
     push(
         RUN_ROW,
