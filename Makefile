@@ -245,7 +245,8 @@ bench-steps:
 # "--sleep true" puts islands at rest to sleep; "--pulse 0.8 --duration 0.01" sets the walls
 # sliding from the first step (a rectangular pulse of 0.8 g, ten steps): the walls in motion;
 # "--ground-friction 0.5" lowers the ground's friction below the joints'; "--locate-impacts false"
-# takes every impact at the end of its step (native.locate_impacts = false; docs/method.md).
+# takes every impact at the end of its step (native.locate_impacts = false; docs/method.md);
+# "--native-dt 2.5e-4" sets native.dt (rapier keeps its own step).
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)

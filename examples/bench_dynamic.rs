@@ -26,11 +26,14 @@
 //! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
 //! [--duration 5] [--scale 2 | --pulse 0.8] [--ground-friction 0.5] [--engines native,rapier]
 //! [--sleep false]
-//! [--island-impacts true] [--locate-impacts true] [--budget 600] [--out out/bench-dynamic]`
+//! [--island-impacts true] [--locate-impacts true] [--native-dt 1e-3] [--budget 600]
+//! [--out out/bench-dynamic]`
 //! (`--sleep true`, `--island-impacts false` and `--locate-impacts false` run the native engine
 //! with `native.sleep = true`, `native.island_impacts = false` and
 //! `native.locate_impacts = false`: the last takes every impact at the end of its step, the
-//! cost of a moving wall's step without its located impacts; docs/method.md).
+//! cost of a moving wall's step without its located impacts; docs/method.md). `--native-dt`
+//! sets `native.dt` (rapier keeps its own step): the per-step figures of a finer step, whose
+//! cost per simulated second is theirs times `1e-3 / dt`.
 
 use anyhow::{Context, bail};
 use rockbench::engines::{engine_by_name, run_timed};
@@ -219,6 +222,10 @@ fn main() -> anyhow::Result<()> {
     let sleep = flag(&args, "--sleep", false)?;
     let island_impacts = flag(&args, "--island-impacts", true)?;
     let locate_impacts = flag(&args, "--locate-impacts", true)?;
+    let native_dt = optional_number(&args, "--native-dt")?;
+    if let Some(dt) = native_dt.filter(|dt| !(dt.is_finite() && *dt > 0.0)) {
+        bail!("--native-dt: must be a positive time step in seconds (got {dt})");
+    }
     let budget = number(&args, "--budget", 600.0)?;
     if !(budget.is_finite() && budget > 0.0) {
         bail!("--budget: must be a positive number of seconds (got {budget})");
@@ -244,7 +251,8 @@ fn main() -> anyhow::Result<()> {
         let _ = write!(loading, ", ground friction {f}");
     }
     let mut md = format!(
-        "# {what}: {loading}, {duration} s, dt 1e-3, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        native_dt.map_or("1e-3".to_string(), |dt| dt.to_string()),
         budget.as_secs_f64()
     );
     let record_as_written = Some((record.display().to_string(), scale));
@@ -289,11 +297,14 @@ fn main() -> anyhow::Result<()> {
     };
     for (n, c, file, mut text) in series {
         let path = out.join("scenes").join(file);
-        if sleep || !island_impacts || !locate_impacts {
+        if sleep || !island_impacts || !locate_impacts || native_dt.is_some() {
             let _ = write!(
                 text,
                 "\n[native]\nsleep = {sleep}\nisland_impacts = {island_impacts}\nlocate_impacts = {locate_impacts}\n"
             );
+            if let Some(dt) = native_dt {
+                let _ = writeln!(text, "dt = {dt:e}");
+            }
         }
         std::fs::write(&path, text)?;
         load_scene(&path)?;
