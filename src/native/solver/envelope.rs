@@ -587,17 +587,9 @@ mod tests {
     /// has it) give the portable loops' factor and solution to the bit.
     #[test]
     fn the_avx_kernels_give_the_portable_factor_to_the_bit() {
-        let (n_blocks, pairs) = running_bond(6, 9);
         let mut rnd = sequence(5);
-        let mut env = Envelope::new(n_blocks, &pairs);
-        for i in 0..3 * n_blocks {
-            env.add_diagonal(i, 1.0 + rnd());
-        }
-        for &(a, b) in &pairs {
-            let idx: Vec<usize> = [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2].into();
-            let coef: Vec<f64> = (0..6).map(|_| rnd()).collect();
-            env.add_outer(1e4 * (rnd() + 1.5), &idx, &coef);
-        }
+        let mut env = random_wall_matrix(6, 9, &mut rnd);
+        let n_blocks = env.dofs() / 3;
         let mut portable = env.clone();
         assert!(env.factor() && portable.factor_any());
         assert_eq!(env.val, portable.val);
@@ -609,8 +601,29 @@ mod tests {
         assert!(x.iter().all(|v| v.is_finite()) && x.iter().any(|v| *v != 0.0));
     }
 
+    /// `P + sum rho c c'` on a running-bond wall of `courses` courses of `length` blocks: a
+    /// random diagonal P and one random row on every pair of blocks in contact, with a random
+    /// penalty `rho` of 5e3 to 2.5e4.
+    fn random_wall_matrix(
+        courses: usize,
+        length: usize,
+        rnd: &mut impl FnMut() -> f64,
+    ) -> Envelope {
+        let (n_blocks, pairs) = running_bond(courses, length);
+        let mut env = Envelope::new(n_blocks, &pairs);
+        for i in 0..3 * n_blocks {
+            env.add_diagonal(i, 1.0 + rnd());
+        }
+        for &(a, b) in &pairs {
+            let idx = [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2];
+            let coef: Vec<f64> = (0..6).map(|_| rnd()).collect();
+            env.add_outer(1e4 * (rnd() + 1.5), &idx, &coef);
+        }
+        env
+    }
+
     /// The row-by-row (bordering) algorithm of the module's text, one entry at a time, each
-    /// inner product by `dot`: the reference the blocked factorisation must equal to the bit.
+    /// inner product by `dot`: the reference the factorisation must equal to the bit.
     fn factor_row_by_row(env: &mut Envelope) {
         let n = env.dofs();
         for j in 0..n {
@@ -641,18 +654,7 @@ mod tests {
     fn the_factor_is_the_row_by_row_factor_to_the_bit() {
         let mut rnd = sequence(11);
         for (courses, length) in [(1, 3), (2, 5), (3, 8), (6, 7), (10, 21)] {
-            let (n_blocks, pairs) = running_bond(courses, length);
-            let mut env = Envelope::new(n_blocks, &pairs);
-            for i in 0..3 * n_blocks {
-                env.add_diagonal(i, 1.0 + rnd().abs());
-            }
-            for &(a, b) in &pairs {
-                for _ in 0..4 {
-                    let idx = [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2];
-                    let coef: Vec<f64> = (0..6).map(|_| rnd()).collect();
-                    env.add_outer(1e3, &idx, &coef);
-                }
-            }
+            let mut env = random_wall_matrix(courses, length, &mut rnd);
             let mut reference = env.clone();
             factor_row_by_row(&mut reference);
             let mut portable = env.clone();
