@@ -65,9 +65,15 @@ pub struct Summary {
     pub command: Option<String>,
 }
 
-/// The rotation (and its rate) on which block i's impacts are measured, and its label.
-pub fn measured_rotation(scene: &Scene, out: &RunOutput, i: usize) -> (Vec<f64>, Vec<f64>, String) {
-    let support = scene.layout().supports[i];
+/// The rotation (and its rate) on which block i's impacts are measured, and its label;
+/// `supports` is the scene's layout's (`Scene::layout`, built once per scene: it costs O(n^2)).
+pub fn measured_rotation(
+    scene: &Scene,
+    supports: &[Option<usize>],
+    out: &RunOutput,
+    i: usize,
+) -> (Vec<f64>, Vec<f64>, String) {
+    let support = supports[i];
     let (phi, omega) = out.trajectory.rotation(i, support);
     let label = match support {
         None => "absolute".into(),
@@ -85,7 +91,7 @@ impl Summary {
             .iter()
             .enumerate()
             .map(|(i, b)| {
-                let (rot, rate, label) = measured_rotation(scene, out, i);
+                let (rot, rate, label) = measured_rotation(scene, &layout.supports, out, i);
                 let measured = History::new(t, &rot, &rate);
                 let (impacts, impacts_source) = match &out.exact_impacts {
                     Some(ex) => (ex[i].clone(), ImpactSource::Engine),

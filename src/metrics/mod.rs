@@ -389,11 +389,11 @@ pub fn error_history(
     Ok(ErrorHistory { t: g, series })
 }
 
-/// Energy of a block above the upright rest state, J per metre of depth, per sample.
-pub fn block_energy(scene: &Scene, tr: &Trajectory, i: usize) -> Vec<f64> {
+/// Energy of a block above the upright rest state (its centroid at `z_rest`, from
+/// [`rest_heights`]), J per metre of depth, per sample.
+pub fn block_energy(scene: &Scene, tr: &Trajectory, i: usize, z_rest: f64) -> Vec<f64> {
     let b = &scene.blocks[i];
     let (m, inertia, g) = (b.mass(), b.inertia(), scene.gravity);
-    let z_rest = rest_height(scene, i);
     let h = &tr.blocks[i];
     (0..tr.t.len())
         .map(|k| {
@@ -404,21 +404,26 @@ pub fn block_energy(scene: &Scene, tr: &Trajectory, i: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Centroid height of block `i` in the upright stack, m.
-pub fn rest_height(scene: &Scene, i: usize) -> f64 {
+/// Centroid height of every block in the upright stack, m (one layout of the scene: it costs
+/// O(n^2) in the blocks).
+pub fn rest_heights(scene: &Scene) -> Vec<f64> {
     let supports = scene.layout().supports;
-    let mut z = scene.blocks[i].height / 2.0;
-    let mut cur = supports[i];
-    let mut guard = 0;
-    while let Some(s) = cur {
-        z += scene.blocks[s].height;
-        cur = supports[s];
-        guard += 1;
-        if guard > scene.blocks.len() {
-            break;
-        }
-    }
-    z
+    (0..scene.blocks.len())
+        .map(|i| {
+            let mut z = scene.blocks[i].height / 2.0;
+            let mut cur = supports[i];
+            let mut guard = 0;
+            while let Some(s) = cur {
+                z += scene.blocks[s].height;
+                cur = supports[s];
+                guard += 1;
+                if guard > scene.blocks.len() {
+                    break;
+                }
+            }
+            z
+        })
+        .collect()
 }
 
 /// Horizontal displacement of block `i`'s centroid from its first to its last sample in the
@@ -454,6 +459,7 @@ pub fn compare_runs(
     check_run(scene, reference)?;
     let window = common_window(run, reference, settings)?;
     let eh = error_history(scene, run, reference, settings)?;
+    let z_rest = rest_heights(scene);
     let ev = run_events(scene, run, settings, window);
     let er = run_events(scene, reference, settings, window);
     let all = series_of(scene);
@@ -616,8 +622,8 @@ pub fn compare_runs(
             "rad",
         );
         if !s.is_interface() {
-            let ea = block_energy(scene, &run.trajectory, s.block);
-            let fa = block_energy(scene, &reference.trajectory, s.block);
+            let ea = block_energy(scene, &run.trajectory, s.block, z_rest[s.block]);
+            let fa = block_energy(scene, &reference.trajectory, s.block, z_rest[s.block]);
             let ga = grid::interpolate(&run.trajectory.t, &ea, &eh.t);
             let gr = grid::interpolate(&reference.trajectory.t, &fa, &eh.t);
             let (first, last) = (0, eh.t.len() - 1);

@@ -489,7 +489,7 @@ fn housner_output_gives_housners_numbers() {
         1e-6 * e0,
         "initial energy",
     );
-    let e = block_energy(&sc, &run.trajectory, 0);
+    let e = block_energy(&sc, &run.trajectory, 0, rest_heights(&sc)[0]);
     let t1 = get(&rows, "block", "impact_time_1").0.unwrap();
     let t2 = get(&rows, "block", "impact_time_2").0.unwrap();
     let k = run.trajectory.t.partition_point(|t| *t < 0.5 * (t1 + t2));
