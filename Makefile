@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-gallery \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-gallery \
 	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -250,6 +250,14 @@ bench-steps:
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)
+
+# The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
+# and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the
+# 215-block wall some 8 s) and taken at the end of their step (215, 430 and 860 blocks);
+# out/bench-walls-in-motion/{located,step-ends}. About 20 s (docs/method.md, "Walls").
+bench-walls-in-motion:
+	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10 --pulse 0.8 --duration 0.01 --out out/bench-walls-in-motion/located
+	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --out out/bench-walls-in-motion/step-ends
 
 # The gallery series: 1, 4, 16 and 64 statues on pedestals (rockbench::gallery) under El Centro
 # 1940 x 2 for 15 s, native and rapier, then the native engine with every impact splitting the
