@@ -253,7 +253,7 @@ bench-dynamic: records
 
 # The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
 # and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the
-# 215-block wall some 8 s) and taken at the end of their step (215, 430 and 860 blocks);
+# 215-block wall some 7 s) and taken at the end of their step (215, 430 and 860 blocks);
 # out/bench-walls-in-motion/{located,step-ends}. About 20 s (docs/method.md, "Walls").
 bench-walls-in-motion:
 	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10 --pulse 0.8 --duration 0.01 --out out/bench-walls-in-motion/located
