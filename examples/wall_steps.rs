@@ -41,10 +41,13 @@ fn main() {
         }
     }
     println!(
-        "total {:.3} s, {:.3} ms/step, {} fallbacks, {} factorisations",
+        "total {:.3} s, {:.3} ms/step, {} fallbacks, {} factorisations, {:.2} discrete-gradient solves and {:.2} velocity problems a step, {} split steps",
         t0.elapsed().as_secs_f64(),
         t0.elapsed().as_secs_f64() * 1e3 / steps as f64,
         st.solver_fallbacks(),
-        st.solver_factorisations()
+        st.solver_factorisations(),
+        st.gradient_solves as f64 / steps as f64,
+        st.settled_velocities as f64 / steps as f64,
+        st.split_steps
     );
 }
