@@ -248,8 +248,8 @@ impl MaterialContact {
     pub fn discrete_gradients(&self, dq: Incr, half: Incr, mass: &[f64]) -> (SparseRow, SparseRow) {
         let (gn, gt, len) = self.discrete_gradient_entries(dq, half, mass);
         (
-            gn[..len].iter().copied().collect(),
-            gt[..len].iter().copied().collect(),
+            SparseRow::from_slice(&gn[..len]),
+            SparseRow::from_slice(&gt[..len]),
         )
     }
 

@@ -51,10 +51,22 @@ impl SparseRow {
         self.len = 0;
     }
 
+    /// Append `entries` (one copy; a row never has more than [`ROW_CAPACITY`]).
     pub fn extend_from_slice(&mut self, entries: &[(usize, f64)]) {
-        for &e in entries {
-            self.push(e);
-        }
+        let end = self.len + entries.len();
+        assert!(
+            end <= ROW_CAPACITY,
+            "a contact row has at most {ROW_CAPACITY} entries"
+        );
+        self.entries[self.len..end].copy_from_slice(entries);
+        self.len = end;
+    }
+
+    /// A row holding `entries`.
+    pub fn from_slice(entries: &[(usize, f64)]) -> Self {
+        let mut row = SparseRow::new();
+        row.extend_from_slice(entries);
+        row
     }
 }
 

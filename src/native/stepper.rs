@@ -1591,8 +1591,8 @@ impl Stepper {
                 mu,
                 g_n,
                 g_t,
-                nrow: gn[..len].iter().copied().collect(),
-                trow: gt[..len].iter().copied().collect(),
+                nrow: SparseRow::from_slice(&gn[..len]),
+                trow: SparseRow::from_slice(&gt[..len]),
             };
             let vn = r.g_n + row_dot(&r.nrow, &s.v);
             let vt = r.g_t + row_dot(&r.trow, &s.v);
