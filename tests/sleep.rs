@@ -3,9 +3,6 @@
 
 mod common;
 
-use rockbench::native::assembly::{contact_rows, poses};
-use rockbench::native::sleep::rest_interval;
-use rockbench::native::stepper::CLOSED_GAP;
 use rockbench::native::stepper_for;
 use rockbench::scene::{Scene, parse_scene_str};
 use rockbench::walls::WallSpec;
@@ -22,15 +19,7 @@ fn scene(text: &str, set: &[&str]) -> Scene {
 fn interval(text: &str) -> (f64, f64) {
     let s = scene(text, &[]);
     let (stepper, state) = stepper_for(&s).unwrap();
-    let ps = poses(&state.q);
-    let rows: Vec<_> = stepper
-        .detect(&state)
-        .iter()
-        .filter(|c| c.gap <= CLOSED_GAP)
-        .map(|c| contact_rows(c, &ps, stepper.bodies.friction(c), (0.0, 0.0)))
-        .collect();
-    let blocks: Vec<usize> = (0..stepper.bodies.len()).collect();
-    let (lo, hi) = rest_interval(&blocks, &rows, &stepper.bodies.mass, s.gravity).unwrap();
+    let (lo, hi) = stepper.rest_interval_of(&state).unwrap();
     (lo / s.gravity, hi / s.gravity)
 }
 

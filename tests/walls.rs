@@ -326,22 +326,10 @@ fn block_speeds(s: &Scene, steps: usize) -> Vec<f64> {
 /// and the lower courses' far end) rest below 1e-10 m/s.
 #[test]
 fn a_running_bond_wall_starts_to_move_at_its_static_collapse_acceleration() {
-    use rockbench::native::assembly::{contact_rows, poses};
-    use rockbench::native::sleep::rest_interval;
-    use rockbench::native::stepper::CLOSED_GAP;
-
     let w = WallSpec::running_bond(10, 6);
     let still = scene(&w.to_toml(), &[]);
     let (stepper, state) = stepper_for(&still).unwrap();
-    let ps = poses(&state.q);
-    let rows: Vec<_> = stepper
-        .detect(&state)
-        .iter()
-        .filter(|c| c.gap <= CLOSED_GAP)
-        .map(|c| contact_rows(c, &ps, stepper.bodies.friction(c), (0.0, 0.0)))
-        .collect();
-    let blocks: Vec<usize> = (0..stepper.bodies.len()).collect();
-    let (lo, hi) = rest_interval(&blocks, &rows, &stepper.bodies.mass, still.gravity).unwrap();
+    let (lo, hi) = stepper.rest_interval_of(&state).unwrap();
     let g = still.gravity;
     assert!(
         (lo + hi).abs() < 1e-9 * g && hi < 0.69 * g && hi > 0.5 * g,

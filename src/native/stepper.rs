@@ -484,6 +484,21 @@ impl Stepper {
         out
     }
 
+    /// The interval of horizontal ground accelerations (m/s^2) under which every block stays at
+    /// rest in the state `s`, all blocks taken together on the points closed there
+    /// ([`rest_interval`]: the static theorem, exact for the associative law); `None` as there.
+    pub fn rest_interval_of(&self, s: &NativeState) -> Option<(f64, f64)> {
+        let ps = poses(&s.q);
+        let rows: Vec<ContactRows> = self
+            .detect(s)
+            .iter()
+            .filter(|c| c.gap <= CLOSED_GAP)
+            .map(|c| contact_rows(c, &ps, self.bodies.friction(c), (0.0, 0.0)))
+            .collect();
+        let blocks: Vec<usize> = (0..self.bodies.len()).collect();
+        rest_interval(&blocks, &rows, &self.bodies.mass, self.gravity)
+    }
+
     /// [`Stepper::detect`] into `out`, with `scratch` as working storage.
     fn detect_into(&self, s: &NativeState, scratch: &mut Detection, out: &mut Vec<ContactPoint>) {
         out.clear();
