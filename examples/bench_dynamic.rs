@@ -23,6 +23,12 @@
 //! (the joints above keep 0.7): below 0.7 a sliding wall's joints are no longer all at the edge
 //! of their cones (docs/method.md, "Why a sliding wall is the worst case").
 //!
+//! Each wall's static collapse acceleration is written below the table (`static.csv` too): its
+//! rest interval at the start (`Stepper::rest_interval_of`, the static theorem on the closed
+//! points, exact for the associative law), the loading's peak, and the first instant the loading
+//! leaves the interval (scanned every 1e-4 s): the instant from which the wall can move, before
+//! which it stands (docs/method.md, "Which walls of the series move, and when").
+//!
 //! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
 //! [--duration 5] [--scale 2 | --pulse 0.8] [--ground-friction 0.5] [--engines native,rapier]
 //! [--sleep false]
@@ -37,8 +43,10 @@
 
 use anyhow::{Context, bail};
 use rockbench::engines::{engine_by_name, run_timed};
+use rockbench::excitation::GroundMotion;
 use rockbench::gallery::GallerySpec;
-use rockbench::scene::load_scene;
+use rockbench::native::stepper_for;
+use rockbench::scene::{Scene, load_scene};
 use rockbench::walls::WallSpec;
 use std::fmt::Write as _;
 use std::io::Read as _;
@@ -168,6 +176,26 @@ fn measure_apart(path: &Path, engine: &str, budget: Duration) -> anyhow::Result<
     ))
 }
 
+/// The scene's rest interval at its start (g), the horizontal loading's peak (g), and the first
+/// instant, scanned every 1e-4 s, at which the loading leaves the interval.
+fn collapse_onset(scene: &Scene) -> anyhow::Result<(Option<(f64, f64)>, f64, Option<f64>)> {
+    let (stepper, state) = stepper_for(scene)?;
+    let interval = stepper
+        .rest_interval_of(&state)
+        .map(|(lo, hi)| (lo / scene.gravity, hi / scene.gravity));
+    let motion = GroundMotion::from_scene(scene)?;
+    let (mut peak, mut leaves) = (0.0f64, None);
+    for k in 0..=(scene.duration / 1e-4).round() as usize {
+        let t = k as f64 * 1e-4;
+        let a = motion.acc(t).0 / scene.gravity;
+        peak = peak.max(a.abs());
+        if leaves.is_none() && interval.is_some_and(|(lo, hi)| a < lo || a > hi) {
+            leaves = Some(t);
+        }
+    }
+    Ok((interval, peak, leaves))
+}
+
 fn main() -> anyhow::Result<()> {
     rockbench::allocator::keep_freed_memory();
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -256,6 +284,8 @@ fn main() -> anyhow::Result<()> {
         budget.as_secs_f64()
     );
     let record_as_written = Some((record.display().to_string(), scale));
+    let mut statics = format!("blocks,{unit},rest_low_g,rest_high_g,loading_peak_g,leaves_at_s\n");
+    let mut statics_md = "\n## Static collapse acceleration\n\n| blocks | rest interval (g) | loading's peak (g) | the loading leaves the interval at (s) |\n|---|---|---|---|\n".to_string();
     // (blocks, courses or pairs, scene file name, scene text)
     let series: Vec<(usize, usize, String, String)> = match &gallery {
         Some(sizes) => sizes
@@ -307,7 +337,25 @@ fn main() -> anyhow::Result<()> {
             }
         }
         std::fs::write(&path, text)?;
-        load_scene(&path)?;
+        let scene = load_scene(&path)?;
+        if gallery.is_none() {
+            let (interval, peak, leaves) = collapse_onset(&scene)?;
+            let interval_g =
+                interval.map_or("none".to_string(), |(lo, hi)| format!("[{lo:.4}, {hi:.4}]"));
+            let leaves_s = leaves.map_or("never".to_string(), |t| format!("{t:.4}"));
+            let _ = writeln!(
+                statics,
+                "{n},{c},{},{},{peak:.4},{}",
+                interval.map_or(String::new(), |i| format!("{:.6}", i.0)),
+                interval.map_or(String::new(), |i| format!("{:.6}", i.1)),
+                leaves.map_or(String::new(), |t| format!("{t:.4}"))
+            );
+            let _ = writeln!(
+                statics_md,
+                "| {n} | {interval_g} | {peak:.4} | {leaves_s} |"
+            );
+            std::fs::write(out.join("static.csv"), &statics)?;
+        }
         for e in &engines {
             match measure_apart(&path, e, budget) {
                 Ok(Some(m)) => {
@@ -357,7 +405,12 @@ fn main() -> anyhow::Result<()> {
                 }
             }
             std::fs::write(out.join("dynamic.csv"), &csv)?;
-            std::fs::write(out.join("dynamic.md"), &md)?;
+            let tail = if gallery.is_none() {
+                &statics_md[..]
+            } else {
+                ""
+            };
+            std::fs::write(out.join("dynamic.md"), format!("{md}{tail}"))?;
         }
     }
     println!("wrote {}", out.display());
