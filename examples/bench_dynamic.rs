@@ -176,9 +176,17 @@ fn measure_apart(path: &Path, engine: &str, budget: Duration) -> anyhow::Result<
     ))
 }
 
-/// The scene's rest interval at its start (g), the horizontal loading's peak (g), and the first
-/// instant, scanned every 1e-4 s, at which the loading leaves the interval.
-fn collapse_onset(scene: &Scene) -> anyhow::Result<(Option<(f64, f64)>, f64, Option<f64>)> {
+/// A wall's static collapse acceleration against its loading.
+struct Onset {
+    /// The rest interval at the start (g).
+    interval: Option<(f64, f64)>,
+    /// The horizontal loading's peak (g).
+    peak: f64,
+    /// The first instant, scanned every 1e-4 s, at which the loading leaves the interval.
+    leaves: Option<f64>,
+}
+
+fn collapse_onset(scene: &Scene) -> anyhow::Result<Onset> {
     let (stepper, state) = stepper_for(scene)?;
     let interval = stepper
         .rest_interval_of(&state)
@@ -193,7 +201,11 @@ fn collapse_onset(scene: &Scene) -> anyhow::Result<(Option<(f64, f64)>, f64, Opt
             leaves = Some(t);
         }
     }
-    Ok((interval, peak, leaves))
+    Ok(Onset {
+        interval,
+        peak,
+        leaves,
+    })
 }
 
 fn main() -> anyhow::Result<()> {
@@ -339,7 +351,11 @@ fn main() -> anyhow::Result<()> {
         std::fs::write(&path, text)?;
         let scene = load_scene(&path)?;
         if gallery.is_none() {
-            let (interval, peak, leaves) = collapse_onset(&scene)?;
+            let Onset {
+                interval,
+                peak,
+                leaves,
+            } = collapse_onset(&scene)?;
             let interval_g =
                 interval.map_or("none".to_string(), |(lo, hi)| format!("[{lo:.4}, {hi:.4}]"));
             let leaves_s = leaves.map_or("never".to_string(), |t| format!("{t:.4}"));
