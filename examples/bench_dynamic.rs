@@ -24,7 +24,7 @@
 //! of their cones (docs/method.md, "Why a sliding wall is the worst case").
 //!
 //! Each wall's static collapse acceleration is written below the table (`static.csv` too): its
-//! rest interval at the start (`Stepper::rest_interval_of`, the static theorem on the closed
+//! rest interval at the start (`rockbench::native::collapse`: the static theorem on the closed
 //! points, exact for the associative law), the loading's peak, and the first instant the loading
 //! leaves the interval (scanned every 1e-4 s): the instant from which the wall can move, before
 //! which it stands (docs/method.md, "Which walls of the series move, and when").
@@ -43,10 +43,9 @@
 
 use anyhow::{Context, bail};
 use rockbench::engines::{engine_by_name, run_timed};
-use rockbench::excitation::GroundMotion;
 use rockbench::gallery::GallerySpec;
-use rockbench::native::stepper_for;
-use rockbench::scene::{Scene, load_scene};
+use rockbench::native::collapse::{CollapseOnset, collapse_onset};
+use rockbench::scene::load_scene;
 use rockbench::walls::WallSpec;
 use std::fmt::Write as _;
 use std::io::Read as _;
@@ -174,38 +173,6 @@ fn measure_apart(path: &Path, engine: &str, budget: Duration) -> anyhow::Result<
     Ok(Some(
         serde_json::from_str(out.trim()).context("the run's result")?,
     ))
-}
-
-/// A wall's static collapse acceleration against its loading.
-struct Onset {
-    /// The rest interval at the start (g).
-    interval: Option<(f64, f64)>,
-    /// The horizontal loading's peak (g).
-    peak: f64,
-    /// The first instant, scanned every 1e-4 s, at which the loading leaves the interval.
-    leaves: Option<f64>,
-}
-
-fn collapse_onset(scene: &Scene) -> anyhow::Result<Onset> {
-    let (stepper, state) = stepper_for(scene)?;
-    let interval = stepper
-        .rest_interval_of(&state)
-        .map(|(lo, hi)| (lo / scene.gravity, hi / scene.gravity));
-    let motion = GroundMotion::from_scene(scene)?;
-    let (mut peak, mut leaves) = (0.0f64, None);
-    for k in 0..=(scene.duration / 1e-4).round() as usize {
-        let t = k as f64 * 1e-4;
-        let a = motion.acc(t).0 / scene.gravity;
-        peak = peak.max(a.abs());
-        if leaves.is_none() && interval.is_some_and(|(lo, hi)| a < lo || a > hi) {
-            leaves = Some(t);
-        }
-    }
-    Ok(Onset {
-        interval,
-        peak,
-        leaves,
-    })
 }
 
 fn main() -> anyhow::Result<()> {
@@ -351,10 +318,11 @@ fn main() -> anyhow::Result<()> {
         std::fs::write(&path, text)?;
         let scene = load_scene(&path)?;
         if gallery.is_none() {
-            let Onset {
+            let CollapseOnset {
                 interval,
                 peak,
-                leaves,
+                leaves_at: leaves,
+                ..
             } = collapse_onset(&scene)?;
             let interval_g =
                 interval.map_or("none".to_string(), |(lo, hi)| format!("[{lo:.4}, {hi:.4}]"));

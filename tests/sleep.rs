@@ -192,3 +192,33 @@ fn a_wall_loaded_below_its_static_collapse_acceleration_stays_at_rest() {
     let moved = largest_difference(&positions, &vec![positions[0].clone(); positions.len()]);
     assert!(moved < 1e-9, "the wall moved by {moved:e} under 0.38 g");
 }
+
+/// `rockbench check --collapse` prints the rest interval of a scene and where its loading leaves
+/// it: a block of B/H = 0.25 (friction 0.7) rests while `|a| <= 0.25 g`, and a rectangular pulse
+/// of 0.3 g from 0.2 s leaves that at its start.
+#[test]
+fn check_prints_the_rest_interval_and_the_onset() {
+    let dir = std::env::temp_dir().join(format!("rb-collapse-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("block.toml");
+    let text = format!(
+        "{}[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {}\nduration = 0.5\nstart = 0.2\n",
+        block(0.5, 2.0, 0.7),
+        0.3 * G
+    );
+    std::fs::write(&file, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rockbench"))
+        .args(["check", "--collapse"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{out:?}");
+    assert!(
+        stdout.contains("rest interval [-0.2500, 0.2500] g")
+            && stdout.contains("peaks at 0.3000 g")
+            && stdout.contains("leaves the interval at 0.2000 s"),
+        "{stdout}"
+    );
+}

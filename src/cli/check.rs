@@ -1,6 +1,8 @@
-//! `rockbench check SCENE`: validate a scene without running it.
+//! `rockbench check SCENE`: validate a scene without running it; `--collapse` adds its static
+//! collapse acceleration ([`crate::native::collapse`]).
 
 use crate::engines::registry::load_scene_with_overrides;
+use crate::native::collapse::collapse_onset;
 use anyhow::Result;
 use std::path::PathBuf;
 
@@ -11,6 +13,12 @@ pub struct CheckArgs {
     /// Override a scene field, e.g. --set native.dt=5e-4 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// Also print the scene's rest interval at the start (the horizontal ground accelerations
+    /// under which its blocks stay at rest: the static theorem on the closed points, exact for
+    /// the associative law), the loading's peak and the first instant the loading leaves the
+    /// interval (docs/method.md).
+    #[arg(long)]
+    collapse: bool,
 }
 
 pub fn check(a: CheckArgs) -> Result<()> {
@@ -27,5 +35,8 @@ pub fn check(a: CheckArgs) -> Result<()> {
             "free rocking"
         }
     );
+    if a.collapse {
+        println!("{}", collapse_onset(&s)?);
+    }
     Ok(())
 }
