@@ -301,7 +301,8 @@ fn a_statue_in_a_gallery_moves_as_it_does_alone() {
     assert_eq!(island_steps, 0);
 }
 
-/// The largest speed (m/s, translation) of each block after `steps` steps of `s`.
+/// Each block's speed after `steps` steps of `s`: the larger of its two velocity components,
+/// m/s.
 fn block_speeds(s: &Scene, steps: usize) -> Vec<f64> {
     let (mut stepper, mut state) = stepper_for(s).unwrap();
     for _ in 0..steps {

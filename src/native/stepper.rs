@@ -488,15 +488,24 @@ impl Stepper {
     /// rest in the state `s`, all blocks taken together on the points closed there
     /// ([`rest_interval`]: the static theorem, exact for the associative law); `None` as there.
     pub fn rest_interval_of(&self, s: &NativeState) -> Option<(f64, f64)> {
-        let ps = poses(&s.q);
-        let rows: Vec<ContactRows> = self
-            .detect(s)
-            .iter()
-            .filter(|c| c.gap <= CLOSED_GAP)
-            .map(|c| contact_rows(c, &ps, self.bodies.friction(c), (0.0, 0.0)))
-            .collect();
         let blocks: Vec<usize> = (0..self.bodies.len()).collect();
-        rest_interval(&blocks, &rows, &self.bodies.mass, self.gravity)
+        self.island_rest_interval(&self.detect(s), &poses(&s.q), &blocks)
+    }
+
+    /// [`rest_interval`] of the island `blocks` (increasing) on its closed points among
+    /// `contacts`, at the poses `ps`.
+    fn island_rest_interval(
+        &self,
+        contacts: &[ContactPoint],
+        ps: &[Pose],
+        blocks: &[usize],
+    ) -> Option<(f64, f64)> {
+        let rows: Vec<ContactRows> = contacts
+            .iter()
+            .filter(|c| c.gap <= CLOSED_GAP && blocks.binary_search(&c.b).is_ok())
+            .map(|c| contact_rows(c, ps, self.bodies.friction(c), (0.0, 0.0)))
+            .collect();
+        rest_interval(blocks, &rows, &self.bodies.mass, self.gravity)
     }
 
     /// [`Stepper::detect`] into `out`, with `scratch` as working storage.
@@ -858,12 +867,7 @@ impl Stepper {
         let sl = self.sleep.as_ref().expect("sleep is on");
         let islands = sl.candidates(&contacts);
         for blocks in islands {
-            let rows: Vec<ContactRows> = contacts
-                .iter()
-                .filter(|c| c.gap <= CLOSED_GAP && blocks.binary_search(&c.b).is_ok())
-                .map(|c| contact_rows(c, &ps, self.bodies.friction(c), (0.0, 0.0)))
-                .collect();
-            let interval = rest_interval(&blocks, &rows, &self.bodies.mass, self.gravity);
+            let interval = self.island_rest_interval(&contacts, &ps, &blocks);
             let sl = self.sleep.as_mut().expect("sleep is on");
             let members = blocks.clone();
             if sl.try_sleep(blocks, interval, ax) {
