@@ -53,6 +53,48 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+const USAGE: &str = "cargo run --release --example bench_dynamic -- \
+[--courses 2,5,10,20,40 | --gallery N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
+[--ground-friction 0.5] [--engines native,rapier] [--sleep false] [--island-impacts true] \
+[--locate-impacts true] [--native-dt 1e-3] [--budget 600] [--out out/bench-dynamic]";
+
+/// The flags of `USAGE`, each followed by its value.
+const FLAGS: [&str; 13] = [
+    "--courses",
+    "--gallery",
+    "--duration",
+    "--scale",
+    "--pulse",
+    "--ground-friction",
+    "--engines",
+    "--sleep",
+    "--island-impacts",
+    "--locate-impacts",
+    "--native-dt",
+    "--budget",
+    "--out",
+];
+
+/// Every argument is a known flag followed by its value, each flag given once: a mistyped flag
+/// is an error, not a default run of the whole series.
+fn check_flags(args: &[String]) -> anyhow::Result<()> {
+    let mut seen: Vec<&str> = Vec::new();
+    let mut rest = args.iter();
+    while let Some(flag) = rest.next() {
+        if !FLAGS.contains(&flag.as_str()) {
+            bail!("unknown argument {flag:?}; usage: {USAGE}");
+        }
+        if seen.contains(&flag.as_str()) {
+            bail!("{flag}: given twice");
+        }
+        seen.push(flag);
+        if rest.next().is_none() {
+            bail!("{flag}: needs a value");
+        }
+    }
+    Ok(())
+}
+
 fn arg(args: &[String], name: &str, default: &str) -> String {
     args.windows(2)
         .find(|w| w[0] == name)
@@ -192,6 +234,11 @@ fn main() -> anyhow::Result<()> {
         }
         return Ok(());
     }
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        println!("{USAGE}");
+        return Ok(());
+    }
+    check_flags(&args)?;
     let list = |name: &str, default: &str| -> anyhow::Result<Vec<usize>> {
         arg(&args, name, default)
             .split(',')
