@@ -1323,16 +1323,19 @@ impl Stepper {
         Ok(iterations)
     }
 
-    /// Advance by `h` from the given contacts; `project`: project out a penetration after the
-    /// step (impact stepper without impact location; off for trial steps). Returns the step's
-    /// solution, its problem and, under the impact stepper, which of its points end closed
-    /// ([`closed`]; empty under the paper's).
+    /// Advance by `h` from the given contacts. `kept`: whether the sub-step's end state is
+    /// kept. A kept one settles its end velocity (impact stepper) and projects out a
+    /// penetration (impact stepper without impact location); the free trial of
+    /// `step_locating`, whose end positions alone are read before the state is restored, does
+    /// neither (its end velocity would be a whole-island velocity problem thrown away).
+    /// Returns the step's solution, its problem and, under the impact stepper, which of its
+    /// points end closed ([`closed`]; empty under the paper's).
     fn sub_step(
         &mut self,
         s: &mut NativeState,
         contacts: &[ContactPoint],
         h: f64,
-        project: bool,
+        kept: bool,
     ) -> Result<(StepSolution, StepProblem, Vec<bool>), StepError> {
         let mut pr = self.spare_problem();
         let mut ps = std::mem::take(&mut self.work.poses);
@@ -1367,7 +1370,7 @@ impl Stepper {
         s.ground_d.1 += g.dd.1;
         s.ground_w = g.w1;
         s.t += h;
-        if impact {
+        if impact && kept {
             let end = std::mem::take(&mut self.work.end_gradients);
             let settled = self.settle_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
             self.work.end_gradients = end;
@@ -1379,7 +1382,7 @@ impl Stepper {
         }
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
-        if project && impact && !self.settings.locate_impacts {
+        if kept && impact && !self.settings.locate_impacts {
             self.project_out_penetration(s)
                 .map_err(|failure| StepError::Solver {
                     step: s.step + 1,
