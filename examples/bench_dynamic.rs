@@ -29,11 +29,7 @@
 //! leaves the interval (scanned every 1e-4 s): the instant from which the wall can move, before
 //! which it stands (docs/method.md, "Which walls of the series move, and when").
 //!
-//! `cargo run --release --example bench_dynamic -- [--courses 2,5,10,20,40 | --gallery N,...]
-//! [--duration 5] [--scale 2 | --pulse 0.8] [--ground-friction 0.5] [--engines native,rapier]
-//! [--sleep false]
-//! [--island-impacts true] [--locate-impacts true] [--native-dt 1e-3] [--budget 600]
-//! [--out out/bench-dynamic]`
+//! Usage: `USAGE` below (`--help` prints it; an unknown flag is an error).
 //! (`--sleep true`, `--island-impacts false` and `--locate-impacts false` run the native engine
 //! with `native.sleep = true`, `native.island_impacts = false` and
 //! `native.locate_impacts = false`: the last takes every impact at the end of its step, the

@@ -137,6 +137,24 @@ fn the_215_block_wall_needs_no_fallback_over_the_whole_record() {
     assert_eq!(stepper.solver_fallbacks(), 0);
 }
 
+/// The 215-block wall standing under the record's first 300 steps settles no end velocity:
+/// its closed points approach by round-off only, below `VELOCITY_TOLERANCE` (at 1e-15 m it
+/// solved a whole-wall velocity problem on every step), and it stays still.
+#[test]
+fn a_wall_standing_still_solves_no_velocity_problem() {
+    let mut w = WallSpec::running_bond(10, 21);
+    w.record = Some((record(), 2.0));
+    w.duration = 0.3;
+    let s = scene(&w.to_toml(), &[]);
+    let (mut stepper, mut state) = stepper_for(&s).unwrap();
+    for _ in 0..300 {
+        stepper.step(&mut state).unwrap();
+    }
+    let fastest = state.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(fastest < 1e-9, "largest speed {fastest:e}");
+    assert_eq!(stepper.settled_velocities, 0);
+}
+
 /// The wall-in-motion case (42 blocks of 0.3 x 0.45 m under El Centro x2): 200
 /// steps from its state at 3.6 s, when it rocks, with the default back-end and with Clarabel.
 #[test]
