@@ -216,6 +216,8 @@ struct Taken {
     solution: StepSolution,
     problem: StepProblem,
     closed: Vec<bool>,
+    /// Its points' end gradients while its end velocity is not settled yet.
+    unsettled: Option<Vec<(Gradient, Gradient, usize)>>,
 }
 
 /// The ordinary (unsplit) step of the whole scene, for `Stepper::locate_per_island`.
@@ -223,6 +225,8 @@ struct Ordinary<'a> {
     problem: &'a StepProblem,
     closed: &'a [bool],
     solution: &'a StepSolution,
+    /// Its end gradients while its end velocity is not settled yet (`step_locating`).
+    unsettled: Option<&'a [(Gradient, Gradient, usize)]>,
 }
 
 /// State of the native engine between steps.
@@ -435,6 +439,12 @@ impl Stepper {
     /// Newton-matrix factorisations of the back-end (sparse).
     pub fn solver_factorisations(&self) -> u64 {
         self.solver.factorisations() + self.velocity_solver.factorisations()
+    }
+
+    /// Of [`Stepper::solver_factorisations`], those of the velocity problems (settled end
+    /// velocities and plastic impacts).
+    pub fn velocity_factorisations(&self) -> u64 {
+        self.velocity_solver.factorisations()
     }
 
     /// Problems the sparse back-end handed to its interior-point rescue.
@@ -947,12 +957,18 @@ impl Stepper {
             let h = t_end - s.t;
             let mut s0 = self.work.start.take().unwrap_or_else(|| s.clone());
             s0.clone_from(s);
-            let (mut sol, pr, carries) = match taken.take() {
+            // The ordinary sub-step. Its end velocity is settled once it is kept (`unsettled`
+            // holds its end gradients until then): a located impact throws it away.
+            let (mut sol, pr, carries, mut unsettled) = match taken.take() {
                 Some(t) => {
                     *s = t.state;
-                    (t.solution, t.problem, t.closed)
+                    (t.solution, t.problem, t.closed, t.unsettled)
                 }
-                None => self.sub_step(s, &contacts, h, true)?,
+                None => {
+                    let (sol, pr, closed) = self.sub_step(s, &contacts, h, false)?;
+                    let end = std::mem::take(&mut self.work.end_gradients);
+                    (sol, pr, closed, Some(end))
+                }
             };
             // New impacts, those slower than `locate_speed` left to the ordinary step.
             let slowest = self.settings.locate_speed;
@@ -986,6 +1002,7 @@ impl Stepper {
                     problem: &pr,
                     closed: &carries,
                     solution: &sol,
+                    unsettled: unsettled.as_deref(),
                 };
                 if let Some(sol) = self.locate_per_island(s, start, &contacts, &fresh, ordinary)? {
                     return Ok(sol);
@@ -1019,6 +1036,13 @@ impl Stepper {
             };
             self.work.start = Some(s0);
             let Some((tau, free)) = tau else {
+                if let Some(end) = unsettled.take() {
+                    let settled =
+                        self.settle_end_velocity(s, &contacts, &end, &carries, &pr, &sol)?;
+                    self.iterations += settled as u64;
+                    sol.iterations += settled;
+                    self.work.end_gradients = end;
+                }
                 // The located points have just closed: not a new impact in the next step even if
                 // the short rest of this one left them without a force (gap within the fall of
                 // `g h^2/2`).
@@ -1038,6 +1062,9 @@ impl Stepper {
             self.give_back(pr);
             self.work.closed = carries;
             self.give_back_solution(sol);
+            if let Some(end) = unsettled {
+                self.work.end_gradients = end;
+            }
             let located: Vec<u64> = {
                 let ps = poses(&s.q);
                 fresh
@@ -1057,12 +1084,23 @@ impl Stepper {
             let start = s.clone();
             let mut reached = false;
             while tau > 1e-9 * h {
-                let (first, pr, first_closed) = self.sub_step(s, &free, tau, true)?;
+                // Its end velocity is settled only when it is kept (no point through its face).
+                let (mut first, pr, first_closed) = self.sub_step(s, &free, tau, false)?;
+                let through = self.passed_through(&start, s, &contacts, &fresh);
+                if !through {
+                    let end = std::mem::take(&mut self.work.end_gradients);
+                    let settled =
+                        self.settle_end_velocity(s, &free, &end, &first_closed, &pr, &first);
+                    self.work.end_gradients = end;
+                    let settled = settled?;
+                    self.iterations += settled as u64;
+                    first.iterations += settled;
+                }
                 iterations += first.iterations;
                 self.give_back_solution(first);
                 closed_keys_into(&pr, &first_closed, &mut self.loaded);
                 self.give_back(pr);
-                if !self.passed_through(&start, s, &contacts, &fresh) {
+                if !through {
                     reached = true;
                     break;
                 }
@@ -1120,6 +1158,18 @@ impl Stepper {
             return Ok(None);
         }
         let in_hit = |b: usize| island[b].is_some_and(|i| hit[i]);
+        let mut sol = ordinary.solution.clone();
+        if let Some(end) = ordinary.unsettled {
+            // The islands without an impact keep their ordinary step: their end velocity is
+            // settled here (the others settle theirs once they keep it, as they would alone).
+            let keeping: Vec<bool> = (ordinary.closed.iter().zip(contacts))
+                .map(|(&closed, c)| closed && !in_hit(c.b))
+                .collect();
+            let settled =
+                self.settle_end_velocity(s, contacts, end, &keeping, ordinary.problem, &sol)?;
+            self.iterations += settled as u64;
+            sol.iterations += settled;
+        }
         // A point's key holds its upper block (`assembly::contact_rows`), which is in the
         // point's island.
         let block_of_key = |key: u64| ((key >> 16) & 0xFF_FFFF) as usize;
@@ -1135,7 +1185,6 @@ impl Stepper {
         // The last step's struck points; after this one, those struck in it (by islands).
         let struck_before = std::mem::take(&mut self.struck);
         let mut struck = Vec::new();
-        let mut sol = ordinary.solution.clone();
         let (pr, whole) = (ordinary.problem, ordinary.solution);
         for i in (0..hit.len()).filter(|&i| hit[i]) {
             let blocks: Vec<usize> = (0..n).filter(|&b| island[b] == Some(i)).collect();
@@ -1162,6 +1211,9 @@ impl Stepper {
                     contacts: mine.iter().map(|&k| pr.contacts[k].clone()).collect(),
                 },
                 closed: mine.iter().map(|&k| ordinary.closed[k]).collect(),
+                unsettled: ordinary
+                    .unsettled
+                    .map(|end| mine.iter().map(|&k| end[k]).collect()),
             };
             let mut alone = start.state.clone();
             self.accel.copy_from_slice(&after);
@@ -1324,10 +1376,13 @@ impl Stepper {
     }
 
     /// Advance by `h` from the given contacts. `kept`: whether the sub-step's end state is
-    /// kept. A kept one settles its end velocity (impact stepper) and projects out a
-    /// penetration (impact stepper without impact location); the free trial of
-    /// `step_locating`, whose end positions alone are read before the state is restored, does
-    /// neither (its end velocity would be a whole-island velocity problem thrown away).
+    /// known to be kept. A kept one settles its end velocity (impact stepper) and projects out
+    /// a penetration (impact stepper without impact location). `step_locating` passes `false`
+    /// for the sub-steps whose end it may throw away (the ordinary sub-step and the sub-step to
+    /// an impact instant, both until their end positions are judged; the free trial always):
+    /// their end velocity, a whole-island velocity problem, is settled
+    /// (`settle_end_velocity`) only once they are kept, from the end gradients this call
+    /// leaves in `self.work.end_gradients`.
     /// Returns the step's solution, its problem and, under the impact stepper, which of its
     /// points end closed ([`closed`]; empty under the paper's).
     fn sub_step(
@@ -1372,13 +1427,9 @@ impl Stepper {
         s.t += h;
         if impact && kept {
             let end = std::mem::take(&mut self.work.end_gradients);
-            let settled = self.settle_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
+            let settled = self.settle_end_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
             self.work.end_gradients = end;
-            sol.iterations += settled.map_err(|failure| StepError::Solver {
-                step: s.step + 1,
-                t: s.t,
-                failure,
-            })?;
+            sol.iterations += settled?;
         }
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
@@ -1397,6 +1448,27 @@ impl Stepper {
             });
         }
         Ok((sol, pr, ends_closed))
+    }
+
+    /// `settle_velocity` for a sub-step that ended at `s` from `contacts` (its problem `pr` and
+    /// solution `sol`; `end`, `closed`: its end gradients and which points ended closed), its
+    /// failure a step error.
+    /// Returns the solver iterations, counted in `self.iterations` by the caller.
+    fn settle_end_velocity(
+        &mut self,
+        s: &mut NativeState,
+        contacts: &[ContactPoint],
+        end: &[(Gradient, Gradient, usize)],
+        closed: &[bool],
+        pr: &StepProblem,
+        sol: &StepSolution,
+    ) -> Result<u32, StepError> {
+        self.settle_velocity(s, contacts, end, closed, pr, sol)
+            .map_err(|failure| StepError::Solver {
+                step: s.step + 1,
+                t: s.t,
+                failure,
+            })
     }
 
     /// The impact stepper's solve: the rows of every point are the discrete gradients of its gap
