@@ -195,9 +195,12 @@ pub struct SparseSolver {
     settling: bool,
     interior: InteriorPoint,
     breaks: Vec<(f64, usize)>,
-    /// Row keys and multipliers of the previous solution, in row order.
+    /// Row keys and multipliers of the previous solution, in row order, and its step's length.
+    /// (The multipliers are impulses over the step, `normal dt / s`: a warm start from a step
+    /// of another length scales them by the ratio, so that the forces carry over.)
     previous_keys: Vec<u64>,
     previous_lambda: Vec<f64>,
+    previous_dt: f64,
     /// The same, sorted by key (for steps whose rows changed).
     by_key: Vec<(u64, f64)>,
     /// Pairs of blocks in contact, from which the envelope was built.
@@ -598,6 +601,7 @@ impl SparseSolver {
         self.previous_keys.clear();
         self.previous_keys.extend(self.rows.iter().map(|r| r.key));
         self.previous_lambda = l;
+        self.previous_dt = pr.dt;
         self.settling = true;
         let result = self.solve_warm(pr);
         self.settling = false;
@@ -662,6 +666,12 @@ impl SparseSolver {
                 self.lambda.push(l);
             }
             self.update_envelope(n / 3);
+        }
+        if self.previous_dt > 0.0 && self.previous_dt != pr.dt {
+            let ratio = pr.dt / self.previous_dt;
+            for l in &mut self.lambda {
+                *l *= ratio;
+            }
         }
         self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64
             || n >= LARGE_PROBLEM;
@@ -741,6 +751,7 @@ impl SparseSolver {
         self.previous_keys.clear();
         self.previous_keys.extend(self.rows.iter().map(|r| r.key));
         self.previous_lambda.clone_from(&self.lambda);
+        self.previous_dt = pr.dt;
         Ok(step_solution(
             pr,
             sc.s,
