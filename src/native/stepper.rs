@@ -1037,8 +1037,7 @@ impl Stepper {
             self.work.start = Some(s0);
             let Some((tau, free)) = tau else {
                 if let Some(end) = unsettled.take() {
-                    let settled =
-                        self.settle_end_velocity(s, &contacts, &end, &carries, &pr, &sol)?;
+                    let settled = self.settle_velocity(s, &contacts, &end, &carries, &pr, &sol)?;
                     self.iterations += settled as u64;
                     sol.iterations += settled;
                     self.work.end_gradients = end;
@@ -1089,8 +1088,7 @@ impl Stepper {
                 let through = self.passed_through(&start, s, &contacts, &fresh);
                 if !through {
                     let end = std::mem::take(&mut self.work.end_gradients);
-                    let settled =
-                        self.settle_end_velocity(s, &free, &end, &first_closed, &pr, &first);
+                    let settled = self.settle_velocity(s, &free, &end, &first_closed, &pr, &first);
                     self.work.end_gradients = end;
                     let settled = settled?;
                     self.iterations += settled as u64;
@@ -1166,7 +1164,7 @@ impl Stepper {
                 .map(|(&closed, c)| closed && !in_hit(c.b))
                 .collect();
             let settled =
-                self.settle_end_velocity(s, contacts, end, &keeping, ordinary.problem, &sol)?;
+                self.settle_velocity(s, contacts, end, &keeping, ordinary.problem, &sol)?;
             self.iterations += settled as u64;
             sol.iterations += settled;
         }
@@ -1381,7 +1379,7 @@ impl Stepper {
     /// for the sub-steps whose end it may throw away (the ordinary sub-step and the sub-step to
     /// an impact instant, both until their end positions are judged; the free trial always):
     /// their end velocity, a whole-island velocity problem, is settled
-    /// (`settle_end_velocity`) only once they are kept, from the end gradients this call
+    /// (`settle_velocity`) only once they are kept, from the end gradients this call
     /// leaves in `self.work.end_gradients`.
     /// Returns the step's solution, its problem and, under the impact stepper, which of its
     /// points end closed ([`closed`]; empty under the paper's).
@@ -1427,7 +1425,7 @@ impl Stepper {
         s.t += h;
         if impact && kept {
             let end = std::mem::take(&mut self.work.end_gradients);
-            let settled = self.settle_end_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
+            let settled = self.settle_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
             self.work.end_gradients = end;
             sol.iterations += settled?;
         }
@@ -1448,27 +1446,6 @@ impl Stepper {
             });
         }
         Ok((sol, pr, ends_closed))
-    }
-
-    /// `settle_velocity` for a sub-step that ended at `s` from `contacts` (its problem `pr` and
-    /// solution `sol`; `end`, `closed`: its end gradients and which points ended closed), its
-    /// failure a step error.
-    /// Returns the solver iterations, counted in `self.iterations` by the caller.
-    fn settle_end_velocity(
-        &mut self,
-        s: &mut NativeState,
-        contacts: &[ContactPoint],
-        end: &[(Gradient, Gradient, usize)],
-        closed: &[bool],
-        pr: &StepProblem,
-        sol: &StepSolution,
-    ) -> Result<u32, StepError> {
-        self.settle_velocity(s, contacts, end, closed, pr, sol)
-            .map_err(|failure| StepError::Solver {
-                step: s.step + 1,
-                t: s.t,
-                failure,
-            })
     }
 
     /// The impact stepper's solve: the rows of every point are the discrete gradients of its gap
@@ -1648,7 +1625,8 @@ impl Stepper {
     /// closest admissible velocity in the kinetic-energy norm (Moreau's plastic law; kinetic
     /// energy can only drop). Without it the mean-velocity law would leave the end velocity
     /// ringing, `v = -v0`, after a contact sticks or closes. On a smooth motion along a contact
-    /// the change is O(h^3) a step. Returns the solver iterations.
+    /// the change is O(h^3) a step. Returns the solver iterations (counted in `self.iterations`
+    /// by the caller); a solver failure is an error naming the step.
     fn settle_velocity(
         &mut self,
         s: &mut NativeState,
@@ -1657,7 +1635,7 @@ impl Stepper {
         carries: &[bool],
         pr: &StepProblem,
         sol: &StepSolution,
-    ) -> Result<u32, SolveFailure> {
+    ) -> Result<u32, StepError> {
         let w = match self.applied_as {
             AppliedAs::MovingGround => s.ground_w,
             AppliedAs::InertialForces => (0.0, 0.0),
@@ -1764,6 +1742,11 @@ impl Stepper {
         self.settled_velocities += 1;
         // Under Coulomb too the rows are solved as they are: each carries its own friction.
         self.closest_admissible_velocity(s, settling, FrictionLaw::Associative)
+            .map_err(|failure| StepError::Solver {
+                step: s.step + 1,
+                t: s.t,
+                failure,
+            })
     }
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
