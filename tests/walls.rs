@@ -5,7 +5,7 @@ mod common;
 
 use rockbench::gallery::GallerySpec;
 use rockbench::native::solver::{ClarabelSolver, ContactSolver, SparseSolver};
-use rockbench::native::stepper_for;
+use rockbench::native::{NativeState, Stepper, stepper_for};
 use rockbench::scene::{Scene, parse_scene_str};
 use rockbench::walls::WallSpec;
 
@@ -125,16 +125,23 @@ fn a_standing_narrow_wall_starts_stiff_and_keeps_clarabels_answer() {
 /// solve of an envelope this wide, and on the last retry).
 #[test]
 fn the_215_block_wall_needs_no_fallback_over_the_whole_record() {
-    let mut w = WallSpec::running_bond(10, 21);
-    w.record = Some((record(), 2.0));
-    w.duration = 5.0;
-    let s = scene(&w.to_toml(), &[]);
-    let (mut stepper, mut state) = stepper_for(&s).unwrap();
-    for _ in 0..5000 {
-        stepper.step(&mut state).unwrap();
-    }
+    let (stepper, state) = the_215_block_wall_under_the_record(5000);
     assert!((state.t - 5.0).abs() < 1e-9, "ended at {}", state.t);
     assert_eq!(stepper.solver_fallbacks(), 0);
+}
+
+/// The benchmark's 215-block wall (10 courses of 21) under El Centro x2, default settings,
+/// after its first `steps` steps of 1 ms.
+fn the_215_block_wall_under_the_record(steps: u64) -> (Stepper, NativeState) {
+    let mut w = WallSpec::running_bond(10, 21);
+    w.record = Some((record(), 2.0));
+    w.duration = steps as f64 * 1e-3;
+    let s = scene(&w.to_toml(), &[]);
+    let (mut stepper, mut state) = stepper_for(&s).unwrap();
+    for _ in 0..steps {
+        stepper.step(&mut state).unwrap();
+    }
+    (stepper, state)
 }
 
 /// The 215-block wall standing under the record's first 300 steps settles no end velocity:
@@ -142,14 +149,7 @@ fn the_215_block_wall_needs_no_fallback_over_the_whole_record() {
 /// solved a whole-wall velocity problem on every step), and it stays still.
 #[test]
 fn a_wall_standing_still_solves_no_velocity_problem() {
-    let mut w = WallSpec::running_bond(10, 21);
-    w.record = Some((record(), 2.0));
-    w.duration = 0.3;
-    let s = scene(&w.to_toml(), &[]);
-    let (mut stepper, mut state) = stepper_for(&s).unwrap();
-    for _ in 0..300 {
-        stepper.step(&mut state).unwrap();
-    }
+    let (stepper, state) = the_215_block_wall_under_the_record(300);
     let fastest = state.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     assert!(fastest < 1e-9, "largest speed {fastest:e}");
     assert_eq!(stepper.settled_velocities, 0);
