@@ -666,3 +666,27 @@ fn a_located_impact_settles_no_end_velocity_it_throws_away() {
     assert!(split > 10, "{split} split steps");
     assert!(settled > 10, "{settled} end velocities settled");
 }
+
+/// A located impact instant at the end of its step (within `END_OF_STEP` of it) is taken
+/// there: the ordinary sub-step, which closes the points at its end, is kept. The toppling
+/// wall stepped with `Stepper::step` alone (its time accumulated, `t += h`, where the engine
+/// sets `k dt`), its first 1330 steps: at step 1330 a closing instant was the end of the step
+/// exactly, and the rest of the step after the impact, a sub-step of length zero, divided the
+/// ground's velocity change by zero: NaN forces, and every back-end failed (measured before
+/// `END_OF_STEP`). Now every step is solved, and some instants are taken at their step's end
+/// (measured: the first at step 1050).
+#[test]
+fn an_impact_at_the_end_of_its_step_is_taken_there() {
+    let scene = load_scene_with_overrides(&scene_path("wall-in-motion-pulse"), &[]).unwrap();
+    let (mut stepper, mut state) = stepper_for(&scene).unwrap();
+    for step in 1..=1330 {
+        if let Err(e) = stepper.step(&mut state) {
+            panic!("step {step}: {e}");
+        }
+    }
+    assert!(
+        stepper.end_of_step_instants > 0,
+        "no instant at the end of its step"
+    );
+    assert!(state.q.iter().chain(&state.v).all(|x| x.is_finite()));
+}

@@ -58,6 +58,13 @@ pub const DRIFT_TOLERANCE: f64 = 1e-15;
 pub const VELOCITY_TOLERANCE: f64 = 1e-13;
 /// Impact stepper: most solves of one step for its discrete-gradient rows.
 pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
+/// Impact stepper: an impact instant located within this fraction of the step of the step's
+/// end is taken at its end: the ordinary sub-step, whose position-level rows close the points
+/// there and whose end velocity is settled plastically, is kept. The rest of the step after
+/// such an instant would be a sub-step of a sliver (or of nothing: the closing instant's root
+/// can be the end of the step exactly, and the ground's mean acceleration over a sub-step of
+/// length zero is 0/0), whose rows divide the closed points' round-off gaps by its length.
+pub const END_OF_STEP: f64 = 1e-6;
 
 use super::solver::{ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
@@ -343,6 +350,9 @@ pub struct Stepper {
     /// Impact stepper: located impact instants halved because a located point was through its
     /// face at the instant first found.
     pub halved_instants: u64,
+    /// Impact stepper: located impact instants taken at the end of their step
+    /// (`END_OF_STEP`).
+    pub end_of_step_instants: u64,
     /// Impact stepper: the acceleration of the last sub-step (the predictor of the next).
     accel: Vec<f64>,
     /// Sorted keys of the points that carried a normal force at the end of the last step
@@ -414,6 +424,7 @@ impl Stepper {
             gradient_solves: 0,
             start_impacts: 0,
             halved_instants: 0,
+            end_of_step_instants: 0,
             settled_velocities: 0,
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
@@ -1023,10 +1034,12 @@ impl Stepper {
                 self.give_back(trial_problem);
                 iterations += trial.iterations;
                 self.give_back_solution(trial);
-                let tau = self.closing_instant(&s0, s, &contacts, &fresh, h);
+                let found = self.closing_instant(&s0, s, &contacts, &fresh, h);
+                let tau = found.filter(|&tau| tau < h - END_OF_STEP * dt);
+                self.end_of_step_instants += u64::from(found.is_some() && tau.is_none());
                 if tau.is_none() {
-                    // The free motion does not close the points within the step: keep the
-                    // ordinary step.
+                    // The free motion does not close the points within the step (or closes them
+                    // at its end, `END_OF_STEP`): keep the ordinary step.
                     *s = after_ordinary;
                     iterations -= sol.iterations;
                 } else {
