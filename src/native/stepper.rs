@@ -1050,9 +1050,7 @@ impl Stepper {
             self.work.start = Some(s0);
             let Some((tau, free)) = tau else {
                 if let Some(end) = unsettled.take() {
-                    let settled = self.settle_velocity(s, &contacts, &end, &carries, &pr, &sol)?;
-                    self.iterations += settled as u64;
-                    sol.iterations += settled;
+                    self.settle_kept(s, &contacts, &end, &carries, &pr, &mut sol)?;
                     self.work.end_gradients = end;
                 }
                 // The located points have just closed: not a new impact in the next step even if
@@ -1101,11 +1099,9 @@ impl Stepper {
                 let through = self.passed_through(&start, s, &contacts, &fresh);
                 if !through {
                     let end = std::mem::take(&mut self.work.end_gradients);
-                    let settled = self.settle_velocity(s, &free, &end, &first_closed, &pr, &first);
+                    let settled = self.settle_kept(s, &free, &end, &first_closed, &pr, &mut first);
                     self.work.end_gradients = end;
-                    let settled = settled?;
-                    self.iterations += settled as u64;
-                    first.iterations += settled;
+                    settled?;
                 }
                 iterations += first.iterations;
                 self.give_back_solution(first);
@@ -1176,10 +1172,7 @@ impl Stepper {
             let keeping: Vec<bool> = (ordinary.closed.iter().zip(contacts))
                 .map(|(&closed, c)| closed && !in_hit(c.b))
                 .collect();
-            let settled =
-                self.settle_velocity(s, contacts, end, &keeping, ordinary.problem, &sol)?;
-            self.iterations += settled as u64;
-            sol.iterations += settled;
+            self.settle_kept(s, contacts, end, &keeping, ordinary.problem, &mut sol)?;
         }
         // A point's key holds its upper block (`assembly::contact_rows`), which is in the
         // point's island.
@@ -1436,14 +1429,14 @@ impl Stepper {
         s.ground_d.1 += g.dd.1;
         s.ground_w = g.w1;
         s.t += h;
-        if impact && kept {
-            let end = std::mem::take(&mut self.work.end_gradients);
-            let settled = self.settle_velocity(s, contacts, &end, &ends_closed, &pr, &sol);
-            self.work.end_gradients = end;
-            sol.iterations += settled?;
-        }
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
+        if impact && kept {
+            let end = std::mem::take(&mut self.work.end_gradients);
+            let settled = self.settle_kept(s, contacts, &end, &ends_closed, &pr, &mut sol);
+            self.work.end_gradients = end;
+            settled?;
+        }
         if kept && impact && !self.settings.locate_impacts {
             self.project_out_penetration(s)
                 .map_err(|failure| StepError::Solver {
@@ -1632,14 +1625,32 @@ impl Stepper {
         unreachable!("the last solve returns")
     }
 
+    /// `settle_velocity` for a kept sub-step (`sol`, its problem `pr`; `end`, `closed`: its end
+    /// gradients and which points ended closed), its iterations counted in `sol` and
+    /// `self.iterations`.
+    fn settle_kept(
+        &mut self,
+        s: &mut NativeState,
+        contacts: &[ContactPoint],
+        end: &[(Gradient, Gradient, usize)],
+        closed: &[bool],
+        pr: &StepProblem,
+        sol: &mut StepSolution,
+    ) -> Result<(), StepError> {
+        let settled = self.settle_velocity(s, contacts, end, closed, pr, sol)?;
+        self.iterations += settled as u64;
+        sol.iterations += settled;
+        Ok(())
+    }
+
     /// The end velocity of an impact-stepper sub-step, `v = 2 dq/h - v0` (`h = pr.dt`), made
     /// admissible on the points that end closed (`carries`): when some `(n ± mu t)·v` (rows at
     /// the end configuration) approaches by more than `VELOCITY_TOLERANCE`, `v` becomes its
     /// closest admissible velocity in the kinetic-energy norm (Moreau's plastic law; kinetic
     /// energy can only drop). Without it the mean-velocity law would leave the end velocity
     /// ringing, `v = -v0`, after a contact sticks or closes. On a smooth motion along a contact
-    /// the change is O(h^3) a step. Returns the solver iterations (counted in `self.iterations`
-    /// by the caller); a solver failure is an error naming the step.
+    /// the change is O(h^3) a step. Returns the solver iterations; a solver failure is an error
+    /// naming the step.
     fn settle_velocity(
         &mut self,
         s: &mut NativeState,
