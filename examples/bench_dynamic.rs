@@ -119,8 +119,8 @@ fn flag(args: &[String], name: &str, default: bool) -> anyhow::Result<bool> {
         .with_context(|| format!("{name}: must be true or false"))
 }
 
-/// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations" / "N
-/// interior-point rescues".
+/// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations" / "N rows
+/// updated into or out of a factor" / "N interior-point rescues".
 fn count_before(notes: &[String], what: &str) -> Option<u64> {
     let n = notes.first()?;
     let i = n.find(what)?;
@@ -136,6 +136,7 @@ struct Measured {
     steps: u64,
     iterations: Option<u64>,
     factorisations: Option<u64>,
+    factor_updates: Option<u64>,
     fallbacks: Option<u64>,
     rescues: Option<u64>,
 }
@@ -162,6 +163,7 @@ fn measure(path: &Path, engine: &str) -> anyhow::Result<Measured> {
         steps: s.steps,
         iterations: s.solver_iterations,
         factorisations: count_before(&o.notes, " factorisations"),
+        factor_updates: count_before(&o.notes, " rows updated into or out of a factor"),
         fallbacks: count_before(&o.notes, " steps fell back to Clarabel"),
         rescues: count_before(&o.notes, " interior-point rescues"),
     })
@@ -291,7 +293,7 @@ fn main() -> anyhow::Result<()> {
         ("courses", "Walls in motion")
     };
     let mut csv = format!(
-        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,fallbacks,rescues\n",
+        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,factor_updates_per_step,fallbacks,rescues\n",
     );
     let mut loading = match pulse {
         Some(g) => format!("a rectangular pulse of {g} g from 0 s"),
@@ -301,7 +303,7 @@ fn main() -> anyhow::Result<()> {
         let _ = write!(loading, ", ground friction {f}");
     }
     let mut md = format!(
-        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
         native_dt.map_or("1e-3".to_string(), |dt| dt.to_string()),
         budget.as_secs_f64()
     );
@@ -395,22 +397,24 @@ fn main() -> anyhow::Result<()> {
                     let rescues = m.rescues.map_or("-".to_string(), |f| f.to_string());
                     let _ = writeln!(
                         csv,
-                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{fallbacks},{rescues}",
+                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{},{fallbacks},{rescues}",
                         m.moving,
                         m.overturned,
                         m.wall_s,
                         m.steps,
                         per(m.iterations),
-                        per(m.factorisations)
+                        per(m.factorisations),
+                        per(m.factor_updates)
                     );
                     let _ = writeln!(
                         md,
-                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {fallbacks} | {rescues} |",
+                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {} | {fallbacks} | {rescues} |",
                         m.moving,
                         m.overturned,
                         m.wall_s,
                         per(m.iterations),
-                        per(m.factorisations)
+                        per(m.factorisations),
+                        per(m.factor_updates)
                     );
                     println!(
                         "{n} blocks, {e}: {ms:.3} ms/step, {} in motion, {} overturned, fallbacks {fallbacks}",
@@ -419,15 +423,15 @@ fn main() -> anyhow::Result<()> {
                 }
                 Ok(None) => {
                     let s = budget.as_secs_f64();
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,not finished in {s} s");
-                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s ||||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,not finished in {s} s");
+                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s |||||||||");
                     println!("{n} blocks, {e}: not finished in {s} s");
                 }
                 Err(err) => {
                     // A failed run stays in the table with its reason.
                     let reason = format!("{err:#}").replace(',', ";");
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,failed: {reason}");
-                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} ||||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,failed: {reason}");
+                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} |||||||||");
                     println!("{n} blocks, {e}: failed: {err:#}");
                 }
             }

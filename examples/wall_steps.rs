@@ -41,7 +41,7 @@ fn main() {
         }
     }
     println!(
-        "total {:.3} s, {:.3} ms/step, {} fallbacks, {} factorisations ({} of velocity problems), {:.2} discrete-gradient solves and {:.2} end velocities settled a step, {} split steps",
+        "total {:.3} s, {:.3} ms/step, {} fallbacks, {} factorisations ({} of velocity problems), {:.2} discrete-gradient solves and {:.2} end velocities settled a step, {} split steps, {} rescues, {} rows updated into or out of a factor",
         t0.elapsed().as_secs_f64(),
         t0.elapsed().as_secs_f64() * 1e3 / steps as f64,
         st.solver_fallbacks(),
@@ -49,6 +49,8 @@ fn main() {
         st.velocity_factorisations(),
         st.gradient_solves as f64 / steps as f64,
         st.settled_velocities as f64 / steps as f64,
-        st.split_steps
+        st.split_steps,
+        st.solver_rescues(),
+        st.solver_factor_updates()
     );
 }

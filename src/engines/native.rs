@@ -139,13 +139,14 @@ impl Engine for NativeEngine {
             exact_impacts: None,
             notes: {
                 let mut notes = vec![format!(
-                    "{} steps, {} split at a located impact, {} position projections after impacts; {} solutions polished on their active set; {} steps fell back to Clarabel; {} factorisations; {} interior-point rescues",
+                    "{} steps, {} split at a located impact, {} position projections after impacts; {} solutions polished on their active set; {} steps fell back to Clarabel; {} factorisations; {} rows updated into or out of a factor; {} interior-point rescues",
                     computed,
                     stepper.split_steps,
                     stepper.projections,
                     stepper.polished_steps,
                     stepper.solver_fallbacks(),
                     stepper.solver_factorisations(),
+                    stepper.solver_factor_updates(),
                     stepper.solver_rescues()
                 )];
                 if stepper.gradient_solves > 0 {

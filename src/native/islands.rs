@@ -155,8 +155,8 @@ pub struct Islands {
     make: Box<dyn Fn() -> Box<dyn ContactSolver> + Send>,
     name: &'static str,
     solvers: BTreeMap<usize, Box<dyn ContactSolver>>,
-    /// Fallbacks, factorisations and rescues of back-ends already dropped.
-    retired: (u64, u64, u64),
+    /// Fallbacks, factorisations, rescues and factor updates of back-ends already dropped.
+    retired: (u64, u64, u64, u64),
     /// Islands solved in all (for diagnostics).
     pub islands_solved: u64,
     components: Components,
@@ -168,7 +168,7 @@ impl Islands {
             make,
             name,
             solvers: BTreeMap::new(),
-            retired: (0, 0, 0),
+            retired: (0, 0, 0, 0),
             islands_solved: 0,
             components: Components::default(),
         }
@@ -191,6 +191,7 @@ impl Islands {
                 self.retired.0 += s.fallbacks();
                 self.retired.1 += s.factorisations();
                 self.retired.2 += s.rescues();
+                self.retired.3 += s.factor_updates();
             }
         }
     }
@@ -390,6 +391,15 @@ impl ContactSolver for Islands {
 
     fn rescues(&self) -> u64 {
         self.retired.2 + self.solvers.values().map(|s| s.rescues()).sum::<u64>()
+    }
+
+    fn factor_updates(&self) -> u64 {
+        self.retired.3
+            + self
+                .solvers
+                .values()
+                .map(|s| s.factor_updates())
+                .sum::<u64>()
     }
 }
 

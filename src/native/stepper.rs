@@ -458,6 +458,11 @@ impl Stepper {
         self.velocity_solver.factorisations()
     }
 
+    /// Rows the sparse back-end took into or out of its factors by rank-one updates.
+    pub fn solver_factor_updates(&self) -> u64 {
+        self.solver.factor_updates() + self.velocity_solver.factor_updates()
+    }
+
     /// Problems the sparse back-end handed to its interior-point rescue.
     pub fn solver_rescues(&self) -> u64 {
         self.solver.rescues() + self.velocity_solver.rescues()

@@ -55,6 +55,11 @@ pub trait ContactSolver: Send {
     fn rescues(&self) -> u64 {
         0
     }
+    /// Rows taken into or out of the sparse back-end's factors by rank-one updates (for
+    /// diagnostics and benchmarks).
+    fn factor_updates(&self) -> u64 {
+        0
+    }
 }
 
 /// A fast back-end with Clarabel behind it: a step the primary cannot solve is solved by
@@ -99,6 +104,9 @@ impl ContactSolver for WithFallback {
     fn rescues(&self) -> u64 {
         self.primary.rescues()
     }
+    fn factor_updates(&self) -> u64 {
+        self.primary.factor_updates()
+    }
 }
 
 /// Largest problem (in DOFs, 3 per block) the dense active-set back-end takes under `auto`;
@@ -140,6 +148,9 @@ impl ContactSolver for Auto {
     }
     fn rescues(&self) -> u64 {
         self.sparse.rescues()
+    }
+    fn factor_updates(&self) -> u64 {
+        self.sparse.factor_updates()
     }
 }
 
