@@ -239,6 +239,9 @@ pub struct SparseSolver {
     /// Whether the interior-point rescue is used (on from [`SparseSolver::new`]; off only to
     /// compare it with the cold retries it precedes).
     pub rescue: bool,
+    /// Whether a factor follows small changes of its rows by rank-one updates (on from
+    /// [`SparseSolver::new`]; off only to compare them with factorisations afresh).
+    pub update_factors: bool,
     /// Whether this is the last retry (`MAX_NEWTON_LAST_RETRY`).
     last_retry: bool,
     /// Whether the envelope is at least `WIDE_ENVELOPE` wide or the problem has at least
@@ -254,6 +257,7 @@ impl SparseSolver {
     pub fn new() -> Self {
         Self {
             rescue: true,
+            update_factors: true,
             ..Self::default()
         }
     }
@@ -476,7 +480,8 @@ impl SparseSolver {
         };
         for it in 1..=max_newton {
             self.classify();
-            if self.fresh
+            if self.update_factors
+                && self.fresh
                 && self.factored.is_some()
                 && self.factored.as_deref() != Some(&self.active[..])
             {
