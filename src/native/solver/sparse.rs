@@ -34,7 +34,8 @@
 //! and the factor is kept from step to step while the set A does not change: at rest, a step
 //! costs a few solves with the kept factor and no factorisation. Within a problem, a factor
 //! built from its rows follows a few rows entering or leaving A by rank-one updates of the
-//! factor ([`Envelope::update`], `UPDATE_SHARE`), each about a `1 / w` of a factorisation. A kept factor was built from
+//! factor ([`Envelope::update`], `UPDATE_SHARE`), each a seventh to a fifteenth of a
+//! factorisation. A kept factor was built from
 //! slightly different rows, so a Newton step with it is inexact; the iteration still converges
 //! to the exact fixed point, and the factor is rebuilt from the current rows when a step with
 //! a kept factor does not shrink the next one tenfold.
@@ -172,7 +173,8 @@ const MAX_OUTER: usize = 60;
 /// pulse, impacts at step ends): 0.1 / 0.25 / 0.5 / 1 / 2 / 4 gave 723 / 686 / 646 / 614 / 577 /
 /// 549 and 965 / 920 / 895 / 870 / 841 / 813 factorisations, against 889 and 1488 without
 /// updates, and 41-47 / 145-275 ms a step, flat within the runs' spread up to 1 and slower
-/// beyond (the updates' cost); the toppling 42-block wall's first 0.4 s the same at 0.25 and 1.
+/// beyond (the updates' cost; measured with the first, column-by-column kernel, a third as
+/// fast); the toppling 42-block wall's first 0.4 s the same at 0.25 and 1.
 const UPDATE_SHARE: f64 = 0.25;
 
 /// Whether a row with value `c = D_i u + r_i` and multiplier `l` meets the complementarity
@@ -323,7 +325,8 @@ impl SparseSolver {
 
     /// Bring a factor built from this problem's rows to the rows now in the Newton matrix by
     /// rank-one updates ([`Envelope::update`]), when at most `UPDATE_SHARE` of the envelope's
-    /// mean width of them changed (an update costs about a `1 / w` of a factorisation); else
+    /// mean width of them changed (an update costs a seventh to a fifteenth of a factorisation,
+    /// [`super::envelope`]); else
     /// the factor is left as it is. A refused downdate drops the factor.
     fn update_factor(&mut self) {
         let width = self.envelope.stored() as f64 / self.envelope.dofs() as f64;
