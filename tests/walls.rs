@@ -236,18 +236,23 @@ fn islands_give_the_answer_of_the_whole_problem() {
     }
 }
 
+/// The 215-block running-bond wall under a rectangular pulse of 0.8 g for 0.3 s (above its
+/// friction coefficient, 0.7: the wall slides on the ground), with the settings `set`.
+fn the_215_block_wall_under_a_pulse(set: &[&str]) -> Scene {
+    let mut text = WallSpec::running_bond(10, 21).to_toml();
+    text.push_str(
+        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = 7.848\nduration = 0.3\n",
+    );
+    scene(&text, set)
+}
+
 /// The sparse back-end's interior-point rescue: the 215-block wall's first problem under a
 /// rectangular pulse of 0.8 g (above its friction coefficient, 0.7: the wall starts to slide
 /// on the ground), solved cold, goes to the rescue, which gives the displacements of the cold
 /// last retry it precedes (the rescue off) and of Clarabel, with fewer factorisations.
 #[test]
 fn the_interior_point_rescue_gives_the_answer_of_the_cold_retry() {
-    let w = WallSpec::running_bond(10, 21);
-    let mut text = w.to_toml();
-    text.push_str(
-        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = 7.848\nduration = 0.3\n",
-    );
-    let s = scene(&text, &[]);
+    let s = the_215_block_wall_under_a_pulse(&[]);
     let (stepper, state) = stepper_for(&s).unwrap();
     let pr = stepper.next_problem(&state);
     let mut rescued = SparseSolver::new();
@@ -277,13 +282,7 @@ fn the_interior_point_rescue_gives_the_answer_of_the_cold_retry() {
 /// tolerance (rows hold to 1e-11 m; Clarabel is held to 1e-9 m above).
 #[test]
 fn factor_updates_give_the_solutions_of_factorisations_afresh() {
-    let w = WallSpec::running_bond(10, 21);
-    let mut text = w.to_toml();
-    text.push_str(
-        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = 7.848\nduration = 0.3\n",
-    );
-    text.push_str("\n[native]\nlocate_impacts = false\n");
-    let s = scene(&text, &[]);
+    let s = the_215_block_wall_under_a_pulse(&["native.locate_impacts=false"]);
     let (mut stepper, mut state) = stepper_for(&s).unwrap();
     let mut updated = SparseSolver::new();
     let mut afresh = SparseSolver::new();

@@ -163,6 +163,11 @@ pub struct Islands {
 }
 
 impl Islands {
+    /// A counter summed over the islands' back-ends in use.
+    fn counted(&self, counter: impl Fn(&dyn ContactSolver) -> u64) -> u64 {
+        self.solvers.values().map(|s| counter(s.as_ref())).sum()
+    }
+
     pub fn new(name: &'static str, make: Box<dyn Fn() -> Box<dyn ContactSolver> + Send>) -> Self {
         Islands {
             make,
@@ -377,29 +382,19 @@ impl ContactSolver for Islands {
     }
 
     fn fallbacks(&self) -> u64 {
-        self.retired.0 + self.solvers.values().map(|s| s.fallbacks()).sum::<u64>()
+        self.retired.0 + self.counted(|s| s.fallbacks())
     }
 
     fn factorisations(&self) -> u64 {
-        self.retired.1
-            + self
-                .solvers
-                .values()
-                .map(|s| s.factorisations())
-                .sum::<u64>()
+        self.retired.1 + self.counted(|s| s.factorisations())
     }
 
     fn rescues(&self) -> u64 {
-        self.retired.2 + self.solvers.values().map(|s| s.rescues()).sum::<u64>()
+        self.retired.2 + self.counted(|s| s.rescues())
     }
 
     fn factor_updates(&self) -> u64 {
-        self.retired.3
-            + self
-                .solvers
-                .values()
-                .map(|s| s.factor_updates())
-                .sum::<u64>()
+        self.retired.3 + self.counted(|s| s.factor_updates())
     }
 }
 
