@@ -399,7 +399,7 @@ impl Stepper {
         solver: Box<dyn ContactSolver>,
     ) -> Self {
         let n_blocks = bodies.len();
-        let velocity_solver = super::solver::solver_for(&settings);
+        let velocity_solver = super::solver::velocity_solver_for(&settings);
         let sleep = (settings.sleep
             && applied_as == AppliedAs::InertialForces
             && motion.vertical.is_none())

@@ -157,27 +157,41 @@ impl ContactSolver for Auto {
 /// The back-end a scene's settings ask for: with `native.islands` (the default), each island
 /// of touching blocks gets its own (see [`crate::native::islands`]).
 pub fn solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
+    built_for(s, SparseSolver::new)
+}
+
+/// The back-end of the impact stepper's velocity problems (settled end velocities and plastic
+/// impacts): as [`solver_for`], its sparse back-end from [`SparseSolver::for_velocities`].
+pub fn velocity_solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
+    built_for(s, SparseSolver::for_velocities)
+}
+
+fn built_for(s: &NativeSettings, sparse: fn() -> SparseSolver) -> Box<dyn ContactSolver> {
     if s.islands {
-        let whole = whole_solver_for(s);
+        let whole = whole_built_for(s, sparse);
         let name = whole.name();
         let settings = s.clone();
         return Box::new(crate::native::islands::Islands::new(
             name,
-            Box::new(move || whole_solver_for(&settings)),
+            Box::new(move || whole_built_for(&settings, sparse)),
         ));
     }
-    whole_solver_for(s)
+    whole_built_for(s, sparse)
 }
 
 /// The back-end for a whole problem (no split into islands).
 pub fn whole_solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
+    whole_built_for(s, SparseSolver::new)
+}
+
+fn whole_built_for(s: &NativeSettings, sparse: fn() -> SparseSolver) -> Box<dyn ContactSolver> {
     match s.solver {
         SolverKind::Clarabel => Box::new(ClarabelSolver::new(s)),
         SolverKind::ActiveSet => Box::new(WithFallback::new(Box::new(ActiveSetSolver::new()), s)),
-        SolverKind::Sparse => Box::new(WithFallback::new(Box::new(SparseSolver::new()), s)),
+        SolverKind::Sparse => Box::new(WithFallback::new(Box::new(sparse()), s)),
         SolverKind::Auto => Box::new(Auto {
             dense: ActiveSetSolver::new(),
-            sparse: WithFallback::new(Box::new(SparseSolver::new()), s),
+            sparse: WithFallback::new(Box::new(sparse()), s),
         }),
     }
 }
