@@ -276,7 +276,7 @@ impl SparseSolver {
     /// factorisations, warm -> cold after motion): a column of 25 blocks rocking freely (5 s)
     /// 49393 -> 8737, where a warm start took 17-22 factorisations two times in three (its
     /// penalties climbing the ladder); the sliding walls of 215 / 430 / 860 blocks (ten pulse
-    /// steps at step ends) 362 / 493 / 937 -> 315 / 395 / 816; the toppling 42-block wall's
+    /// steps at step ends) 362 / 493 / 937 -> 313 / 398 / 827; the toppling 42-block wall's
     /// first 0.4 s 2897 -> 2138. A wall standing still keeps its warm start: started cold, the
     /// 107-block wall's rare velocity problems under El Centro x2 (0.01 a step) took 105 instead
     /// of 4 factorisations.
