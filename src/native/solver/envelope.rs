@@ -73,6 +73,18 @@ pub struct Envelope {
 /// would have lost more than twelve of its digits there (see [`Envelope::update`]).
 const DOWNDATE_FLOOR: f64 = 1e-12;
 
+/// A row's entries `row` of a rank-one update meet the rotations of their columns, in order,
+/// with the row's `w` (see the module's text); returns `w` as they leave it.
+#[inline(always)]
+fn meet_rotations(row: &mut [f64], rotations: &[(f64, f64, f64)], mut w: f64) -> f64 {
+    for (l, &(ic, sig_s, s)) in row.iter_mut().zip(rotations) {
+        let old = *l;
+        *l = ic * (old + sig_s * w);
+        w = ic * (w - s * old);
+    }
+    w
+}
+
 /// `sum_l a_l b_l` over slices of equal length, in four interleaved partial sums: the
 /// factorisation's and the solves' inner loop, which one running sum would hold to the latency
 /// of an addition per term. With `AVX` the four sums are one AVX register (the caller has
@@ -539,15 +551,11 @@ impl Envelope {
                 // Within the block, row by row.
                 for d in 0..DOFS {
                     let row = &mut self.val[self.start[i + d]..self.start[i + d + 1]];
-                    let mut wd = w[d];
-                    for (l, &(ic, sig_s, s)) in row[i - fi..i + d - fi]
-                        .iter_mut()
-                        .zip(&self.rotation[i..i + d])
-                    {
-                        let old = *l;
-                        *l = ic * (old + sig_s * wd);
-                        wd = ic * (wd - s * old);
-                    }
+                    let wd = meet_rotations(
+                        &mut row[i - fi..i + d - fi],
+                        &self.rotation[i..i + d],
+                        w[d],
+                    );
                     if !self.rotate(i + d, wd, sign, &mut changed) {
                         ok = false;
                         break 'rows;
@@ -565,13 +573,7 @@ impl Envelope {
             let mut w = std::mem::replace(&mut self.sweep[i], 0.0);
             if lo < i {
                 let row = &mut self.val[self.start[i]..self.start[i + 1]];
-                for (l, &(ic, sig_s, s)) in
-                    row[lo - fi..i - fi].iter_mut().zip(&self.rotation[lo..i])
-                {
-                    let old = *l;
-                    *l = ic * (old + sig_s * w);
-                    w = ic * (w - s * old);
-                }
+                w = meet_rotations(&mut row[lo - fi..i - fi], &self.rotation[lo..i], w);
             }
             if !self.rotate(i, w, sign, &mut changed) {
                 ok = false;

@@ -349,9 +349,9 @@ impl SparseSolver {
     /// Bring a factor built from this problem's rows to the rows now in the Newton matrix by
     /// rank-one updates ([`Envelope::update`]), when at most `UPDATE_SHARE` of the envelope's
     /// mean width of them changed (an update costs a seventh to a fifteenth of a factorisation,
-    /// [`super::envelope`]); else
-    /// the factor is left as it is. A refused downdate drops the factor.
-    fn update_factor(&mut self) {
+    /// [`super::envelope`]); else the factor is left as it is. A refused downdate drops the
+    /// factor. Returns whether the factor is now that of the rows in the Newton matrix.
+    fn update_factor(&mut self) -> bool {
         let width = self.envelope.stored() as f64 / self.envelope.dofs() as f64;
         let changed = self
             .in_matrix
@@ -360,7 +360,7 @@ impl SparseSolver {
             .filter(|(a, b)| a != b)
             .count();
         if changed as f64 > UPDATE_SHARE * width {
-            return;
+            return false;
         }
         // Rows entering first: an update cannot fail, and the downdates then take out rows
         // from a matrix that holds more.
@@ -373,7 +373,7 @@ impl SparseSolver {
                         .update(sigma, &row.idx[..row.len], &row.coef[..row.len])
                     {
                         self.factored = None;
-                        return;
+                        return false;
                     }
                 }
             }
@@ -381,6 +381,7 @@ impl SparseSolver {
         self.updates += changed as u64;
         self.factored = Some(self.active.clone());
         self.factored_in.clone_from(&self.in_matrix);
+        true
     }
 
     /// Rows with `y_i` below this are in the Newton matrix (see [`CLOSED_MARGIN`]).
@@ -506,14 +507,10 @@ impl SparseSolver {
         };
         for it in 1..=max_newton {
             self.classify();
-            if self.update_factors
-                && self.fresh
-                && self.factored.is_some()
-                && self.factored.as_deref() != Some(&self.active[..])
-            {
-                self.update_factor();
+            let mut exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
+            if !exact && self.update_factors && self.fresh && self.factored.is_some() {
+                exact = self.update_factor();
             }
-            let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
             if self.factored.is_none() || (!exact && !trusted) {
                 if refinements > 0 {
                     // A refinement is never worth a factorisation.
