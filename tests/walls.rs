@@ -302,6 +302,50 @@ fn factor_updates_give_the_solutions_of_factorisations_afresh() {
     assert!(worst < 1e-10, "updated against afresh: {worst:.3e} m");
 }
 
+/// A problem after a rescued one reuses the rescue's work (`SparseSolver::reuse_rescues`): the
+/// rows it held, and its interior-point iterate near the central path. Over the first 30 steps
+/// of the 215-block wall sliding under a 0.8 g pulse, each step's problem solved twice (the
+/// second time drifted), both are used, save factorisations, and give the solutions of a
+/// back-end that does not reuse them to the solvers' tolerance.
+#[test]
+fn reused_rescues_give_the_solutions_of_solves_afresh() {
+    let s = the_215_block_wall_under_a_pulse(&["native.locate_impacts=false"]);
+    let (mut stepper, mut state) = stepper_for(&s).unwrap();
+    let mut reusing = SparseSolver::new();
+    let mut afresh = SparseSolver::new();
+    afresh.reuse_rescues = false;
+    let mut worst = 0.0f64;
+    for _ in 0..30 {
+        // Each step's problem, and the same problem with its rows' offsets moved by up to 2e-12
+        // m, as a discrete-gradient solve's drift moves them for the step's second solve.
+        let pr = stepper.next_problem(&state);
+        let mut drifted = pr.clone();
+        for (k, c) in drifted.contacts.iter_mut().enumerate() {
+            c.g_n -= 1e-12 * (k % 3) as f64;
+        }
+        for pr in [&pr, &drifted] {
+            let a = reusing.solve(pr).unwrap();
+            let b = afresh.solve(pr).unwrap();
+            worst = worst.max(largest_difference(&a.dq, &b.dq));
+        }
+        stepper.step(&mut state).unwrap();
+    }
+    let (path_starts, path_failures) = reusing.interior_path_starts();
+    assert_eq!(afresh.rescues_reused + afresh.interior_path_starts().0, 0);
+    assert!(
+        reusing.rescues_reused > 0,
+        "no problem solved from a rescue's rows"
+    );
+    assert!(
+        path_starts > path_failures,
+        "no interior point from the last one's iterate"
+    );
+    assert!(reusing.factorisations < afresh.factorisations);
+    // Measured: 22 problems solved from a rescue's rows, 11 interior points from the last
+    // iterate, none failed; 1140 factorisations against 1455, 6.8e-11 m apart.
+    assert!(worst < 1e-10, "reusing against afresh: {worst:.3e} m");
+}
+
 /// The largest difference, over every step of the gallery's 15 s, between each pair's
 /// positions in the gallery and in a run of that pair alone; and the gallery's steps of one
 /// island located apart from the others.

@@ -206,6 +206,17 @@ pub struct SparseSolver {
     held: Vec<bool>,
     /// Whether the augmented Lagrangian is settling an interior-point solution.
     settling: bool,
+    /// Whether the last problem was rescued; then the sorted keys of its rows and of the rows
+    /// the rescue held (see [`SparseSolver::solve_step`]).
+    last_rescued: bool,
+    rescued_keys: Vec<u64>,
+    rescued_held: Vec<u64>,
+    /// Whether this solve holds the rows the last rescue held (a problem with its rows).
+    hold_rescued: bool,
+    /// The step's length of the last rescued problem.
+    rescued_dt: f64,
+    /// Scratch: the current rows' keys, sorted.
+    keys_now: Vec<u64>,
     interior: InteriorPoint,
     breaks: Vec<(f64, usize)>,
     /// Row keys and multipliers of the previous solution, in row order, and its step's length.
@@ -236,6 +247,8 @@ pub struct SparseSolver {
     pub last_retries: u64,
     /// Problems handed to the interior-point rescue (see [`SparseSolver::rescue`]).
     pub rescues: u64,
+    /// Problems after a rescue solved from its held rows (see [`SparseSolver::solve_step`]).
+    pub rescues_reused: u64,
     /// Rows taken into or out of a factor by rank-one updates (see [`SparseSolver::update_factor`]).
     pub updates: u64,
     /// Whether the interior-point rescue is used (on from [`SparseSolver::new`]; off only to
@@ -244,6 +257,10 @@ pub struct SparseSolver {
     /// Whether a factor follows small changes of its rows by rank-one updates (on from
     /// [`SparseSolver::new`]; off only to compare them with factorisations afresh).
     pub update_factors: bool,
+    /// Whether a problem reuses the work of a rescue before it: the rows the rescue held, and
+    /// its interior-point iterate near the central path (see [`SparseSolver::solve_step`]; on
+    /// from [`SparseSolver::new`], off only to compare).
+    pub reuse_rescues: bool,
     /// Whether a problem starts cold when the last solution moved (see
     /// [`SparseSolver::for_velocities`]).
     pub cold_after_motion: bool,
@@ -263,6 +280,7 @@ impl SparseSolver {
         Self {
             rescue: true,
             update_factors: true,
+            reuse_rescues: true,
             ..Self::default()
         }
     }
@@ -285,6 +303,12 @@ impl SparseSolver {
             cold_after_motion: true,
             ..Self::new()
         }
+    }
+
+    /// Interior-point solves started from the iterate of the solve before
+    /// ([`InteriorPoint::solve`]), and those of them that started again cold.
+    pub fn interior_path_starts(&self) -> (u64, u64) {
+        (self.interior.path_starts, self.interior.path_failures)
     }
 
     /// The next solve starts from no solution, no multipliers and no factor.
@@ -618,7 +642,15 @@ impl SparseSolver {
             self.start_cold();
         }
         let warm = !self.u.is_empty() || !self.previous_keys.is_empty();
-        let mut result = self.solve_warm(pr);
+        let after_rescue = std::mem::take(&mut self.last_rescued);
+        let mut result = Err(Self::fail(String::new()));
+        if after_rescue && warm && self.reuse_rescues {
+            result = self.solve_holding_rescued(pr);
+            self.rescues_reused += u64::from(result.is_ok());
+        }
+        if result.is_err() {
+            result = self.solve_warm(pr);
+        }
         if result.is_err() && self.wide && self.rescue {
             result = self.rescue(pr);
         }
@@ -666,6 +698,9 @@ impl SparseSolver {
     /// augmented Lagrangian then settles their solution to this back-end's tolerances from
     /// their multipliers, with the rows they closed held in the Newton matrix (without the hold
     /// its Newton steps from there stalled as before), in one to three factorisations.
+    ///
+    /// A problem with the rows of the last interior-point solve, and its step's length, starts
+    /// from that solve's iterate near the central path ([`InteriorPoint::solve`]).
     fn rescue(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let sc = pr.scaled();
         if self.rows.is_empty() || self.envelope.dofs() != sc.p.len() {
@@ -682,6 +717,7 @@ impl SparseSolver {
                 RESCUE_TOLERANCE,
                 (&mut u, &mut l),
                 &mut self.factorisations,
+                self.reuse_rescues && pr.dt == self.rescued_dt,
             )
             .map_err(Self::fail)?;
         let slack = self.interior.slack();
@@ -690,6 +726,17 @@ impl SparseSolver {
             (0..self.rows.len())
                 .map(|i| slack[i] < l[i] || slack[i] < RESCUE_TOLERANCE * (1.0 + self.r[i].abs())),
         );
+        self.rescued_dt = pr.dt;
+        self.rescued_keys.clear();
+        self.rescued_keys.extend(self.rows.iter().map(|r| r.key));
+        self.rescued_keys.sort_unstable();
+        self.rescued_held.clear();
+        self.rescued_held.extend(
+            (0..self.rows.len())
+                .filter(|&i| self.held[i])
+                .map(|i| self.rows[i].key),
+        );
+        self.rescued_held.sort_unstable();
         self.u = u;
         self.previous_keys.clear();
         self.previous_keys.extend(self.rows.iter().map(|r| r.key));
@@ -699,6 +746,27 @@ impl SparseSolver {
         let result = self.solve_warm(pr);
         self.settling = false;
         self.held.clear();
+        self.last_rescued = result.is_ok();
+        result
+    }
+
+    /// A problem after a rescued one, with its rows (the second discrete-gradient solve of a
+    /// step, which differs from the first by its drift), solved from the warm start as the
+    /// rescue's solution was settled: the rows the rescue held stay in the Newton matrix. From
+    /// the warm start alone its Newton steps stall as the first problem's did ("Why the warm
+    /// starts fail there", docs/method.md). If this fails, the problem is solved as any other,
+    /// from the same warm start.
+    fn solve_holding_rescued(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
+        let start = self.u.clone();
+        self.hold_rescued = true;
+        self.settling = true;
+        let result = self.solve_warm(pr);
+        self.hold_rescued = false;
+        self.settling = false;
+        self.held.clear();
+        if result.is_err() {
+            self.u = start;
+        }
         result
     }
 
@@ -712,6 +780,20 @@ impl SparseSolver {
         self.pinv.extend(sc.p.iter().map(|p| 1.0 / p));
         edge_rows(pr, &mut self.rows, &mut self.r);
         self.fresh = false;
+        if self.hold_rescued {
+            self.keys_now.clear();
+            self.keys_now.extend(self.rows.iter().map(|r| r.key));
+            self.keys_now.sort_unstable();
+            if self.keys_now != self.rescued_keys {
+                return Err(Self::fail("not the rescued problem's rows".into()));
+            }
+            self.held.clear();
+            self.held.extend(
+                self.rows
+                    .iter()
+                    .map(|r| self.rescued_held.binary_search(&r.key).is_ok()),
+            );
+        }
         if self.rows.is_empty() {
             // Free flight.
             self.u.clear();
