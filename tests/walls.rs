@@ -275,26 +275,44 @@ fn the_interior_point_rescue_gives_the_answer_of_the_cold_retry() {
     assert!(rescued.factorisations < retried.factorisations);
 }
 
+/// The largest difference between the solutions of two back-ends over the first 30 problems
+/// of the 215-block wall under a 0.8 g pulse (it slides whole; rows enter and leave the Newton
+/// matrix from one Newton step to the next). With `drift > 0` each problem is solved a second
+/// time, its rows' offsets moved by up to `2 drift`.
+fn the_sliding_wall_solved_by(a: &mut SparseSolver, b: &mut SparseSolver, drift: f64) -> f64 {
+    let s = the_215_block_wall_under_a_pulse(&["native.locate_impacts=false"]);
+    let (mut stepper, mut state) = stepper_for(&s).unwrap();
+    let mut worst = 0.0f64;
+    for _ in 0..30 {
+        let pr = stepper.next_problem(&state);
+        let mut problems = vec![pr.clone()];
+        if drift > 0.0 {
+            let mut drifted = pr;
+            for (k, c) in drifted.contacts.iter_mut().enumerate() {
+                c.g_n -= drift * (k % 3) as f64;
+            }
+            problems.push(drifted);
+        }
+        for pr in &problems {
+            let sa = a.solve(pr).unwrap();
+            let sb = b.solve(pr).unwrap();
+            worst = worst.max(largest_difference(&sa.dq, &sb.dq));
+        }
+        stepper.step(&mut state).unwrap();
+    }
+    worst
+}
+
 /// Rank-one updates of the factor (`SparseSolver::update_factors`) against factorisations
-/// afresh, over the first 30 problems of the 215-block wall under a 0.8 g pulse (it slides
-/// whole; rows enter and leave the Newton matrix from one Newton step to the next): the
+/// afresh, over the sliding wall's first 30 problems (`the_sliding_wall_solved_by`): the
 /// updates are used, save factorisations, and give the same solutions to the solvers'
 /// tolerance (rows hold to 1e-11 m; Clarabel is held to 1e-9 m above).
 #[test]
 fn factor_updates_give_the_solutions_of_factorisations_afresh() {
-    let s = the_215_block_wall_under_a_pulse(&["native.locate_impacts=false"]);
-    let (mut stepper, mut state) = stepper_for(&s).unwrap();
     let mut updated = SparseSolver::new();
     let mut afresh = SparseSolver::new();
     afresh.update_factors = false;
-    let mut worst = 0.0f64;
-    for _ in 0..30 {
-        let pr = stepper.next_problem(&state);
-        let a = updated.solve(&pr).unwrap();
-        let b = afresh.solve(&pr).unwrap();
-        worst = worst.max(largest_difference(&a.dq, &b.dq));
-        stepper.step(&mut state).unwrap();
-    }
+    let worst = the_sliding_wall_solved_by(&mut updated, &mut afresh, 0.0);
     // Measured: 204 rows updated, 928 factorisations against 974, 4.2e-13 m apart.
     assert_eq!(afresh.updates, 0);
     assert!(updated.updates > 0, "no row updated into a factor");
@@ -309,27 +327,12 @@ fn factor_updates_give_the_solutions_of_factorisations_afresh() {
 /// back-end that does not reuse them to the solvers' tolerance.
 #[test]
 fn reused_rescues_give_the_solutions_of_solves_afresh() {
-    let s = the_215_block_wall_under_a_pulse(&["native.locate_impacts=false"]);
-    let (mut stepper, mut state) = stepper_for(&s).unwrap();
     let mut reusing = SparseSolver::new();
     let mut afresh = SparseSolver::new();
     afresh.reuse_rescues = false;
-    let mut worst = 0.0f64;
-    for _ in 0..30 {
-        // Each step's problem, and the same problem with its rows' offsets moved by up to 2e-12
-        // m, as a discrete-gradient solve's drift moves them for the step's second solve.
-        let pr = stepper.next_problem(&state);
-        let mut drifted = pr.clone();
-        for (k, c) in drifted.contacts.iter_mut().enumerate() {
-            c.g_n -= 1e-12 * (k % 3) as f64;
-        }
-        for pr in [&pr, &drifted] {
-            let a = reusing.solve(pr).unwrap();
-            let b = afresh.solve(pr).unwrap();
-            worst = worst.max(largest_difference(&a.dq, &b.dq));
-        }
-        stepper.step(&mut state).unwrap();
-    }
+    // Each step's problem is solved again with its rows' offsets moved by up to 2e-12 m, as a
+    // discrete-gradient solve's drift moves them for the step's second solve.
+    let worst = the_sliding_wall_solved_by(&mut reusing, &mut afresh, 1e-12);
     let (path_starts, path_failures) = reusing.interior_path_starts();
     assert_eq!(afresh.rescues_reused + afresh.interior_path_starts().0, 0);
     assert!(

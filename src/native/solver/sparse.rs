@@ -624,7 +624,9 @@ impl ContactSolver for SparseSolver {
 }
 
 impl SparseSolver {
-    /// Warm from the last problem's solution and multipliers; on a wide envelope a problem that
+    /// Warm from the last problem's solution and multipliers (after a rescued problem with the
+    /// same rows, first with the rows the rescue held: [`SparseSolver::solve_holding_rescued`]);
+    /// on a wide envelope a problem that
     /// does not converge from there goes to the interior-point rescue; a problem still unsolved
     /// is solved again cold before it counts as failed. (The impact
     /// stepper's velocity problems are homogeneous in the velocities, whose size changes by
@@ -643,14 +645,16 @@ impl SparseSolver {
         }
         let warm = !self.u.is_empty() || !self.previous_keys.is_empty();
         let after_rescue = std::mem::take(&mut self.last_rescued);
-        let mut result = Err(Self::fail(String::new()));
-        if after_rescue && warm && self.reuse_rescues {
-            result = self.solve_holding_rescued(pr);
-            self.rescues_reused += u64::from(result.is_ok());
-        }
-        if result.is_err() {
-            result = self.solve_warm(pr);
-        }
+        let reused = if after_rescue && warm && self.reuse_rescues {
+            self.solve_holding_rescued(pr).ok()
+        } else {
+            None
+        };
+        self.rescues_reused += u64::from(reused.is_some());
+        let mut result = match reused {
+            Some(solution) => Ok(solution),
+            None => self.solve_warm(pr),
+        };
         if result.is_err() && self.wide && self.rescue {
             result = self.rescue(pr);
         }
