@@ -213,7 +213,7 @@ pub struct SparseSolver {
     rescued_held: Vec<u64>,
     /// Whether this solve holds the rows the last rescue held (a problem with its rows).
     hold_rescued: bool,
-    /// The step's length of the last rescued problem.
+    /// The step's length of the last problem handed to the interior point.
     rescued_dt: f64,
     /// Scratch: the current rows' keys, sorted.
     keys_now: Vec<u64>,
@@ -713,6 +713,9 @@ impl SparseSolver {
         self.rescues += 1;
         self.factored = None;
         let (mut u, mut l) = (Vec::new(), Vec::new());
+        // The interior point's kept iterate is that of the last solve, whatever its outcome.
+        let from_path = self.reuse_rescues && pr.dt == self.rescued_dt;
+        self.rescued_dt = pr.dt;
         self.interior
             .solve(
                 &mut self.envelope,
@@ -721,7 +724,7 @@ impl SparseSolver {
                 RESCUE_TOLERANCE,
                 (&mut u, &mut l),
                 &mut self.factorisations,
-                self.reuse_rescues && pr.dt == self.rescued_dt,
+                from_path,
             )
             .map_err(Self::fail)?;
         let slack = self.interior.slack();
@@ -730,7 +733,6 @@ impl SparseSolver {
             (0..self.rows.len())
                 .map(|i| slack[i] < l[i] || slack[i] < RESCUE_TOLERANCE * (1.0 + self.r[i].abs())),
         );
-        self.rescued_dt = pr.dt;
         self.rescued_keys.clear();
         self.rescued_keys.extend(self.rows.iter().map(|r| r.key));
         self.rescued_keys.sort_unstable();
