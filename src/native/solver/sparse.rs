@@ -49,7 +49,8 @@
 //! wide whatever its envelope (a large wall whose joints open as it moves).
 //!
 //! On a wide envelope a problem whose first solve does not converge in `MAX_NEWTON_WIDE`
-//! Newton steps goes to the interior-point rescue (see [`SparseSolver::rescue`] and
+//! Newton steps, or takes a Newton step that the line search cuts below `STALLED_STEP`, goes to
+//! the interior-point rescue (see [`SparseSolver::rescue`] and
 //! [`super::interior`]): a wall that moves changes hundreds of active rows from one problem to
 //! the next, which the augmented Lagrangian's Newton steps find a few at a time.
 
@@ -121,6 +122,24 @@ const MAX_NEWTON: usize = 60;
 /// them the quiet 4.21 s before), the 215-block wall's last second of 5 s 1.77 / 1.83 / 2.06 /
 /// 2.57 ms a step with 60 / 15 / 10 / 8 (there warm problems that need more steps succeed).
 const MAX_NEWTON_WIDE: usize = 15;
+/// A warm start of a wide problem (on an envelope at least `WIDE_ENVELOPE` wide) that takes a
+/// Newton step the line search cuts below this factor goes to the interior-point rescue at once
+/// (not while a rescue's solution is settled, nor on the last retry). Such a step marks a warm
+/// start that fails: along its direction rows that carry no force are crossed at once ("Why
+/// the warm starts fail there", docs/method.md), and such starts went on to fail after 4-8
+/// factorisations and to the rescue all the same. Traced on the located 215-block wall (ten
+/// steps, 10383 factorisations): the 311 rescued problems had spent 2014 factorisations in
+/// their failed warm starts (6.5 each), the 173 wide problems solved warm 326 (1.9 each).
+/// Measured (`wall_steps`, all factorisations; docs/method.md, "Warm starts given up at a
+/// stalled step"): the sliding walls of 215 / 430 / 860 blocks (ten pulse steps at step ends)
+/// 474 / 726 / 1229 -> 389 / 641 / 1075, the located 215-block wall (ten steps) 10383 -> 9806.
+/// Other factors and the `K`-th such step instead of the first, without the envelope's width
+/// in the rule: 1e-6 (`K` 1) 389 / 641 / 1062 and 9506; 3e-7 / 1e-5 / 1e-4 397 / 645 / 1069,
+/// 386 / 640 / 1060, 383 / 638 / 1060 and 9663 / 10095 / 9794; 1e-6 with `K` 2 / 3 / 4 407 /
+/// 652 / 1083, 427 / 656 / 1110, 446 / 675 / 1137 and 9677 / 10197 / 10509. Without the width
+/// the 107-block wall under El Centro x2 (5 s; wide by `LARGE_PROBLEM`, its envelope 18 DOFs)
+/// gave up 14 warm starts that would have succeeded: 808 -> 1052 factorisations (808 with it).
+const STALLED_STEP: f64 = 1e-6;
 /// The interior-point rescue stops at residuals below this (`super::interior`), and holds in
 /// the Newton matrix the rows whose slack is below it or below their multiplier.
 const RESCUE_TOLERANCE: f64 = 1e-8;
@@ -249,6 +268,8 @@ pub struct SparseSolver {
     pub rescues: u64,
     /// Problems after a rescue solved from its held rows (see [`SparseSolver::solve_step`]).
     pub rescues_reused: u64,
+    /// Warm starts of wide problems given up at a stalled Newton step (`STALLED_STEP`).
+    pub stalled_warm_starts: u64,
     /// Rows taken into or out of a factor by rank-one updates (see [`SparseSolver::update_factor`]).
     pub updates: u64,
     /// Whether the interior-point rescue is used (on from [`SparseSolver::new`]; off only to
@@ -261,6 +282,9 @@ pub struct SparseSolver {
     /// its interior-point iterate near the central path (see [`SparseSolver::solve_step`]; on
     /// from [`SparseSolver::new`], off only to compare).
     pub reuse_rescues: bool,
+    /// Whether a wide problem's warm start goes to the rescue at its first stalled Newton step
+    /// (`STALLED_STEP`; on from [`SparseSolver::new`], off only to compare).
+    pub give_up_stalled: bool,
     /// Whether a problem starts cold when the last solution moved (see
     /// [`SparseSolver::for_velocities`]).
     pub cold_after_motion: bool,
@@ -281,6 +305,7 @@ impl SparseSolver {
             rescue: true,
             update_factors: true,
             reuse_rescues: true,
+            give_up_stalled: true,
             ..Self::default()
         }
     }
@@ -559,6 +584,20 @@ impl SparseSolver {
             }
             self.envelope.solve(&mut self.du);
             let tau = self.line_search(p, q);
+            if tau < STALLED_STEP
+                && self.give_up_stalled
+                && self.wide
+                && self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64
+                && self.rescue
+                && !self.settling
+                && !self.last_retry
+            {
+                self.stalled_warm_starts += 1;
+                self.factored = None;
+                return Err(Self::fail(format!(
+                    "a Newton step cut to {tau:.1e} by the line search on a wide problem"
+                )));
+            }
             // Converged when the full Newton step is negligible (a step cut short by the line
             // search says nothing about convergence).
             let mut step = 0.0f64;
