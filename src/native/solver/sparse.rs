@@ -330,6 +330,11 @@ impl SparseSolver {
         }
     }
 
+    /// Whether the envelope's mean row width is at least `WIDE_ENVELOPE` DOFs.
+    fn envelope_is_wide(&self) -> bool {
+        self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64
+    }
+
     /// Interior-point solves started from the iterate of the solve before
     /// ([`InteriorPoint::solve`]), and those of them that started again cold.
     pub fn interior_path_starts(&self) -> (u64, u64) {
@@ -587,7 +592,7 @@ impl SparseSolver {
             if tau < STALLED_STEP
                 && self.give_up_stalled
                 && self.wide
-                && self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64
+                && self.envelope_is_wide()
                 && self.rescue
                 && !self.settling
                 && !self.last_retry
@@ -893,8 +898,7 @@ impl SparseSolver {
                 *l *= ratio;
             }
         }
-        self.wide = self.envelope.stored() as f64 >= WIDE_ENVELOPE * self.envelope.dofs() as f64
-            || n >= LARGE_PROBLEM;
+        self.wide = self.envelope_is_wide() || n >= LARGE_PROBLEM;
         let start = if (self.wide || (same_rows && self.still)) && !self.last_retry {
             RHO_WIDE / RHO
         } else {
