@@ -1,9 +1,11 @@
 //! `rockbench run SCENE --engine E --out DIR`: one engine, one scene.
 
 use crate::engines::registry::load_scene_with_overrides;
-use crate::engines::{engine_by_name, run_timed, write_outputs};
+use crate::engines::{engine_by_name, run_timed_reporting, write_outputs};
 use anyhow::{Context, Result};
+use std::cell::Cell;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 #[derive(clap::Args)]
 pub struct RunArgs {
@@ -18,12 +20,96 @@ pub struct RunArgs {
     /// Output directory.
     #[arg(long, default_value = "out/run")]
     out: PathBuf,
+    /// Seconds between progress lines on stderr (simulated time reached, time left).
+    #[arg(long, default_value_t = 1.0, value_name = "SECONDS")]
+    progress_interval: f64,
+    /// No progress lines.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// The progress line of a run: at most one every `interval`, none in the first `interval`.
+struct ProgressLine {
+    engine: String,
+    duration: f64,
+    interval: Duration,
+    start: Instant,
+    last: Cell<Instant>,
+}
+
+impl ProgressLine {
+    fn new(engine: &str, duration: f64, interval: Duration) -> Self {
+        let now = Instant::now();
+        ProgressLine {
+            engine: engine.to_string(),
+            duration,
+            interval,
+            start: now,
+            last: Cell::new(now),
+        }
+    }
+
+    fn report(&self, t: f64) {
+        let now = Instant::now();
+        if now.duration_since(self.last.get()) < self.interval {
+            return;
+        }
+        self.last.set(now);
+        eprintln!(
+            "{}",
+            progress_text(
+                &self.engine,
+                t,
+                self.duration,
+                now.duration_since(self.start).as_secs_f64()
+            )
+        );
+    }
+}
+
+/// `native: 1.234 of 5 s simulated (24.7 %), 12 s elapsed, about 37 s left`: the time left at
+/// the mean rate so far.
+fn progress_text(engine: &str, t: f64, duration: f64, elapsed: f64) -> String {
+    let fraction = if duration > 0.0 {
+        (t / duration).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let left = if fraction > 0.0 {
+        format!(
+            ", about {:.0} s left",
+            elapsed * (1.0 - fraction) / fraction
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "{engine}: {t:.3} of {duration} s simulated ({:.1} %), {elapsed:.0} s elapsed{left}",
+        100.0 * fraction
+    )
 }
 
 pub fn run(a: RunArgs) -> Result<()> {
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
     let e = engine_by_name(&a.engine)?;
-    let (output, mut summary) = run_timed(e.as_ref(), &s)?;
+    if !(a.progress_interval.is_finite() && a.progress_interval >= 0.0) {
+        anyhow::bail!(
+            "--progress-interval: must be a number of seconds >= 0 (got {})",
+            a.progress_interval
+        );
+    }
+    let line = ProgressLine::new(
+        e.name(),
+        s.duration,
+        Duration::from_secs_f64(a.progress_interval),
+    );
+    let quiet = a.quiet;
+    let progress = |t: f64| {
+        if !quiet {
+            line.report(t)
+        }
+    };
+    let (output, mut summary) = run_timed_reporting(e.as_ref(), &s, &progress)?;
     summary.command = Some(std::env::args().collect::<Vec<_>>().join(" "));
     write_outputs(&a.out, &output, &summary)
         .with_context(|| format!("writing {}", a.out.display()))?;
@@ -83,5 +169,26 @@ pub fn print_summary(s: &crate::summary::Summary) {
     }
     for n in &s.notes {
         println!("  note: {n}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::progress_text;
+
+    #[test]
+    fn the_progress_line_gives_the_fraction_and_the_time_left_at_the_mean_rate() {
+        assert_eq!(
+            progress_text("native", 1.25, 5.0, 10.0),
+            "native: 1.250 of 5 s simulated (25.0 %), 10 s elapsed, about 30 s left"
+        );
+        assert_eq!(
+            progress_text("rapier", 0.0, 5.0, 0.5),
+            "rapier: 0.000 of 5 s simulated (0.0 %), 0 s elapsed"
+        );
+        assert_eq!(
+            progress_text("native", 5.0, 5.0, 8.0),
+            "native: 5.000 of 5 s simulated (100.0 %), 8 s elapsed, about 0 s left"
+        );
     }
 }

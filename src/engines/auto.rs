@@ -50,13 +50,21 @@ impl Engine for AutoEngine {
     }
 
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+        self.run_reporting(scene, &|_| {})
+    }
+
+    fn run_reporting(
+        &self,
+        scene: &Scene,
+        progress: &dyn Fn(f64),
+    ) -> Result<RunOutput, EngineError> {
         let (mut out, note) = match not_housner(scene) {
             None => (
-                HousnerEngine.run(scene)?,
+                HousnerEngine.run_reporting(scene, progress)?,
                 "auto: ran the Housner engine (one block on the ground, no sliding)".to_string(),
             ),
             Some(why) => (
-                NativeEngine.run(scene)?,
+                NativeEngine.run_reporting(scene, progress)?,
                 format!("auto: ran the native engine ({why})"),
             ),
         };

@@ -1,6 +1,7 @@
 //! Engines: everything that turns a scene into a trajectory.
 //!
-//! `Engine::run` is the only way the harness meets an engine.
+//! `Engine::run` is the only way the harness meets an engine (`Engine::run_reporting`, the same
+//! run telling how far it has got).
 
 pub mod auto;
 pub mod external;
@@ -51,6 +52,16 @@ pub enum EngineError {
 pub trait Engine: Send + Sync {
     fn name(&self) -> &'static str;
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError>;
+    /// The same run, calling `progress` with the simulated time reached as it goes (the engines
+    /// that step in time do, after every step; the others only run). The answer is `run`'s.
+    fn run_reporting(
+        &self,
+        scene: &Scene,
+        progress: &dyn Fn(f64),
+    ) -> Result<RunOutput, EngineError> {
+        let _ = progress;
+        self.run(scene)
+    }
 }
 
 /// The engine named `name` ([`registry::engine`]).
@@ -60,8 +71,17 @@ pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
 
 /// Run an engine, timing it, and build its summary.
 pub fn run_timed(engine: &dyn Engine, scene: &Scene) -> Result<(RunOutput, Summary), EngineError> {
+    run_timed_reporting(engine, scene, &|_| {})
+}
+
+/// [`run_timed`], with the engine's progress ([`Engine::run_reporting`]).
+pub fn run_timed_reporting(
+    engine: &dyn Engine,
+    scene: &Scene,
+    progress: &dyn Fn(f64),
+) -> Result<(RunOutput, Summary), EngineError> {
     let start = Instant::now();
-    let out = engine.run(scene)?;
+    let out = engine.run_reporting(scene, progress)?;
     let wall = start.elapsed().as_secs_f64();
     if !out.trajectory.is_finite() {
         return Err(EngineError::Failed {

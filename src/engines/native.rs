@@ -17,6 +17,14 @@ impl Engine for NativeEngine {
     }
 
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+        self.run_reporting(scene, &|_| {})
+    }
+
+    fn run_reporting(
+        &self,
+        scene: &Scene,
+        progress: &dyn Fn(f64),
+    ) -> Result<RunOutput, EngineError> {
         let (mut stepper, mut state) = stepper_for(scene)?;
         let ns = stepper.settings.clone();
         let dt = ns.dt;
@@ -91,6 +99,7 @@ impl Engine for NativeEngine {
             if k % every == 0 || k == n_steps {
                 tr.push(time_of(k), &states);
             }
+            progress(time_of(k));
             if ns.stop_at_rest && state.t > excitation_end {
                 let v = ns.rest_velocity;
                 let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
@@ -110,6 +119,7 @@ impl Engine for NativeEngine {
                             tr.push(time_of(j), &at_rest);
                         }
                     }
+                    progress(scene.duration);
                     break;
                 }
             }

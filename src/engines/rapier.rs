@@ -410,6 +410,14 @@ impl Engine for RapierEngine {
     }
 
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+        self.run_reporting(scene, &|_| {})
+    }
+
+    fn run_reporting(
+        &self,
+        scene: &Scene,
+        progress: &dyn Fn(f64),
+    ) -> Result<RunOutput, EngineError> {
         let s = &RapierSettings::of(scene)?;
         let mut sim = RapierSim::new(scene)?;
         let dt = s.dt;
@@ -423,6 +431,7 @@ impl Engine for RapierEngine {
             if k % every == 0 || k == n_steps {
                 tr.push(sim.t, &sim.relative_states()?);
             }
+            progress(sim.t);
         }
         let mut settings = serde_json::to_value(s).expect("settings serialise");
         if let Some(o) = settings.as_object_mut() {
