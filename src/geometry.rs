@@ -69,7 +69,7 @@ impl Placed {
 }
 
 /// One contact point.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ContactPoint {
     /// Body owning the face (`None`: the ground).
     pub a: Option<usize>,

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// The sampled history of one block.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BlockHistory {
     pub name: String,
     pub x: Vec<f64>,
@@ -20,7 +20,7 @@ pub struct BlockHistory {
 }
 
 /// Sample times and block histories.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Trajectory {
     pub t: Vec<f64>,
     pub blocks: Vec<BlockHistory>,

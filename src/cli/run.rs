@@ -1,7 +1,9 @@
 //! `rockbench run SCENE --engine E --out DIR`: one engine, one scene.
 
+use crate::engines::native::NativeEngine;
 use crate::engines::registry::load_scene_with_overrides;
-use crate::engines::{engine_by_name, run_timed_reporting, write_outputs};
+use crate::engines::{engine_by_name, run_timed_reporting, timed, write_outputs};
+use crate::native::checkpoint::Checkpointing;
 use anyhow::{Context, Result};
 use std::cell::Cell;
 use std::path::PathBuf;
@@ -26,6 +28,17 @@ pub struct RunArgs {
     /// No progress lines.
     #[arg(long)]
     quiet: bool,
+    /// Native engine: write the run's state to FILE as it goes, and resume from FILE when it is
+    /// there (same build, same scene and overrides); removed once the outputs are written. The
+    /// outputs are those of an uninterrupted run, to the bit.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds of wall time between checkpoint writes.
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    checkpoint_interval: f64,
+    /// Stop after this step once its checkpoint is written (tests; a batch job's slice).
+    #[arg(long, value_name = "STEP", requires = "checkpoint")]
+    stop_after_step: Option<u64>,
 }
 
 /// The progress line of a run: at most one every `interval`, none in the first `interval`.
@@ -109,7 +122,31 @@ pub fn run(a: RunArgs) -> Result<()> {
             line.report(t)
         }
     };
-    let (output, mut summary) = run_timed_reporting(e.as_ref(), &s, &progress)?;
+    let (output, mut summary) = match &a.checkpoint {
+        None => run_timed_reporting(e.as_ref(), &s, &progress)?,
+        Some(path) => {
+            if e.name() != "native" {
+                anyhow::bail!(
+                    "--checkpoint: only the native engine resumes from a checkpoint (engine `{}`)",
+                    e.name()
+                );
+            }
+            if !(a.checkpoint_interval.is_finite() && a.checkpoint_interval >= 0.0) {
+                anyhow::bail!(
+                    "--checkpoint-interval: must be a number of seconds >= 0 (got {})",
+                    a.checkpoint_interval
+                );
+            }
+            let checkpointing = Checkpointing {
+                path: path.clone(),
+                interval: Duration::from_secs_f64(a.checkpoint_interval),
+                stop_after_step: a.stop_after_step,
+            };
+            timed("native", &s, || {
+                NativeEngine.run_checkpointed(&s, &progress, Some(&checkpointing))
+            })?
+        }
+    };
     summary.command = Some(std::env::args().collect::<Vec<_>>().join(" "));
     write_outputs(&a.out, &output, &summary)
         .with_context(|| format!("writing {}", a.out.display()))?;
@@ -120,6 +157,9 @@ pub fn run(a: RunArgs) -> Result<()> {
         serde_json::to_string_pretty(&s.to_json()).unwrap_or_default() + "\n",
     )
     .with_context(|| format!("writing {}", sp.display()))?;
+    if let Some(path) = a.checkpoint.as_ref().filter(|p| p.exists()) {
+        std::fs::remove_file(path).with_context(|| format!("removing {}", path.display()))?;
+    }
     print_summary(&summary);
     println!("wrote {}", a.out.display());
     Ok(())

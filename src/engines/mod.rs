@@ -42,6 +42,8 @@ pub enum EngineError {
         engine: &'static str,
         feature: &'static str,
     },
+    #[error("stopped after step {step} as asked: `--checkpoint {path}` resumes the run")]
+    Stopped { step: u64, path: String },
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error("{0}")]
@@ -80,16 +82,28 @@ pub fn run_timed_reporting(
     scene: &Scene,
     progress: &dyn Fn(f64),
 ) -> Result<(RunOutput, Summary), EngineError> {
+    timed(engine.name(), scene, || {
+        engine.run_reporting(scene, progress)
+    })
+}
+
+/// Time `run`, a run of `engine` on `scene`, check its trajectory is finite and build its
+/// summary.
+pub fn timed(
+    engine: &'static str,
+    scene: &Scene,
+    run: impl FnOnce() -> Result<RunOutput, EngineError>,
+) -> Result<(RunOutput, Summary), EngineError> {
     let start = Instant::now();
-    let out = engine.run_reporting(scene, progress)?;
+    let out = run()?;
     let wall = start.elapsed().as_secs_f64();
     if !out.trajectory.is_finite() {
         return Err(EngineError::Failed {
-            engine: engine.name(),
+            engine,
             message: "the trajectory contains NaN or infinity".into(),
         });
     }
-    let summary = Summary::build(scene, engine.name(), &out, wall);
+    let summary = Summary::build(scene, engine, &out, wall);
     Ok((out, summary))
 }
 

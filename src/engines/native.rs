@@ -2,7 +2,10 @@
 
 use super::{Engine, EngineError, RunOutput};
 use crate::excitation::GroundMotion;
+use crate::native::checkpoint::{Checkpoint, Checkpointing, this_build};
+use crate::native::solver::Blob;
 use crate::native::stepper_for;
+use std::time::Instant;
 
 /// How long every block must stay still before `native.stop_at_rest` ends a run, s.
 pub const REST_WINDOW: f64 = 0.05;
@@ -25,6 +28,21 @@ impl Engine for NativeEngine {
         scene: &Scene,
         progress: &dyn Fn(f64),
     ) -> Result<RunOutput, EngineError> {
+        self.run_checkpointed(scene, progress, None)
+    }
+}
+
+impl NativeEngine {
+    /// [`Engine::run_reporting`] with a checkpoint: resumed from `checkpointing.path` if the
+    /// file is there (written by this build for this scene, else an error), written there
+    /// every `checkpoint.interval` of wall time. The outputs are those of a run without it.
+    pub fn run_checkpointed(
+        &self,
+        scene: &Scene,
+        progress: &dyn Fn(f64),
+        checkpointing: Option<&Checkpointing>,
+    ) -> Result<RunOutput, EngineError> {
+        let started = Instant::now();
         let (mut stepper, mut state) = stepper_for(scene)?;
         let ns = stepper.settings.clone();
         let dt = ns.dt;
@@ -54,6 +72,24 @@ impl Engine for NativeEngine {
         let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
         let mut tr = Trajectory::new(&names);
         tr.push(0.0, &stepper.relative_states(&state));
+        let scene_text = checkpointing.map(|_| scene.to_json().to_string());
+        let mut first = 1;
+        let mut still = 0u64;
+        let mut wall_before = 0.0;
+        let mut resumed = None;
+        if let Some(c) = checkpointing.filter(|c| c.path.exists()) {
+            let io = EngineError::Io;
+            let saved =
+                Checkpoint::read(&c.path, scene_text.as_deref().unwrap_or_default()).map_err(io)?;
+            stepper
+                .restore(&saved.stepper.0)
+                .map_err(|e| io(format!("{}: {e}", c.path.display())))?;
+            (state, tr, still, wall_before) =
+                (saved.state, saved.trajectory, saved.still, saved.wall_s);
+            first = saved.steps_done + 1;
+            resumed = Some((saved.steps_done, state.t));
+        }
+        let mut last_write = Instant::now();
         // Rest detection: the excitation is over and every block has been still for the
         // whole window.
         let excitation_end = GroundMotion::from_scene(scene)?
@@ -62,11 +98,10 @@ impl Engine for NativeEngine {
             .copied()
             .unwrap_or(0.0);
         let window = (REST_WINDOW / dt).ceil() as u64;
-        let mut still = 0u64;
         let mut stopped_at = None;
         let mut computed = n_steps;
         let shorten_last = ns.stepper == crate::native::StepperKind::Impact;
-        for k in 1..=n_steps {
+        for k in first..=n_steps {
             let partial = k == n_steps && last_fraction < 1.0;
             let before = (partial && !shorten_last).then(|| stepper.relative_states(&state));
             let h = if partial && shorten_last {
@@ -121,6 +156,30 @@ impl Engine for NativeEngine {
                     }
                     progress(scene.duration);
                     break;
+                }
+            }
+            if let Some(c) = checkpointing.filter(|_| k < n_steps) {
+                let stop = c.stop_after_step == Some(k);
+                if stop || last_write.elapsed() >= c.interval {
+                    Checkpoint {
+                        build: this_build(),
+                        scene: scene_text.clone().unwrap_or_default(),
+                        steps_done: k,
+                        still,
+                        state: state.clone(),
+                        stepper: Blob(stepper.save()),
+                        trajectory: tr.clone(),
+                        wall_s: wall_before + started.elapsed().as_secs_f64(),
+                    }
+                    .write(&c.path)
+                    .map_err(EngineError::Io)?;
+                    last_write = Instant::now();
+                }
+                if stop {
+                    return Err(EngineError::Stopped {
+                        step: k,
+                        path: c.path.display().to_string(),
+                    });
                 }
             }
         }
@@ -189,6 +248,11 @@ impl Engine for NativeEngine {
                         sl.woken_by_contact,
                         100.0 * sl.block_steps_asleep as f64
                             / (computed.max(1) * scene.blocks.len() as u64) as f64
+                    ));
+                }
+                if let Some((k, t)) = resumed {
+                    notes.push(format!(
+                        "resumed from a checkpoint after step {k} (t = {t:.4} s); the run's processes before it took {wall_before:.1} s of wall time"
                     ));
                 }
                 if let Some(t) = stopped_at {

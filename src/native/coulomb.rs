@@ -25,7 +25,7 @@ fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
 }
 
 /// How the Coulomb problem of a step is solved.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum CoulombMethod {
     /// The fixed point on the slip offsets with the back-end in use, Lemke's method when it
     /// does not settle (the default).
@@ -36,7 +36,7 @@ pub enum CoulombMethod {
 }
 
 /// The Coulomb solve's state between problems (warm start) and its counters.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Coulomb {
     pub method: CoulombMethod,
     /// Problems solved by Lemke's method, and its pivots in all.

@@ -21,7 +21,7 @@
 //! key, so the warm start survives a change of membership).
 
 use super::problem::{ContactRows, SparseRow, StepProblem, StepSolution};
-use super::solver::{ContactSolver, SolveFailure};
+use super::solver::{Blob, ContactSolver, SolveFailure};
 use crate::geometry::ContactPoint;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -68,7 +68,7 @@ pub fn components_of_points(n_blocks: usize, points: &[ContactPoint]) -> Vec<Opt
 }
 
 /// [`components`] with its working storage kept from call to call.
-#[derive(Default)]
+#[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct Components {
     parent: Vec<usize>,
     touched: Vec<bool>,
@@ -395,6 +395,30 @@ impl ContactSolver for Islands {
 
     fn factor_updates(&self) -> u64 {
         self.retired.3 + self.counted(|s| s.factor_updates())
+    }
+
+    /// Each island's back-end by its key, the retired counts and the components' storage.
+    fn save(&self) -> Vec<u8> {
+        let solvers: Vec<(usize, Blob)> = self
+            .solvers
+            .iter()
+            .map(|(&k, s)| (k, Blob(s.save())))
+            .collect();
+        super::solver::to_bytes(&(solvers, self.retired, self.islands_solved, &self.components))
+    }
+
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        type Saved = (Vec<(usize, Blob)>, (u64, u64, u64, u64), u64, Components);
+        let (solvers, retired, solved, components): Saved =
+            super::solver::from_bytes(state, "the islands' back-ends")?;
+        self.solvers.clear();
+        for (key, bytes) in solvers {
+            let mut solver = (self.make)();
+            solver.restore(&bytes.0)?;
+            self.solvers.insert(key, solver);
+        }
+        (self.retired, self.islands_solved, self.components) = (retired, solved, components);
+        Ok(())
     }
 }
 

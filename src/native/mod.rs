@@ -4,6 +4,7 @@
 //! [`settings`] for the `[native]` table.
 
 pub mod assembly;
+pub mod checkpoint;
 pub mod collapse;
 pub mod coulomb;
 pub mod islands;

@@ -230,7 +230,7 @@ impl StepProblem {
 }
 
 /// A solved step.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct StepSolution {
     /// Displacement increments.
     pub dq: Vec<f64>,

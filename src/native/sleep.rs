@@ -37,7 +37,7 @@ pub const WAKE_MARGIN: f64 = 1e-3;
 pub const LARGEST_INTERVAL: f64 = 1e3;
 
 /// One sleeping island.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 struct Asleep {
     blocks: Vec<usize>,
     /// Ground accelerations (m/s^2) that keep it at rest, the margin taken off.
@@ -46,7 +46,7 @@ struct Asleep {
 }
 
 /// Which blocks sleep, and the stillness count of the others.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Sleep {
     /// Steps a block must stay still before its island may sleep.
     window: u32,

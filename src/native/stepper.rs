@@ -66,7 +66,7 @@ pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
 /// length zero is 0/0), whose rows divide the closed points' round-off gaps by its length.
 pub const END_OF_STEP: f64 = 1e-6;
 
-use super::solver::{ContactSolver, SolveFailure};
+use super::solver::{Blob, ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
 use crate::geometry::{
     ContactPoint, Placed, Pose, block_contacts, broad_phase_into, ground_contacts,
@@ -237,7 +237,7 @@ struct Ordinary<'a> {
 }
 
 /// State of the native engine between steps.
-#[derive(Debug)]
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
 pub struct NativeState {
     pub t: f64,
     pub step: u64,
@@ -376,6 +376,36 @@ pub struct Stepper {
     work: Workspace,
 }
 
+/// [`Stepper::save`]'s fields, borrowed to write them.
+#[derive(serde::Serialize)]
+struct Carried<'a> {
+    last_contacts: &'a [ContactPoint],
+    last_solution: &'a StepSolution,
+    counters: [u64; 10],
+    accel: &'a [f64],
+    loaded: &'a [u64],
+    struck: &'a [u64],
+    coulomb: &'a Coulomb,
+    sleep: &'a Option<Sleep>,
+    solver: Blob,
+    velocity_solver: Blob,
+}
+
+/// [`Carried`], read back.
+#[derive(serde::Deserialize)]
+struct CarriedOwned {
+    last_contacts: Vec<ContactPoint>,
+    last_solution: StepSolution,
+    counters: [u64; 10],
+    accel: Vec<f64>,
+    loaded: Vec<u64>,
+    struck: Vec<u64>,
+    coulomb: Coulomb,
+    sleep: Option<Sleep>,
+    solver: Blob,
+    velocity_solver: Blob,
+}
+
 /// A step that could not be taken.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum StepError {
@@ -440,6 +470,73 @@ impl Stepper {
 
     pub fn solver_name(&self) -> &'static str {
         self.solver.name()
+    }
+
+    /// What the stepper carries from one step to the next (the last contacts and solution,
+    /// the points loaded and struck, the predictor, sleep, both back-ends' warm starts and
+    /// factors, the counters), for a checkpoint ([`crate::native::checkpoint`]). The
+    /// workspace's buffers are not: every step writes them before it reads them.
+    pub fn save(&self) -> Vec<u8> {
+        debug_assert!(self.scope.is_none(), "saved within a step");
+        let counters = [
+            self.iterations,
+            self.polished_steps,
+            self.split_steps,
+            self.projections,
+            self.gradient_solves,
+            self.settled_velocities,
+            self.start_impacts,
+            self.halved_instants,
+            self.end_of_step_instants,
+            self.island_steps,
+        ];
+        super::solver::to_bytes(&Carried {
+            last_contacts: &self.last_contacts,
+            last_solution: &self.last_solution,
+            counters,
+            accel: &self.accel,
+            loaded: &self.loaded,
+            struck: &self.struck,
+            coulomb: &self.coulomb,
+            sleep: &self.sleep,
+            solver: Blob(self.solver.save()),
+            velocity_solver: Blob(self.velocity_solver.save()),
+        })
+    }
+
+    /// Take the state [`Stepper::save`] gave, into a stepper made for the same scene: the
+    /// steps that follow are the saved stepper's, to the bit.
+    pub fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        let c: CarriedOwned = super::solver::from_bytes(state, "the stepper")?;
+        if c.accel.len() != self.accel.len() {
+            return Err(format!(
+                "the stepper: {} blocks saved, the scene has {}",
+                c.accel.len() / 3,
+                self.accel.len() / 3
+            ));
+        }
+        self.solver.restore(&c.solver.0)?;
+        self.velocity_solver.restore(&c.velocity_solver.0)?;
+        [
+            self.iterations,
+            self.polished_steps,
+            self.split_steps,
+            self.projections,
+            self.gradient_solves,
+            self.settled_velocities,
+            self.start_impacts,
+            self.halved_instants,
+            self.end_of_step_instants,
+            self.island_steps,
+        ] = c.counters;
+        self.last_contacts = c.last_contacts;
+        self.last_solution = c.last_solution;
+        self.accel = c.accel;
+        self.loaded = c.loaded;
+        self.struck = c.struck;
+        self.coulomb = c.coulomb;
+        self.sleep = c.sleep;
+        Ok(())
     }
 
     /// Steps the back-end handed to Clarabel.

@@ -22,7 +22,7 @@ use super::rows::{EdgeRow, edge_rows, step_solution_into};
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
 
-#[derive(Default)]
+#[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct ActiveSetSolver {
     /// Keys of the rows active at the previous solution, sorted.
     previous: Vec<u64>,
@@ -146,6 +146,15 @@ impl ActiveSetSolver {
 impl ContactSolver for ActiveSetSolver {
     fn name(&self) -> &'static str {
         "active-set"
+    }
+
+    fn save(&self) -> Vec<u8> {
+        super::to_bytes(self)
+    }
+
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        *self = super::from_bytes(state, "the active-set back-end")?;
+        Ok(())
     }
 
     fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {

@@ -311,6 +311,15 @@ impl ContactSolver for ClarabelSolver {
         }
     }
 
+    /// Nothing: every problem is solved afresh from the scene's settings.
+    fn save(&self) -> Vec<u8> {
+        Vec::new()
+    }
+
+    fn restore(&mut self, _state: &[u8]) -> Result<(), String> {
+        Ok(())
+    }
+
     fn solve_into(
         &mut self,
         problem: &StepProblem,

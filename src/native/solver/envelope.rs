@@ -51,7 +51,7 @@ const DOFS: usize = 3;
 
 /// A symmetric positive definite matrix over `3 n_blocks` DOFs with a fixed envelope, its
 /// values, and (after [`Envelope::factor`]) its Cholesky factor in place.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Envelope {
     /// Elimination position of each DOF.
     pos: Vec<usize>,

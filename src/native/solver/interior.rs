@@ -55,7 +55,7 @@ const MAX_PATH_ITERATIONS: usize = 30;
 type Problem<'a> = ((&'a [f64], &'a [f64]), (&'a [EdgeRow], &'a [f64]));
 
 /// Buffers of the iteration.
-#[derive(Default)]
+#[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct InteriorPoint {
     s: Vec<f64>,
     /// `min(l_i / s_i, w_max_i)`, the rows' weights in the Newton matrix.

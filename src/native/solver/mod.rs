@@ -60,6 +60,53 @@ pub trait ContactSolver: Send {
     fn factor_updates(&self) -> u64 {
         0
     }
+    /// The back-end's state between problems (warm starts, kept factors, counters), for a
+    /// checkpoint ([`crate::native::checkpoint`]).
+    fn save(&self) -> Vec<u8>;
+    /// Take the state [`ContactSolver::save`] gave, into a back-end made for the same settings:
+    /// its next solutions are the saved back-end's, to the bit.
+    fn restore(&mut self, state: &[u8]) -> Result<(), String>;
+}
+
+/// `x` as CBOR (every `f64` to the bit).
+pub fn to_bytes<T: serde::Serialize>(x: &T) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    ciborium::into_writer(x, &mut bytes).expect("writing CBOR into memory");
+    bytes
+}
+
+/// Saved state within another's (a back-end's in its wrapper's, the stepper's in a checkpoint):
+/// one CBOR byte string, not a sequence of numbers.
+pub struct Blob(pub Vec<u8>);
+
+impl serde::Serialize for Blob {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(&self.0)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Blob {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Blob, D::Error> {
+        struct Bytes;
+        impl serde::de::Visitor<'_> for Bytes {
+            type Value = Blob;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a byte string")
+            }
+            fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Blob, E> {
+                Ok(Blob(v.to_vec()))
+            }
+            fn visit_byte_buf<E: serde::de::Error>(self, v: Vec<u8>) -> Result<Blob, E> {
+                Ok(Blob(v))
+            }
+        }
+        d.deserialize_byte_buf(Bytes)
+    }
+}
+
+/// A `T` from the CBOR of [`to_bytes`]; the error names `what`.
+pub fn from_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T, String> {
+    ciborium::from_reader(bytes).map_err(|e| format!("{what}: {e}"))
 }
 
 /// A fast back-end with Clarabel behind it: a step the primary cannot solve is solved by
@@ -97,6 +144,16 @@ impl ContactSolver for WithFallback {
     }
     fn fallbacks(&self) -> u64 {
         self.fallbacks + self.primary.fallbacks()
+    }
+    fn save(&self) -> Vec<u8> {
+        to_bytes(&(Blob(self.primary.save()), self.fallbacks))
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        let (primary, fallbacks): (Blob, u64) =
+            from_bytes(state, "the back-end with Clarabel behind it")?;
+        self.primary.restore(&primary.0)?;
+        self.fallbacks = fallbacks;
+        Ok(())
     }
     fn factorisations(&self) -> u64 {
         self.primary.factorisations()
@@ -142,6 +199,14 @@ impl ContactSolver for Auto {
     }
     fn fallbacks(&self) -> u64 {
         self.sparse.fallbacks()
+    }
+    fn save(&self) -> Vec<u8> {
+        to_bytes(&(Blob(self.dense.save()), Blob(self.sparse.save())))
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        let (dense, sparse): (Blob, Blob) = from_bytes(state, "the auto back-end")?;
+        self.dense.restore(&dense.0)?;
+        self.sparse.restore(&sparse.0)
     }
     fn factorisations(&self) -> u64 {
         self.sparse.factorisations()

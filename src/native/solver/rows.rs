@@ -8,7 +8,7 @@
 use crate::native::problem::{StepProblem, StepSolution};
 
 /// One primal row over at most six DOFs (two blocks).
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 pub struct EdgeRow {
     pub idx: [usize; 6],
     pub coef: [f64; 6],

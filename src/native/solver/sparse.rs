@@ -203,7 +203,7 @@ fn row_holds(c: f64, l: f64, r: f64, tolerance: f64) -> bool {
     c >= -tol && (l == 0.0 || c <= tol)
 }
 
-#[derive(Default)]
+#[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct SparseSolver {
     rows: Vec<EdgeRow>,
     r: Vec<f64>,
@@ -658,6 +658,13 @@ impl ContactSolver for SparseSolver {
     }
     fn factor_updates(&self) -> u64 {
         self.updates
+    }
+    fn save(&self) -> Vec<u8> {
+        super::to_bytes(self)
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        *self = super::from_bytes(state, "the sparse back-end")?;
+        Ok(())
     }
 
     /// See [`SparseSolver::solve_step`].

@@ -1,0 +1,181 @@
+//! `rockbench run --checkpoint`: a native run stopped after any step and resumed from its
+//! checkpoint writes the uninterrupted run's outputs, to the bit; a checkpoint of another scene,
+//! of another build or not a checkpoint at all is one clear error.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+fn scene(name: &str) -> PathBuf {
+    common::root()
+        .join("validation/scenes")
+        .join(format!("{name}.toml"))
+}
+
+fn run(scene: &Path, sets: &[&str], out: &Path, extra: &[&str]) -> Output {
+    let mut cmd = common::bin();
+    cmd.args(["run", scene.to_str().unwrap(), "--quiet", "--out"])
+        .arg(out);
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    cmd.args(extra).output().unwrap()
+}
+
+/// The summary without what differs between processes: the wall time, the command, the note
+/// of the resumption.
+fn summary_without_wall(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    let mut s: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let o = s.as_object_mut().unwrap();
+    o.remove("wall_time_s");
+    o.remove("command");
+    let notes = o.get_mut("notes").unwrap().as_array_mut().unwrap();
+    notes.retain(|n| !n.as_str().unwrap().starts_with("resumed from a checkpoint"));
+    s
+}
+
+/// Run `name` whole, then stopped after `stop` and resumed: the same trajectory bytes and
+/// summary (counters of factorisations, rescues and located impacts included). Returns the
+/// notes of the run.
+fn resumed_is_uninterrupted(name: &str, sets: &[&str], stop: u64) -> String {
+    let dir = common::tmp("rb-checkpoint", &format!("{name}-{stop}"));
+    let path = scene(name);
+    let whole = run(&path, sets, &dir.join("whole"), &[]);
+    assert!(
+        whole.status.success(),
+        "{}",
+        String::from_utf8_lossy(&whole.stderr)
+    );
+
+    let ck = dir.join("run.ckpt");
+    let ck_arg = ck.to_str().unwrap();
+    let stopped = run(
+        &path,
+        sets,
+        &dir.join("resumed"),
+        &[
+            "--checkpoint",
+            ck_arg,
+            "--stop-after-step",
+            &stop.to_string(),
+        ],
+    );
+    assert!(
+        !stopped.status.success(),
+        "{name}: the stopped run exited 0"
+    );
+    let err = String::from_utf8_lossy(&stopped.stderr);
+    assert!(err.contains(&format!("stopped after step {stop}")), "{err}");
+    assert!(ck.exists(), "{name}: no checkpoint");
+    assert!(
+        !dir.join("resumed").exists(),
+        "{name}: the stopped run wrote outputs"
+    );
+
+    let resumed = run(&path, sets, &dir.join("resumed"), &["--checkpoint", ck_arg]);
+    assert!(
+        resumed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert!(
+        !ck.exists(),
+        "{name}: the checkpoint outlived the finished run"
+    );
+    let bytes = |d: &str| std::fs::read(dir.join(d).join("trajectory.csv")).unwrap();
+    assert!(
+        bytes("whole") == bytes("resumed"),
+        "{name} {sets:?}: the resumed trajectory differs from the uninterrupted one"
+    );
+    assert_eq!(
+        summary_without_wall(&dir.join("whole")),
+        summary_without_wall(&dir.join("resumed")),
+        "{name} {sets:?}: summaries differ"
+    );
+    let notes = std::fs::read_to_string(dir.join("resumed/summary.json")).unwrap();
+    assert!(notes.contains(&format!("resumed from a checkpoint after step {stop}")));
+    summary_without_wall(&dir.join("whole"))["notes"].to_string()
+}
+
+/// The 42-block wall toppling under its pulse, stopped while its blocks rock (the sparse
+/// back-end's factors, islands and located impacts in the checkpoint).
+#[test]
+fn a_toppling_wall_resumed_mid_motion_is_the_uninterrupted_run() {
+    let notes = resumed_is_uninterrupted("wall-in-motion-pulse", &["duration=0.35"], 260);
+    assert!(!notes.contains(" 0 split at a located impact"), "{notes}");
+    assert!(!notes.contains(" 0 factorisations"), "{notes}");
+}
+
+/// The two-block statue under each stepper and law, and a column put to sleep.
+#[test]
+fn resumed_runs_of_every_stepper_law_and_sleep_are_the_uninterrupted_runs() {
+    let two = "two-block-free-rocking";
+    resumed_is_uninterrupted(two, &["duration=2"], 1234);
+    resumed_is_uninterrupted(two, &["duration=2", "native.stepper=\"paper\""], 777);
+    let coulomb = resumed_is_uninterrupted(
+        two,
+        &["duration=2", "native.friction_law=\"coulomb\""],
+        1500,
+    );
+    assert!(coulomb.contains("Coulomb friction: "), "{coulomb}");
+    resumed_is_uninterrupted(two, &["duration=1", "native.solver=\"clarabel\""], 400);
+    let sleep = resumed_is_uninterrupted(
+        "standing-column",
+        &["duration=1.5", "native.sleep=true"],
+        900,
+    );
+    assert!(
+        sleep.contains("sleeping islands: 1 put to sleep"),
+        "{sleep}"
+    );
+}
+
+#[test]
+fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
+    let dir = common::tmp("rb-checkpoint", "refused");
+    let path = scene("two-block-free-rocking");
+    let ck = dir.join("run.ckpt");
+    let ck_arg = ck.to_str().unwrap();
+    let stopped = run(
+        &path,
+        &["duration=1"],
+        &dir.join("a"),
+        &["--checkpoint", ck_arg, "--stop-after-step", "100"],
+    );
+    assert!(!stopped.status.success());
+    let one_error = |o: &Output, says: &str| {
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(says), "{err}");
+    };
+    // Other overrides: another scene.
+    let other = run(
+        &path,
+        &["duration=1.5"],
+        &dir.join("b"),
+        &["--checkpoint", ck_arg],
+    );
+    one_error(&other, "written for another scene or other --set overrides");
+    assert!(!dir.join("b").exists());
+    // Another engine.
+    let rapier = run(
+        &path,
+        &["duration=1"],
+        &dir.join("c"),
+        &["--engine", "housner", "--checkpoint", ck_arg],
+    );
+    one_error(&rapier, "only the native engine resumes from a checkpoint");
+    // A file that is not a checkpoint.
+    std::fs::write(&ck, "not cbor at all").unwrap();
+    let junk = run(
+        &path,
+        &["duration=1"],
+        &dir.join("d"),
+        &["--checkpoint", ck_arg],
+    );
+    one_error(&junk, "not a rockbench checkpoint");
+    assert!(!dir.join("d").exists());
+}
