@@ -108,7 +108,8 @@ fn a_toppling_wall_resumed_mid_motion_is_the_uninterrupted_run() {
     assert!(!notes.contains(" 0 factorisations"), "{notes}");
 }
 
-/// The two-block statue under each stepper and law, and a column put to sleep.
+/// The two-block statue under each stepper and law, on Clarabel, stopped while it comes to rest,
+/// and a column put to sleep.
 #[test]
 fn resumed_runs_of_every_stepper_law_and_sleep_are_the_uninterrupted_runs() {
     let two = "two-block-free-rocking";
@@ -121,6 +122,12 @@ fn resumed_runs_of_every_stepper_law_and_sleep_are_the_uninterrupted_runs() {
     );
     assert!(coulomb.contains("Coulomb friction: "), "{coulomb}");
     resumed_is_uninterrupted(two, &["duration=1", "native.solver=\"clarabel\""], 400);
+    // Stopped within the window of `native.stop_at_rest` (the blocks come to rest at 5.135 s).
+    let rest = resumed_is_uninterrupted(two, &["duration=8", "native.stop_at_rest=true"], 5110);
+    assert!(
+        rest.contains("every block at rest from t = 5.1350 s"),
+        "{rest}"
+    );
     let sleep = resumed_is_uninterrupted(
         "standing-column",
         &["duration=1.5", "native.sleep=true"],
