@@ -376,6 +376,25 @@ pub struct Stepper {
     work: Workspace,
 }
 
+/// The stepper's counters, in the order a checkpoint keeps them: a value, or the places
+/// [`Stepper::restore`] assigns.
+macro_rules! counters {
+    ($s:expr) => {
+        [
+            $s.iterations,
+            $s.polished_steps,
+            $s.split_steps,
+            $s.projections,
+            $s.gradient_solves,
+            $s.settled_velocities,
+            $s.start_impacts,
+            $s.halved_instants,
+            $s.end_of_step_instants,
+            $s.island_steps,
+        ]
+    };
+}
+
 /// [`Stepper::save`]'s fields, borrowed to write them.
 #[derive(serde::Serialize)]
 struct Carried<'a> {
@@ -478,18 +497,7 @@ impl Stepper {
     /// workspace's buffers are not: every step writes them before it reads them.
     pub fn save(&self) -> Vec<u8> {
         debug_assert!(self.scope.is_none(), "saved within a step");
-        let counters = [
-            self.iterations,
-            self.polished_steps,
-            self.split_steps,
-            self.projections,
-            self.gradient_solves,
-            self.settled_velocities,
-            self.start_impacts,
-            self.halved_instants,
-            self.end_of_step_instants,
-            self.island_steps,
-        ];
+        let counters = counters!(self);
         super::solver::to_bytes(&Carried {
             last_contacts: &self.last_contacts,
             last_solution: &self.last_solution,
@@ -517,18 +525,7 @@ impl Stepper {
         }
         self.solver.restore(&c.solver.0)?;
         self.velocity_solver.restore(&c.velocity_solver.0)?;
-        [
-            self.iterations,
-            self.polished_steps,
-            self.split_steps,
-            self.projections,
-            self.gradient_solves,
-            self.settled_velocities,
-            self.start_impacts,
-            self.halved_instants,
-            self.end_of_step_instants,
-            self.island_steps,
-        ] = c.counters;
+        counters!(self) = c.counters;
         self.last_contacts = c.last_contacts;
         self.last_solution = c.last_solution;
         self.accel = c.accel;
