@@ -84,6 +84,7 @@ fn resumed_is_uninterrupted(name: &str, sets: &[&str], stop: u64) -> String {
         !ck.exists(),
         "{name}: the checkpoint outlived the finished run"
     );
+    assert!(!dir.join("run.ckpt.part").exists());
     let bytes = |d: &str| std::fs::read(dir.join(d).join("trajectory.csv")).unwrap();
     assert!(
         bytes("whole") == bytes("resumed"),

@@ -157,8 +157,8 @@ pub fn run(a: RunArgs) -> Result<()> {
         serde_json::to_string_pretty(&s.to_json()).unwrap_or_default() + "\n",
     )
     .with_context(|| format!("writing {}", sp.display()))?;
-    if let Some(path) = a.checkpoint.as_ref().filter(|p| p.exists()) {
-        std::fs::remove_file(path).with_context(|| format!("removing {}", path.display()))?;
+    if let Some(path) = &a.checkpoint {
+        crate::native::checkpoint::remove(path).map_err(anyhow::Error::msg)?;
     }
     print_summary(&summary);
     println!("wrote {}", a.out.display());

@@ -42,6 +42,23 @@ pub struct Checkpoint {
     pub wall_s: f64,
 }
 
+/// The temporary file a checkpoint is written to before it is renamed over `path`.
+fn part_of(path: &Path) -> std::path::PathBuf {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".part");
+    tmp.into()
+}
+
+/// Remove a finished run's checkpoint, and the temporary file an interrupted write left.
+pub fn remove(path: &Path) -> Result<(), String> {
+    for p in [path.to_path_buf(), part_of(path)] {
+        if p.exists() {
+            std::fs::remove_file(&p).map_err(|e| format!("removing {}: {e}", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// This build's identity in a checkpoint.
 pub fn this_build() -> String {
     env!("RB_SOURCE_HASH").to_string()
@@ -51,9 +68,7 @@ impl Checkpoint {
     /// Write to `path` whole (a temporary file beside it, renamed over it).
     pub fn write(&self, path: &Path) -> Result<(), String> {
         let bytes = to_bytes(self);
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".part");
-        let tmp = std::path::PathBuf::from(tmp);
+        let tmp = part_of(path);
         let fail = |e: std::io::Error| format!("{}: {e}", path.display());
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(fail)?;
