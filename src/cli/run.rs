@@ -42,56 +42,57 @@ pub struct RunArgs {
 }
 
 /// The progress line of a run: at most one every `interval`, none in the first `interval`.
+/// The rate is this process's, from the first step it reports (a resumed run starts late).
 struct ProgressLine {
     engine: String,
     duration: f64,
     interval: Duration,
-    start: Instant,
+    /// The first simulated time reported, and when.
+    first: Cell<Option<(f64, Instant)>>,
     last: Cell<Instant>,
 }
 
 impl ProgressLine {
     fn new(engine: &str, duration: f64, interval: Duration) -> Self {
-        let now = Instant::now();
         ProgressLine {
             engine: engine.to_string(),
             duration,
             interval,
-            start: now,
-            last: Cell::new(now),
+            first: Cell::new(None),
+            last: Cell::new(Instant::now()),
         }
     }
 
     fn report(&self, t: f64) {
         let now = Instant::now();
+        let Some((t0, start)) = self.first.get() else {
+            self.first.set(Some((t, now)));
+            return;
+        };
         if now.duration_since(self.last.get()) < self.interval {
             return;
         }
         self.last.set(now);
+        let elapsed = now.duration_since(start).as_secs_f64();
         eprintln!(
             "{}",
-            progress_text(
-                &self.engine,
-                t,
-                self.duration,
-                now.duration_since(self.start).as_secs_f64()
-            )
+            progress_text(&self.engine, t, self.duration, elapsed, t - t0)
         );
     }
 }
 
 /// `native: 1.234 of 5 s simulated (24.7 %), 12 s elapsed, about 37 s left`: the time left at
-/// the mean rate so far.
-fn progress_text(engine: &str, t: f64, duration: f64, elapsed: f64) -> String {
+/// the rate of the `simulated` seconds done in `elapsed`.
+fn progress_text(engine: &str, t: f64, duration: f64, elapsed: f64, simulated: f64) -> String {
     let fraction = if duration > 0.0 {
         (t / duration).clamp(0.0, 1.0)
     } else {
         1.0
     };
-    let left = if fraction > 0.0 {
+    let left = if simulated > 0.0 {
         format!(
             ", about {:.0} s left",
-            elapsed * (1.0 - fraction) / fraction
+            elapsed * (duration - t).max(0.0) / simulated
         )
     } else {
         String::new()
@@ -217,18 +218,23 @@ mod tests {
     use super::progress_text;
 
     #[test]
-    fn the_progress_line_gives_the_fraction_and_the_time_left_at_the_mean_rate() {
+    fn the_progress_line_gives_the_fraction_and_the_time_left_at_this_process_rate() {
         assert_eq!(
-            progress_text("native", 1.25, 5.0, 10.0),
+            progress_text("native", 1.25, 5.0, 10.0, 1.25),
             "native: 1.250 of 5 s simulated (25.0 %), 10 s elapsed, about 30 s left"
         );
         assert_eq!(
-            progress_text("rapier", 0.0, 5.0, 0.5),
+            progress_text("rapier", 0.0, 5.0, 0.5, 0.0),
             "rapier: 0.000 of 5 s simulated (0.0 %), 0 s elapsed"
         );
         assert_eq!(
-            progress_text("native", 5.0, 5.0, 8.0),
+            progress_text("native", 5.0, 5.0, 8.0, 5.0),
             "native: 5.000 of 5 s simulated (100.0 %), 8 s elapsed, about 0 s left"
+        );
+        // A run resumed at 4 s: 0.5 s simulated in 10 s, 0.5 s to go.
+        assert_eq!(
+            progress_text("native", 4.5, 5.0, 10.0, 0.5),
+            "native: 4.500 of 5 s simulated (90.0 %), 10 s elapsed, about 10 s left"
         );
     }
 }

@@ -35,7 +35,7 @@ impl Engine for NativeEngine {
 impl NativeEngine {
     /// [`Engine::run_reporting`] with a checkpoint: resumed from `checkpointing.path` if the
     /// file is there (written by this build for this scene, else an error), written there
-    /// every `checkpoint.interval` of wall time. The outputs are those of a run without it.
+    /// every `checkpointing.interval` of wall time. The outputs are those of a run without it.
     pub fn run_checkpointed(
         &self,
         scene: &Scene,
