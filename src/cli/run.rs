@@ -103,19 +103,21 @@ fn progress_text(engine: &str, t: f64, duration: f64, elapsed: f64, simulated: f
     )
 }
 
+/// A flag's number of seconds as a duration: finite and not negative.
+fn seconds(flag: &str, value: f64) -> Result<Duration> {
+    if !(value.is_finite() && value >= 0.0) {
+        anyhow::bail!("{flag}: must be a number of seconds >= 0 (got {value})");
+    }
+    Ok(Duration::from_secs_f64(value))
+}
+
 pub fn run(a: RunArgs) -> Result<()> {
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
     let e = engine_by_name(&a.engine)?;
-    if !(a.progress_interval.is_finite() && a.progress_interval >= 0.0) {
-        anyhow::bail!(
-            "--progress-interval: must be a number of seconds >= 0 (got {})",
-            a.progress_interval
-        );
-    }
     let line = ProgressLine::new(
         e.name(),
         s.duration,
-        Duration::from_secs_f64(a.progress_interval),
+        seconds("--progress-interval", a.progress_interval)?,
     );
     let quiet = a.quiet;
     let progress = |t: f64| {
@@ -132,15 +134,9 @@ pub fn run(a: RunArgs) -> Result<()> {
                     e.name()
                 );
             }
-            if !(a.checkpoint_interval.is_finite() && a.checkpoint_interval >= 0.0) {
-                anyhow::bail!(
-                    "--checkpoint-interval: must be a number of seconds >= 0 (got {})",
-                    a.checkpoint_interval
-                );
-            }
             let checkpointing = Checkpointing {
                 path: path.clone(),
-                interval: Duration::from_secs_f64(a.checkpoint_interval),
+                interval: seconds("--checkpoint-interval", a.checkpoint_interval)?,
                 stop_after_step: a.stop_after_step,
             };
             timed("native", &s, || {
