@@ -144,43 +144,12 @@ pub struct Convergence {
 }
 
 /// Least-squares slope of `ln e` against `ln dt` with its standard error, and the range of
-/// the local orders between consecutive step sizes (sorted by dt).
+/// the local orders between consecutive step sizes ([`crate::loglog::fit`]).
 pub fn observed_order(pairs: &[(f64, f64)]) -> (Option<f64>, Option<f64>, Option<(f64, f64)>) {
-    let mut pts: Vec<(f64, f64)> = pairs
-        .iter()
-        .filter(|(d, e)| *d > 0.0 && *e > 0.0 && e.is_finite())
-        .map(|(d, e)| (d.ln(), e.ln()))
-        .collect();
-    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let n = pts.len();
-    if n < 2 {
-        return (None, None, None);
+    match crate::loglog::fit(pairs) {
+        Some(f) => (Some(f.slope), f.std_error, Some(f.local)),
+        None => (None, None, None),
     }
-    let nf = n as f64;
-    let mx = pts.iter().map(|p| p.0).sum::<f64>() / nf;
-    let my = pts.iter().map(|p| p.1).sum::<f64>() / nf;
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    if sxx == 0.0 {
-        return (None, None, None);
-    }
-    let slope = sxy / sxx;
-    let std_error = (n >= 3).then(|| {
-        let ssr: f64 = pts
-            .iter()
-            .map(|p| (p.1 - my - slope * (p.0 - mx)).powi(2))
-            .sum();
-        (ssr / (nf - 2.0) / sxx).sqrt()
-    });
-    let local: Vec<f64> = pts
-        .windows(2)
-        .filter(|w| w[1].0 != w[0].0)
-        .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0))
-        .collect();
-    let range = local.iter().fold(None, |r: Option<(f64, f64)>, &v| {
-        Some(r.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))))
-    });
-    (Some(slope), std_error, range)
 }
 
 /// The error of a quantity from its metric row.

@@ -42,6 +42,7 @@ pub mod gallery;
 pub mod gates;
 pub mod geometry;
 pub mod invariants;
+pub mod loglog;
 pub mod metrics;
 pub mod native;
 pub mod output;
