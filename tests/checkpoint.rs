@@ -187,3 +187,68 @@ fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
     one_error(&junk, "not a rockbench checkpoint");
     assert!(!dir.join("d").exists());
 }
+
+/// The samples go to `FILE.samples`, appended at each write (here after every step). A run
+/// interrupted after an append and before its checkpoint is renamed leaves samples the checkpoint
+/// does not count: the resumed run drops them and writes the uninterrupted run's outputs; the
+/// finished run removes the file. A samples file shorter than its checkpoint says is one error.
+#[test]
+fn samples_beyond_the_checkpoint_are_dropped_and_missing_ones_are_one_error() {
+    let dir = common::tmp("rb-checkpoint", "samples");
+    let path = scene("two-block-free-rocking");
+    let sets = ["duration=1", "output_interval=0.002"];
+    let whole = run(&path, &sets, &dir.join("whole"), &[]);
+    assert!(whole.status.success());
+    let ck = dir.join("run.ckpt");
+    let ck_arg = ck.to_str().unwrap();
+    let samples = dir.join("run.ckpt.samples");
+    let every_step = ["--checkpoint", ck_arg, "--checkpoint-interval", "0"];
+    let stop = |step: &str| {
+        let mut args = every_step.to_vec();
+        args.extend(["--stop-after-step", step]);
+        let o = run(&path, &sets, &dir.join("resumed"), &args);
+        assert!(!o.status.success());
+        assert!(ck.exists() && samples.exists());
+    };
+    // Two blocks: a sample is 13 values. Stopped after step 300 (samples at t = 0, 0.002, ...,
+    // 0.3: 151), then garbage after them, as an append whose checkpoint was never renamed.
+    stop("300");
+    let per_sample = 13 * 8;
+    assert_eq!(std::fs::metadata(&samples).unwrap().len(), 151 * per_sample);
+    let mut bytes = std::fs::read(&samples).unwrap();
+    bytes.extend(std::iter::repeat_n(0x7f, 2 * per_sample as usize + 5));
+    std::fs::write(&samples, &bytes).unwrap();
+    // Resumed, written again every step, stopped again, resumed to the end.
+    stop("640");
+    assert_eq!(std::fs::metadata(&samples).unwrap().len(), 321 * per_sample);
+    let resumed = run(&path, &sets, &dir.join("resumed"), &every_step);
+    assert!(
+        resumed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert!(!ck.exists() && !samples.exists());
+    let bytes = |d: &str| std::fs::read(dir.join(d).join("trajectory.csv")).unwrap();
+    assert!(bytes("whole") == bytes("resumed"));
+    assert_eq!(
+        summary_without_wall(&dir.join("whole")),
+        summary_without_wall(&dir.join("resumed"))
+    );
+
+    // Samples cut short: one error naming the file, no outputs.
+    stop("300");
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(&samples)
+        .unwrap();
+    file.set_len(100 * per_sample).unwrap();
+    let short = run(&path, &sets, &dir.join("short"), &every_step);
+    assert!(!short.status.success());
+    let err = String::from_utf8_lossy(&short.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("run.ckpt.samples: holds 100 samples of 2 blocks, the checkpoint needs 151"),
+        "{err}"
+    );
+    assert!(!dir.join("short").exists());
+}

@@ -28,9 +28,9 @@ pub struct RunArgs {
     /// No progress lines.
     #[arg(long)]
     quiet: bool,
-    /// Native engine: write the run's state to FILE as it goes, and resume from FILE when it is
-    /// there (same build, same scene and overrides); removed once the outputs are written. The
-    /// outputs are those of an uninterrupted run, to the bit.
+    /// Native engine: write the run's state to FILE as it goes (its samples to FILE.samples), and
+    /// resume from FILE when it is there (same build, same scene and overrides); both removed
+    /// once the outputs are written. The outputs are those of an uninterrupted run, to the bit.
     #[arg(long, value_name = "FILE")]
     checkpoint: Option<PathBuf>,
     /// Seconds of wall time between checkpoint writes.

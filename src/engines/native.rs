@@ -2,7 +2,7 @@
 
 use super::{Engine, EngineError, RunOutput};
 use crate::excitation::GroundMotion;
-use crate::native::checkpoint::{Checkpoint, Checkpointing, this_build};
+use crate::native::checkpoint::{Checkpoint, Checkpointing, SampleLog, this_build};
 use crate::native::solver::Blob;
 use crate::native::stepper_for;
 use std::time::Instant;
@@ -77,6 +77,7 @@ impl NativeEngine {
         let mut still = 0u64;
         let mut wall_before = 0.0;
         let mut resumed = None;
+        let mut samples = checkpointing.map(|c| SampleLog::beside(&c.path));
         if let Some(c) = checkpointing.filter(|c| c.path.exists()) {
             let io = EngineError::Io;
             let saved =
@@ -84,8 +85,11 @@ impl NativeEngine {
             stepper
                 .restore(&saved.stepper.0)
                 .map_err(|e| io(format!("{}: {e}", c.path.display())))?;
-            (state, tr, still, wall_before) =
-                (saved.state, saved.trajectory, saved.still, saved.wall_s);
+            tr = Trajectory::new(&names);
+            if let Some(log) = samples.as_mut() {
+                log.read(&mut tr, saved.samples).map_err(io)?;
+            }
+            (state, still, wall_before) = (saved.state, saved.still, saved.wall_s);
             first = saved.steps_done + 1;
             resumed = Some((saved.steps_done, state.t));
         }
@@ -161,6 +165,9 @@ impl NativeEngine {
             if let Some(c) = checkpointing.filter(|_| k < n_steps) {
                 let stop = c.stop_after_step == Some(k);
                 if stop || last_write.elapsed() >= c.interval {
+                    if let Some(log) = samples.as_mut() {
+                        log.append(&tr).map_err(EngineError::Io)?;
+                    }
                     Checkpoint {
                         build: this_build(),
                         scene: scene_text.clone().unwrap_or_default(),
@@ -168,7 +175,7 @@ impl NativeEngine {
                         still,
                         state: state.clone(),
                         stepper: Blob(stepper.save()),
-                        trajectory: tr.clone(),
+                        samples: tr.len() as u64,
                         wall_s: wall_before + started.elapsed().as_secs_f64(),
                     }
                     .write(&c.path)

@@ -3,9 +3,12 @@
 //! interrupted after any step and resumed from its checkpoint writes the uninterrupted run's
 //! outputs, to the bit.
 //!
-//! The file is CBOR, written whole to a temporary file and renamed over the last one, so an
-//! interruption leaves the previous checkpoint or the new one, never a part. It is refused by
+//! The checkpoint is CBOR, written whole to a temporary file and renamed over the last one, so
+//! an interruption leaves the previous checkpoint or the new one, never a part. It is refused by
 //! another build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied).
+//! The samples go to a file beside it ([`SampleLog`], `FILE.samples`), appended at each write:
+//! a write costs the samples since the last one, not the whole history (a 215-block wall sampled
+//! every step gathers 10 kB a step).
 
 use super::solver::{Blob, from_bytes, to_bytes};
 use super::stepper::NativeState;
@@ -37,7 +40,8 @@ pub struct Checkpoint {
     pub state: NativeState,
     /// [`super::Stepper::save`].
     pub stepper: Blob,
-    pub trajectory: Trajectory,
+    /// Samples so far: the first this many of the [`SampleLog`] beside the checkpoint.
+    pub samples: u64,
     /// Wall time of the run before this checkpoint, s (all its processes).
     pub wall_s: f64,
 }
@@ -49,9 +53,17 @@ fn part_of(path: &Path) -> std::path::PathBuf {
     tmp.into()
 }
 
-/// Remove a finished run's checkpoint, and the temporary file an interrupted write left.
+/// The file of the samples beside the checkpoint `path`.
+fn samples_of(path: &Path) -> std::path::PathBuf {
+    let mut samples = path.as_os_str().to_owned();
+    samples.push(".samples");
+    samples.into()
+}
+
+/// Remove a finished run's checkpoint, its samples, and the temporary file an interrupted write
+/// left.
 pub fn remove(path: &Path) -> Result<(), String> {
-    for p in [path.to_path_buf(), part_of(path)] {
+    for p in [path.to_path_buf(), part_of(path), samples_of(path)] {
         if p.exists() {
             std::fs::remove_file(&p).map_err(|e| format!("removing {}: {e}", p.display()))?;
         }
@@ -101,5 +113,98 @@ impl Checkpoint {
             ));
         }
         Ok(c)
+    }
+}
+
+/// The samples of a checkpointed run, in the file beside its checkpoint: each sample `t`, then
+/// `(x, z, phi, vx, vz, omega)` of every block, as little-endian `f64` (every value to the
+/// bit). Written by appending the samples taken since the last write, before the checkpoint
+/// that counts them is renamed into place; a run interrupted between the two leaves samples
+/// beyond the checkpoint's count, which its resumption drops.
+pub struct SampleLog {
+    path: std::path::PathBuf,
+    /// Samples in the file.
+    written: usize,
+}
+
+impl SampleLog {
+    /// The log beside checkpoint `path`, empty: the first [`SampleLog::append`] starts the file
+    /// afresh.
+    pub fn beside(path: &Path) -> Self {
+        SampleLog {
+            path: samples_of(path),
+            written: 0,
+        }
+    }
+
+    fn values_per_sample(tr: &Trajectory) -> usize {
+        1 + 6 * tr.blocks.len()
+    }
+
+    /// Append the samples of `tr` after those already written, and flush them to the disk.
+    pub fn append(&mut self, tr: &Trajectory) -> Result<(), String> {
+        use std::io::Write;
+        let fail = |e: std::io::Error| format!("{}: {e}", self.path.display());
+        let mut bytes = Vec::with_capacity(
+            (tr.len() - self.written.min(tr.len())) * Self::values_per_sample(tr) * 8,
+        );
+        for k in self.written..tr.len() {
+            bytes.extend_from_slice(&tr.t[k].to_le_bytes());
+            for b in &tr.blocks {
+                for v in [b.x[k], b.z[k], b.phi[k], b.vx[k], b.vz[k], b.omega[k]] {
+                    bytes.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(self.written > 0)
+            .write(true)
+            .truncate(self.written == 0)
+            .open(&self.path)
+            .map_err(fail)?;
+        file.write_all(&bytes).map_err(fail)?;
+        file.sync_data().map_err(fail)?;
+        self.written = tr.len();
+        Ok(())
+    }
+
+    /// Read the first `count` samples into `tr` (its blocks named, no samples), and cut the
+    /// file after them, so that the next append follows them.
+    pub fn read(&mut self, tr: &mut Trajectory, count: u64) -> Result<(), String> {
+        let fail = |e: std::io::Error| format!("{}: {e}", self.path.display());
+        let per = Self::values_per_sample(tr);
+        let count = usize::try_from(count)
+            .map_err(|_| format!("{}: too many samples", self.path.display()))?;
+        let need = count * per * 8;
+        let bytes = std::fs::read(&self.path).map_err(fail)?;
+        if bytes.len() < need {
+            return Err(format!(
+                "{}: holds {} samples of {} blocks, the checkpoint needs {count}",
+                self.path.display(),
+                bytes.len() / (per * 8),
+                tr.blocks.len()
+            ));
+        }
+        let values: Vec<f64> = bytes[..need]
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().expect("eight bytes")))
+            .collect();
+        let mut states = vec![[0.0; 6]; tr.blocks.len()];
+        for sample in values.chunks_exact(per) {
+            for (s, v) in states.iter_mut().zip(sample[1..].chunks_exact(6)) {
+                s.copy_from_slice(v);
+            }
+            tr.push(sample[0], &states);
+        }
+        if bytes.len() > need {
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(&self.path)
+                .and_then(|f| f.set_len(need as u64))
+                .map_err(fail)?;
+        }
+        self.written = count;
+        Ok(())
     }
 }
