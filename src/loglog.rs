@@ -29,12 +29,15 @@ pub fn fit(pairs: &[(f64, f64)]) -> Option<LogLogFit> {
         .collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let n = pts.len();
+    if n < 2 {
+        return None;
+    }
     let nf = n as f64;
     let mx = pts.iter().map(|p| p.0).sum::<f64>() / nf;
     let my = pts.iter().map(|p| p.1).sum::<f64>() / nf;
     let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    if n < 2 || sxx == 0.0 {
+    if sxx == 0.0 {
         return None;
     }
     let slope = sxy / sxx;

@@ -145,8 +145,9 @@ impl SampleLog {
     pub fn append(&mut self, tr: &Trajectory) -> Result<(), String> {
         use std::io::Write;
         let fail = |e: std::io::Error| format!("{}: {e}", self.path.display());
+        debug_assert!(tr.len() >= self.written, "a trajectory only grows");
         let mut bytes = Vec::with_capacity(
-            (tr.len() - self.written.min(tr.len())) * Self::values_per_sample(tr) * 8,
+            tr.len().saturating_sub(self.written) * Self::values_per_sample(tr) * 8,
         );
         for k in self.written..tr.len() {
             bytes.extend_from_slice(&tr.t[k].to_le_bytes());
