@@ -1288,7 +1288,11 @@ mod fault_tests {
         fn name(&self) -> &'static str {
             "faulty"
         }
-        fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+        fn run_reporting(
+            &self,
+            scene: &Scene,
+            _progress: &dyn Fn(f64),
+        ) -> Result<RunOutput, EngineError> {
             let mut out = engine_by_name("housner").unwrap().run(scene)?;
             match self.0 {
                 Fault::Sink(d) => {

@@ -49,10 +49,6 @@ impl Engine for AutoEngine {
         "auto"
     }
 
-    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
-        self.run_reporting(scene, &|_| {})
-    }
-
     fn run_reporting(
         &self,
         scene: &Scene,

@@ -504,7 +504,11 @@ impl Engine for ExternalEngine {
         self.engine
     }
 
-    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+    fn run_reporting(
+        &self,
+        scene: &Scene,
+        _progress: &dyn Fn(f64),
+    ) -> Result<RunOutput, EngineError> {
         let dir = temp_dir(self.engine)
             .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
         let result = self.run_in(scene, &dir, None).map(|(out, _)| out);

@@ -373,7 +373,11 @@ impl Engine for HousnerEngine {
         "housner"
     }
 
-    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+    fn run_reporting(
+        &self,
+        scene: &Scene,
+        _progress: &dyn Fn(f64),
+    ) -> Result<RunOutput, EngineError> {
         let refuse = |reason: String| EngineError::Unsupported {
             engine: "housner",
             scene: scene.name.clone(),

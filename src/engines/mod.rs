@@ -53,16 +53,17 @@ pub enum EngineError {
 /// A simulation engine.
 pub trait Engine: Send + Sync {
     fn name(&self) -> &'static str;
-    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError>;
-    /// The same run, calling `progress` with the simulated time reached as it goes (the engines
-    /// that step in time do, after every step; the others only run). The answer is `run`'s.
+    /// Run `scene`, calling `progress` with the simulated time reached as it goes (the engines
+    /// that step in time do, after every step; the others ignore it). The answer does not
+    /// depend on `progress`.
     fn run_reporting(
         &self,
         scene: &Scene,
         progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError> {
-        let _ = progress;
-        self.run(scene)
+    ) -> Result<RunOutput, EngineError>;
+    /// [`Engine::run_reporting`] without progress.
+    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
+        self.run_reporting(scene, &|_| {})
     }
 }
 

@@ -19,10 +19,6 @@ impl Engine for NativeEngine {
         "native"
     }
 
-    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
-        self.run_reporting(scene, &|_| {})
-    }
-
     fn run_reporting(
         &self,
         scene: &Scene,

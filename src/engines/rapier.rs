@@ -409,10 +409,6 @@ impl Engine for RapierEngine {
         "rapier"
     }
 
-    fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
-        self.run_reporting(scene, &|_| {})
-    }
-
     fn run_reporting(
         &self,
         scene: &Scene,
