@@ -20,7 +20,25 @@ pub struct EdgeRow {
 impl EdgeRow {
     #[inline]
     pub fn dot(&self, u: &[f64]) -> f64 {
-        (0..self.len).map(|j| self.coef[j] * u[self.idx[j]]).sum()
+        // A row holds one or two whole bodies; the fixed lengths unroll the same sum, in the
+        // same order, as the general loop.
+        let (c, i) = (&self.coef, &self.idx);
+        match self.len {
+            6 => [
+                c[0] * u[i[0]],
+                c[1] * u[i[1]],
+                c[2] * u[i[2]],
+                c[3] * u[i[3]],
+                c[4] * u[i[4]],
+                c[5] * u[i[5]],
+            ]
+            .into_iter()
+            .sum(),
+            3 => [c[0] * u[i[0]], c[1] * u[i[1]], c[2] * u[i[2]]]
+                .into_iter()
+                .sum(),
+            len => (0..len).map(|j| c[j] * u[i[j]]).sum(),
+        }
     }
     /// `row · diag(w) · other`. A row holds whole bodies, three consecutive DOFs each (B's,
     /// then A's: `assembly::contact_rows`), so rows share DOFs only by sharing a body: the
