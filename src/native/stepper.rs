@@ -214,13 +214,23 @@ fn approaches(
     h: f64,
 ) -> bool {
     let mut worst = 0.0f64;
-    for ((c, (gn, gt, len)), _) in contacts.iter().zip(end).zip(carries).filter(|(_, l)| **l) {
-        let (g_n, g_t) = ground_offsets(c, w);
-        let vn = g_n + row_dot(&gn[..*len], v);
-        let vt = g_t + row_dot(&gt[..*len], v);
+    for ((c, g), _) in contacts.iter().zip(end).zip(carries).filter(|(_, l)| **l) {
+        let (vn, vt) = end_relative_velocity(c, g, w, v);
         worst = worst.max(friction(c) * vt.abs() - vn);
     }
     worst * h > VELOCITY_TOLERANCE
+}
+
+/// The normal and tangential relative velocities `(n·(v - w), t·(v - w))` of a point whose
+/// gradients at the end configuration are `(gn, gt, len)`; `w` the ground's velocity.
+fn end_relative_velocity(
+    c: &ContactPoint,
+    (gn, gt, len): &(Gradient, Gradient, usize),
+    w: (f64, f64),
+    v: &[f64],
+) -> (f64, f64) {
+    let (g_n, g_t) = ground_offsets(c, w);
+    (g_n + row_dot(&gn[..*len], v), g_t + row_dot(&gt[..*len], v))
 }
 
 /// Working storage for the islands of a problem (`native::islands`): their components and
@@ -1829,8 +1839,7 @@ impl Stepper {
                 nrow: SparseRow::from_slice(&gn[..len]),
                 trow: SparseRow::from_slice(&gt[..len]),
             };
-            let vn = r.g_n + row_dot(&r.nrow, &s.v);
-            let vt = r.g_t + row_dot(&r.trow, &s.v);
+            let (vn, vt) = end_relative_velocity(c, g, w, &s.v);
             if !coulomb {
                 let a = mu * vt.abs() - vn;
                 worst = worst.max(a);
