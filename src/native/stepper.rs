@@ -395,6 +395,10 @@ pub struct Stepper {
     /// as it goes on): such a point that leaves its face is free of the cone
     /// (`free_until_it_closes`).
     struck: Vec<u64>,
+    /// Sorted keys of the points that keep their cone though `free_until_it_closes` would free
+    /// them: new impacts left unlocated, while their ordinary sub-step is redone
+    /// (`step_locating`). Empty between steps.
+    under_cone: Vec<u64>,
     /// Non-associative friction (warm start and counters).
     pub coulomb: Coulomb,
     /// Sleeping islands (`native.sleep`, excitation applied as horizontal inertial forces).
@@ -511,6 +515,7 @@ impl Stepper {
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
             struck: Vec::new(),
+            under_cone: Vec::new(),
             coulomb: Coulomb::default(),
             sleep,
             scope: None,
@@ -812,9 +817,17 @@ impl Stepper {
                     g
                 };
                 if self.free_until_it_closes(c, r.key, vn, dt, leaves) {
-                    // Open, or leaving its face: no force before it touches (the gap row
-                    // alone); its closing is located.
-                    r.mu = 0.0;
+                    if self.under_cone.binary_search(&r.key).is_err() {
+                        // Open, or leaving its face: no force before it touches (the gap row
+                        // alone); its closing is located.
+                        r.mu = 0.0;
+                    } else if c.gap > CLOSED_GAP {
+                        // Left unlocated, it closes under its cone anchored where it closes:
+                        // the slip of its approach is no slip on its face. The instant is the
+                        // free motion's closing instant, or the step's end.
+                        let c2 = (leaves() - c.gap - vn * dt) / (dt * dt);
+                        r.g_t -= vt * first_root(c.gap, vn, c2, dt).unwrap_or(dt);
+                    }
                 }
             }
             r
@@ -1079,7 +1092,10 @@ impl Stepper {
     /// exact gap at the trial's end (`closing_instant`), and the impact instant is the smallest
     /// root. From the start: a sub-step to that instant (without the impacting points), a
     /// plastic impact on every closed point and the located ones (`impact`), and the rest of the
-    /// step, located again: up to `native.located_per_step` impacts a step.
+    /// step, located again: up to `native.located_per_step` impacts a step. New impacts left
+    /// over (the cap reached, or no instant found within the step) close at the end of their
+    /// step under their position-level rows with the cone, anchored where each closes: the
+    /// ordinary sub-step, in which they were free of the cone, is redone (`under_cone`).
     fn step_locating(
         &mut self,
         s: &mut NativeState,
@@ -1102,7 +1118,7 @@ impl Stepper {
             s0.clone_from(s);
             // The ordinary sub-step. Its end velocity is settled once it is kept (`unsettled`
             // holds its end gradients until then): a located impact throws it away.
-            let (mut sol, pr, carries, mut unsettled) = match taken.take() {
+            let (mut sol, mut pr, mut carries, mut unsettled) = match taken.take() {
                 Some(t) => {
                     *s = t.state;
                     (t.solution, t.problem, t.closed, t.unsettled)
@@ -1181,6 +1197,41 @@ impl Stepper {
             };
             self.work.start = Some(s0);
             let Some((tau, free)) = tau else {
+                if !fresh.is_empty() {
+                    // New impacts left unlocated (the cap reached, or no instant within the
+                    // step) closed in the ordinary sub-step under the gap row alone, free of
+                    // the cone: the sub-step is redone with their rows under the cone, and again
+                    // with those of any point it closes free of the cone in turn.
+                    let ps = poses(&self.work.start.as_ref().expect("the step's start").q);
+                    let mut closing: Vec<usize> = fresh.clone();
+                    while !closing.is_empty() {
+                        self.under_cone.extend(
+                            closing
+                                .iter()
+                                .map(|&k| contact_rows(&contacts[k], &ps, 0.0, (0.0, 0.0)).key),
+                        );
+                        self.under_cone.sort_unstable();
+                        iterations += sol.iterations;
+                        self.give_back_solution(sol);
+                        self.give_back(pr);
+                        s.clone_from(self.work.start.as_ref().expect("the step's start"));
+                        let redone = self.sub_step(s, &contacts, h, false);
+                        (sol, pr, carries) = match redone {
+                            Ok(r) => r,
+                            Err(e) => {
+                                self.under_cone.clear();
+                                return Err(e);
+                            }
+                        };
+                        unsettled = Some(std::mem::take(&mut self.work.end_gradients));
+                        closing = (0..contacts.len())
+                            .filter(|&k| {
+                                carries[k] && pr.contacts[k].mu < self.bodies.friction(&contacts[k])
+                            })
+                            .collect();
+                    }
+                    self.under_cone.clear();
+                }
                 if let Some(end) = unsettled.take() {
                     self.settle_kept(s, &contacts, &end, &carries, &pr, &mut sol)?;
                     self.work.end_gradients = end;
