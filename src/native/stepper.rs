@@ -824,9 +824,13 @@ impl Stepper {
                     } else if c.gap > CLOSED_GAP {
                         // Left unlocated, it closes under its cone anchored where it closes:
                         // the slip of its approach is no slip on its face. The instant is the
-                        // free motion's closing instant, or the step's end.
+                        // free motion's closing instant, or the step's end. The anchor moves by
+                        // at most `gap / mu`, so that the step's start satisfies the rows: an
+                        // anchor the motion does not reach would lift the point, doing work.
                         let c2 = (leaves() - c.gap - vn * dt) / (dt * dt);
-                        r.g_t -= vt * first_root(c.gap, vn, c2, dt).unwrap_or(dt);
+                        let slip = vt * first_root(c.gap, vn, c2, dt).unwrap_or(dt);
+                        let most = c.gap / r.mu.max(f64::MIN_POSITIVE);
+                        r.g_t -= slip.clamp(-most, most);
                     }
                 }
             }
