@@ -1098,8 +1098,9 @@ impl Stepper {
     /// plastic impact on every closed point and the located ones (`impact`), and the rest of the
     /// step, located again: up to `native.located_per_step` impacts a step. New impacts left
     /// over (the cap reached, or no instant found within the step) close at the end of their
-    /// step under their position-level rows with the cone, anchored where each closes: the
-    /// ordinary sub-step, in which they were free of the cone, is redone (`under_cone`).
+    /// step under their position-level rows with the cone, anchored where each closes (moved by
+    /// at most `gap / mu`): the ordinary sub-step, in which they were free of the cone, is
+    /// redone (`under_cone`).
     fn step_locating(
         &mut self,
         s: &mut NativeState,
