@@ -494,10 +494,11 @@ fn a_running_bond_wall_starts_to_move_at_its_static_collapse_acceleration() {
 /// 4.2 s; by 5 s its strong phase has passed. Its joints open and close by micrometres, more new
 /// impacts a step than the cap locates, and the rest close at the end of their step. The top
 /// course's mean shift, measured: -1.60 / -1.42 mm with impacts at step ends at dt 2.5e-4 /
-/// 1e-3, +2.58 mm located at dt 1e-3 (the located run's plastic hops make it sensitive at the
-/// millimetre level: the whole 5 s run from rest ends at -0.9 mm); +11.71 mm located when the
-/// step kept for those impacts was their ordinary sub-step, in which a point free of the cone
-/// until it closes (`free_until_it_closes`) closed frictionless and the courses slid on it.
+/// 1e-3, -1.69 mm located at dt 1e-3; +11.71 mm located when the step kept for those impacts
+/// was their ordinary sub-step, in which a point free of the cone until it closes
+/// (`free_until_it_closes`) closed frictionless and the courses slid on it, and +2.58 mm when
+/// the redo's cone was anchored where the free motion closes the point without a bound (an
+/// anchor the motion does not reach lifts the point).
 #[test]
 fn a_wall_under_a_record_slides_on_no_frictionless_closing() {
     let mut w = WallSpec::running_bond(10, 6);
