@@ -536,7 +536,7 @@ fn a_wall_under_a_record_slides_on_no_frictionless_closing() {
     );
     assert!(splits > 1000, "{splits} split steps");
     assert!(
-        (located - at_step_ends).abs() < 8e-3,
+        (located - at_step_ends).abs() < 2e-3,
         "top course shifted {located} m located against {at_step_ends} m at step ends"
     );
 }
