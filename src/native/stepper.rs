@@ -1207,14 +1207,11 @@ impl Stepper {
                     // step) closed in the ordinary sub-step under the gap row alone, free of
                     // the cone: the sub-step is redone with their rows under the cone, and again
                     // with those of any point it closes free of the cone in turn.
-                    let ps = poses(&self.work.start.as_ref().expect("the step's start").q);
                     let mut closing: Vec<usize> = fresh.clone();
                     while !closing.is_empty() {
-                        self.under_cone.extend(
-                            closing
-                                .iter()
-                                .map(|&k| contact_rows(&contacts[k], &ps, 0.0, (0.0, 0.0)).key),
-                        );
+                        // The problem's rows are the contacts' in order, with their keys.
+                        self.under_cone
+                            .extend(closing.iter().map(|&k| pr.contacts[k].key));
                         self.under_cone.sort_unstable();
                         iterations += sol.iterations;
                         self.give_back_solution(sol);
