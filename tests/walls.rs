@@ -456,36 +456,48 @@ fn a_running_bond_wall_starts_to_move_at_its_static_collapse_acceleration() {
         lo / g,
         hi / g
     );
-    let pulse = |fraction: f64| {
+    let pulse = |fraction: f64, set: &[&str]| {
         let mut text = w.to_toml();
         text.push_str(&format!(
             "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {}\nduration = 1\nstart = 0\n",
             fraction * hi
         ));
-        scene(&text, &[])
+        scene(&text, set)
     };
-    let below = block_speeds(&pulse(0.99), 200);
+    let below = block_speeds(&pulse(0.99, &[]), 200);
     let fastest = below.iter().copied().fold(0.0, f64::max);
     assert!(
         fastest < 1e-7,
         "at 0.99 of the interval a block moves at {fastest:.3e} m/s"
     );
 
-    let above = block_speeds(&pulse(1.02), 10);
-    let fastest = above.iter().copied().fold(0.0, f64::max);
-    let resting = above.iter().filter(|&&v| v < 1e-6).count();
-    // A mechanism: part of the wall moves and the rest stays at rest (which part, among
-    // mechanisms of the same collapse acceleration, is decided at round-off: a wedge of the
-    // lower courses at the end the load pushes towards, or the upper courses sliding along a
-    // stepped diagonal; the whole wall does not slide on the ground).
-    assert!(fastest > 1e-3, "at 1.02 of the interval: {fastest:.3e} m/s");
-    // Measured: 15 of 65 blocks at rest, the bottom course among them.
-    assert!(
-        resting >= 10 && above[5] < 1e-6,
-        "at 1.02 of the interval {resting} of {} blocks rest, c0b5 moves at {:.3e} m/s",
-        above.len(),
-        above[5]
-    );
+    // Every new impact located (the default), and the slow ones (below 1e-3 m/s, the joints'
+    // chatter) closed at the end of their step: under the cone anchored where they close, as
+    // the impacts left over by `located_per_step` (measured: 16 of 65 blocks at rest, c0b5 at
+    // 1.2e-7 m/s after ten steps, 3e-13 after fifty). Under the cone anchored where the step
+    // starts, with their positive gaps, they let the whole wall creep and the creep grow
+    // (measured: no block at rest, the bottom course at 1.9e-6 m/s after ten steps and 1.5e-5
+    // after fifty), as impacts taken at the end of their step (`locate_impacts = false`) do.
+    for set in [&[][..], &["native.locate_speed=1e-3"][..]] {
+        let above = block_speeds(&pulse(1.02, set), 10);
+        let fastest = above.iter().copied().fold(0.0, f64::max);
+        let resting = above.iter().filter(|&&v| v < 1e-6).count();
+        // A mechanism: part of the wall moves and the rest stays at rest (which part, among
+        // mechanisms of the same collapse acceleration, is decided at round-off: a wedge of the
+        // lower courses at the end the load pushes towards, or the upper courses sliding along
+        // a stepped diagonal; the whole wall does not slide on the ground).
+        assert!(
+            fastest > 1e-3,
+            "{set:?} at 1.02 of the interval: {fastest:.3e} m/s"
+        );
+        // Measured: 15 of 65 blocks at rest, the bottom course among them.
+        assert!(
+            resting >= 10 && above[5] < 1e-6,
+            "{set:?} at 1.02 of the interval {resting} of {} blocks rest, c0b5 moves at {:.3e} m/s",
+            above.len(),
+            above[5]
+        );
+    }
 }
 
 /// A wall in motion under a record: located impacts left beyond `located_per_step` close under

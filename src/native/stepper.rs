@@ -898,8 +898,7 @@ impl Stepper {
     /// the start of a (sub-)step of length `h`; `free_gap` gives its gap at the end of the
     /// step's free motion) is free of the friction cone until it closes, under the associative
     /// law with impacts located:
-    /// - a point that does not touch its face (open, and not located in the last step) and
-    ///   would be located if it closed (approaching at least as fast as `locate_speed`);
+    /// - a point that does not touch its face (open, and not located in the last step);
     /// - a point struck by a located impact in this step or the last that touches its face and
     ///   leaves it: it separates (`vn h > CLOSED_GAP`) and its free motion ends the step open
     ///   (a plastic impact with slip leaves a point at `v_n = mu |v_t|`). A pivot the block
@@ -911,7 +910,11 @@ impl Stepper {
     /// cone, anchored where the step starts, would bear on it once it slid `|slip| >= gap / mu`
     /// (an O(h) force on a point in the air: the two-block case's pedestal hops after its ground
     /// impact came out different at every dt). Its rows have `mu = 0` (the gap alone), and its
-    /// closing is a new impact, located, whose plastic law is the cone.
+    /// closing is a new impact, whose plastic law is the cone: located, or, approaching slower
+    /// than `locate_speed`, closed at the end of its step under the cone anchored where it
+    /// closes (`step_locating`). (Left under the cone anchored where the step starts, such slow
+    /// closings let a wall just above its static collapse acceleration creep where it must
+    /// rest: `tests/walls.rs`, `a_running_bond_wall_starts_to_move_at_its_static_collapse_acceleration`.)
     fn free_until_it_closes(
         &self,
         c: &ContactPoint,
@@ -928,7 +931,7 @@ impl Stepper {
                 && vn * h > CLOSED_GAP
                 && free_gap() > CLOSED_GAP
         } else {
-            (-vn).max(c.gap / h) >= self.settings.locate_speed
+            true
         }
     }
 
@@ -1134,25 +1137,30 @@ impl Stepper {
                     (sol, pr, closed, Some(end))
                 }
             };
-            // New impacts, those slower than `locate_speed` left to the ordinary step.
+            // New impacts: points that did not touch their faces at the start and end closed,
+            // and points that touched them, left them and end closed (`free_until_it_closes`:
+            // their rows had less friction than their interface, i.e. none; a frictionless
+            // interface's points are freed of nothing). Those slower than `locate_speed` are
+            // not located (`timed`): under the associative law they close at the end of the
+            // step under their cone like the impacts left over below; under Coulomb's law,
+            // whose points are never freed, they are no new impact.
             let slowest = self.settings.locate_speed;
             let ps0 = std::cell::OnceCell::new();
-            // Points that touched their faces at the start and left them and end closed are
-            // new impacts too (`free_until_it_closes`: their rows had less friction than their
-            // interface, i.e. none; a frictionless interface's points are freed of nothing).
             let touched = |k: usize| self.touches(&contacts[k], pr.contacts[k].key);
-            let left =
-                |k: usize| touched(k) && pr.contacts[k].mu < self.bodies.friction(&contacts[k]);
+            let freed = |k: usize| pr.contacts[k].mu < self.bodies.friction(&contacts[k]);
+            let fast = |k: usize| {
+                slowest <= 0.0 || {
+                    let ps = ps0.get_or_init(|| poses(&s0.q));
+                    self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
+                }
+            };
             let fresh: Vec<usize> = (0..contacts.len())
-                .filter(|&k| {
-                    carries[k]
-                        && ((!touched(k)
-                            && (slowest <= 0.0 || {
-                                let ps = ps0.get_or_init(|| poses(&s0.q));
-                                self.approach_speed(&contacts[k], ps, &s0, h) >= slowest
-                            }))
-                            || left(k))
-                })
+                .filter(|&k| carries[k] && (freed(k) || (!touched(k) && fast(k))))
+                .collect();
+            let timed: Vec<usize> = fresh
+                .iter()
+                .copied()
+                .filter(|&k| touched(k) || fast(k))
                 .collect();
             if round == 0 && per_island && !fresh.is_empty() {
                 // `self.loaded` is still the last step's: only the rounds below change it.
@@ -1172,7 +1180,7 @@ impl Stepper {
                     return Ok(sol);
                 }
             }
-            let tau = if fresh.is_empty() || round == rounds {
+            let tau = if timed.is_empty() || round == rounds {
                 None
             } else {
                 let after_ordinary = s.clone();
@@ -1187,7 +1195,7 @@ impl Stepper {
                 self.give_back(trial_problem);
                 iterations += trial.iterations;
                 self.give_back_solution(trial);
-                let found = self.closing_instant(&s0, s, &contacts, &fresh, h);
+                let found = self.closing_instant(&s0, s, &contacts, &timed, h);
                 let tau = found.filter(|&tau| tau < h - END_OF_STEP * dt);
                 self.end_of_step_instants += u64::from(found.is_some() && tau.is_none());
                 if tau.is_none() {
