@@ -2,8 +2,8 @@
 //! 0.6 x 0.25 m blocks, 21 per course (half blocks at the ends of odd courses), under El Centro
 //! 1940 scaled by 2, run by the native engine (default settings) and rapier one after the
 //! other. Per wall: blocks, blocks set in motion (largest speed above 1e-3 m/s at some sample),
-//! overturned blocks, wall time, per-step time, solver iterations, factorisations and Clarabel
-//! fallbacks (native). Below the table, how each engine's cost a step grows with the number of
+//! overturned blocks, wall time, per-step time, solver iterations, factorisations, Clarabel
+//! fallbacks, interior-point rescues and located impacts a step (native). Below the table, how each engine's cost a step grows with the number of
 //! blocks and with the number of blocks in motion (`rockbench::loglog`: the log-log slope fitted
 //! with its standard error, end to end and between neighbouring walls; also `growth.csv`), and
 //! each wall's cost over the last engine's
@@ -37,7 +37,8 @@
 //! (`--sleep true`, `--island-impacts false` and `--locate-impacts false` run the native engine
 //! with `native.sleep = true`, `native.island_impacts = false` and
 //! `native.locate_impacts = false`: the last takes every impact at the end of its step, the
-//! cost of a moving wall's step without its located impacts; docs/method.md). `--native-dt`
+//! cost of a moving wall's step without its located impacts; docs/method.md; `--locate-speed V`
+//! sets `native.locate_speed`, below which new contacts are not located). `--native-dt`
 //! sets `native.dt` (rapier keeps its own step): the per-step figures of a finer step, whose
 //! cost per simulated second is theirs times `1e-3 / dt`.
 
@@ -56,10 +57,11 @@ use std::time::{Duration, Instant};
 const USAGE: &str = "cargo run --release --example bench_dynamic -- \
 [--courses 2,5,10,20,40 | --gallery N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
 [--ground-friction 0.5] [--engines native,rapier] [--sleep false] [--island-impacts true] \
-[--locate-impacts true] [--native-dt 1e-3] [--budget 600] [--out out/bench-dynamic]";
+[--locate-impacts true] [--locate-speed 0] [--native-dt 1e-3] [--budget 600] \
+[--out out/bench-dynamic]";
 
 /// The flags of `USAGE`, each followed by its value.
-const FLAGS: [&str; 13] = [
+const FLAGS: [&str; 14] = [
     "--courses",
     "--gallery",
     "--duration",
@@ -70,6 +72,7 @@ const FLAGS: [&str; 13] = [
     "--sleep",
     "--island-impacts",
     "--locate-impacts",
+    "--locate-speed",
     "--native-dt",
     "--budget",
     "--out",
@@ -123,8 +126,8 @@ fn flag(args: &[String], name: &str, default: bool) -> anyhow::Result<bool> {
         .with_context(|| format!("{name}: must be true or false"))
 }
 
-/// `N` from the first note's "N steps fell back to Clarabel" / "N factorisations" / "N rows
-/// updated into or out of a factor" / "N interior-point rescues".
+/// `N` from the first note's "N split at a located impact" / "N steps fell back to Clarabel" /
+/// "N factorisations" / "N rows updated into or out of a factor" / "N interior-point rescues".
 fn count_before(notes: &[String], what: &str) -> Option<u64> {
     let n = notes.first()?;
     let i = n.find(what)?;
@@ -143,6 +146,8 @@ struct Measured {
     factor_updates: Option<u64>,
     fallbacks: Option<u64>,
     rescues: Option<u64>,
+    /// Steps split at a located impact (a step splits once per impact located in it).
+    split_steps: Option<u64>,
 }
 
 /// Run `engine` on the scene at `path` (in the child process).
@@ -170,6 +175,7 @@ fn measure(path: &Path, engine: &str) -> anyhow::Result<Measured> {
         factor_updates: count_before(&o.notes, " rows updated into or out of a factor"),
         fallbacks: count_before(&o.notes, " steps fell back to Clarabel"),
         rescues: count_before(&o.notes, " interior-point rescues"),
+        split_steps: count_before(&o.notes, " split at a located impact"),
     })
 }
 
@@ -278,6 +284,10 @@ fn main() -> anyhow::Result<()> {
     let sleep = flag(&args, "--sleep", false)?;
     let island_impacts = flag(&args, "--island-impacts", true)?;
     let locate_impacts = flag(&args, "--locate-impacts", true)?;
+    let locate_speed = optional_number(&args, "--locate-speed")?;
+    if let Some(v) = locate_speed.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+        bail!("--locate-speed: must be a speed in m/s, zero or more (got {v})");
+    }
     let native_dt = optional_number(&args, "--native-dt")?;
     if let Some(dt) = native_dt.filter(|dt| !(dt.is_finite() && *dt > 0.0)) {
         bail!("--native-dt: must be a positive time step in seconds (got {dt})");
@@ -297,7 +307,7 @@ fn main() -> anyhow::Result<()> {
         ("courses", "Walls in motion")
     };
     let mut csv = format!(
-        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,factor_updates_per_step,fallbacks,rescues\n",
+        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,factor_updates_per_step,fallbacks,rescues,splits_per_step\n",
     );
     let mut loading = match pulse {
         Some(g) => format!("a rectangular pulse of {g} g from 0 s"),
@@ -307,8 +317,9 @@ fn main() -> anyhow::Result<()> {
         let _ = write!(loading, ", ground friction {f}");
     }
     let mut md = format!(
-        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, native.locate_speed {}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues | located impacts/step |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         native_dt.map_or("1e-3".to_string(), |dt| dt.to_string()),
+        locate_speed.unwrap_or(0.0),
         budget.as_secs_f64()
     );
     let record_as_written = Some((record.display().to_string(), scale));
@@ -357,13 +368,21 @@ fn main() -> anyhow::Result<()> {
     let mut measured: Vec<Finished> = Vec::new();
     for (n, c, file, mut text) in series {
         let path = out.join("scenes").join(file);
-        if sleep || !island_impacts || !locate_impacts || native_dt.is_some() {
+        if sleep
+            || !island_impacts
+            || !locate_impacts
+            || native_dt.is_some()
+            || locate_speed.is_some()
+        {
             let _ = write!(
                 text,
                 "\n[native]\nsleep = {sleep}\nisland_impacts = {island_impacts}\nlocate_impacts = {locate_impacts}\n"
             );
             if let Some(dt) = native_dt {
                 let _ = writeln!(text, "dt = {dt:e}");
+            }
+            if let Some(v) = locate_speed {
+                let _ = writeln!(text, "locate_speed = {v:e}");
             }
         }
         std::fs::write(&path, text)?;
@@ -409,24 +428,26 @@ fn main() -> anyhow::Result<()> {
                     let rescues = m.rescues.map_or("-".to_string(), |f| f.to_string());
                     let _ = writeln!(
                         csv,
-                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{},{fallbacks},{rescues}",
+                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{},{fallbacks},{rescues},{}",
                         m.moving,
                         m.overturned,
                         m.wall_s,
                         m.steps,
                         per(m.iterations),
                         per(m.factorisations),
-                        per(m.factor_updates)
+                        per(m.factor_updates),
+                        per(m.split_steps)
                     );
                     let _ = writeln!(
                         md,
-                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {} | {fallbacks} | {rescues} |",
+                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {} | {fallbacks} | {rescues} | {} |",
                         m.moving,
                         m.overturned,
                         m.wall_s,
                         per(m.iterations),
                         per(m.factorisations),
-                        per(m.factor_updates)
+                        per(m.factor_updates),
+                        per(m.split_steps)
                     );
                     println!(
                         "{n} blocks, {e}: {ms:.3} ms/step, {} in motion, {} overturned, fallbacks {fallbacks}",
@@ -435,8 +456,8 @@ fn main() -> anyhow::Result<()> {
                 }
                 Ok(None) => {
                     let s = budget.as_secs_f64();
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,not finished in {s} s");
-                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s |||||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,,not finished in {s} s");
+                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s ||||||||||");
                     println!("{n} blocks, {e}: not finished in {s} s");
                 }
                 Err(err) => {
