@@ -250,7 +250,9 @@ bench-steps:
 # sliding from the first step (a rectangular pulse of 0.8 g, ten steps): the walls in motion;
 # "--ground-friction 0.5" lowers the ground's friction below the joints'; "--locate-impacts false"
 # takes every impact at the end of its step (native.locate_impacts = false; docs/method.md);
-# "--native-dt 2.5e-4" sets native.dt (rapier keeps its own step).
+# "--locate-speed 9.81e-4" leaves new contacts slower than that to the end of their step
+# (native.locate_speed; the tables count the impacts located a step); "--native-dt 2.5e-4" sets
+# native.dt (rapier keeps its own step).
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)
