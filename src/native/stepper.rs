@@ -1143,7 +1143,7 @@ impl Stepper {
             // interface's points are freed of nothing). Those slower than `locate_speed` are
             // not located (`timed`): under the associative law they close at the end of the
             // step under their cone like the impacts left over below; under Coulomb's law,
-            // whose points are never freed, they are no new impact.
+            // whose points are never freed, they are not new impacts.
             let slowest = self.settings.locate_speed;
             let ps0 = std::cell::OnceCell::new();
             let touched = |k: usize| self.touches(&contacts[k], pr.contacts[k].key);
