@@ -894,6 +894,12 @@ impl Stepper {
         c.gap <= CLOSED_GAP || self.loaded.binary_search(&key).is_ok()
     }
 
+    /// Whether a point's rows `r` (of the point detected as `c`) were freed of its friction cone
+    /// (`free_until_it_closes`): they have less friction than its interface, i.e. none.
+    fn freed_of_cone(&self, r: &ContactRows, c: &ContactPoint) -> bool {
+        r.mu < self.bodies.friction(c)
+    }
+
     /// Whether a point (detected as `c`, its rows' key `key`, normal relative velocity `vn` at
     /// the start of a (sub-)step of length `h`; `free_gap` gives its gap at the end of the
     /// step's free motion) is free of the friction cone until it closes, under the associative
@@ -1100,7 +1106,8 @@ impl Stepper {
     /// root. From the start: a sub-step to that instant (without the impacting points), a
     /// plastic impact on every closed point and the located ones (`impact`), and the rest of the
     /// step, located again: up to `native.located_per_step` impacts a step. New impacts left
-    /// over (the cap reached, or no instant found within the step) close at the end of their
+    /// over (the cap reached, no instant found within the step, or slower than
+    /// `native.locate_speed`) close at the end of their
     /// step under their position-level rows with the cone, anchored where each closes (moved by
     /// at most `gap / mu`): the ordinary sub-step, in which they were free of the cone, is
     /// redone (`under_cone`).
@@ -1147,7 +1154,7 @@ impl Stepper {
             let slowest = self.settings.locate_speed;
             let ps0 = std::cell::OnceCell::new();
             let touched = |k: usize| self.touches(&contacts[k], pr.contacts[k].key);
-            let freed = |k: usize| pr.contacts[k].mu < self.bodies.friction(&contacts[k]);
+            let freed = |k: usize| self.freed_of_cone(&pr.contacts[k], &contacts[k]);
             let fast = |k: usize| {
                 slowest <= 0.0 || {
                     let ps = ps0.get_or_init(|| poses(&s0.q));
@@ -1211,8 +1218,9 @@ impl Stepper {
             self.work.start = Some(s0);
             let Some((tau, free)) = tau else {
                 if !fresh.is_empty() {
-                    // New impacts left unlocated (the cap reached, or no instant within the
-                    // step) closed in the ordinary sub-step under the gap row alone, free of
+                    // New impacts left unlocated (the cap reached, no instant within the step,
+                    // or slower than `locate_speed`) closed in the ordinary sub-step under the
+                    // gap row alone, free of
                     // the cone: the sub-step is redone with their rows under the cone, and again
                     // with those of any point it closes free of the cone in turn.
                     let mut closing: Vec<usize> = fresh.clone();
@@ -1236,7 +1244,7 @@ impl Stepper {
                         unsettled = Some(std::mem::take(&mut self.work.end_gradients));
                         closing = (0..contacts.len())
                             .filter(|&k| {
-                                carries[k] && pr.contacts[k].mu < self.bodies.friction(&contacts[k])
+                                carries[k] && self.freed_of_cone(&pr.contacts[k], &contacts[k])
                             })
                             .collect();
                     }
