@@ -1,33 +1,43 @@
 //! Diagnostics: step a scene with the native engine and print per-step cost and counters.
-//! `cargo run --release --example wall_steps -- SCENE [STEPS] [--set K=V ...]`
+//! `cargo run --release --example wall_steps -- SCENE [STEPS] [--every N] [--set K=V ...]`
+//! (a line every `N` steps, 100 by default)
 use rockbench::native::stepper_for;
 use rockbench::scene::load_scene_with_overrides;
 use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let path = std::path::PathBuf::from(&args[0]);
+    let Some(path) = args.first().map(std::path::PathBuf::from) else {
+        eprintln!("usage: wall_steps SCENE [STEPS] [--every N] [--set K=V ...]");
+        std::process::exit(2);
+    };
     let steps: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000);
     let sets: Vec<String> = args
         .windows(2)
         .filter(|w| w[0] == "--set")
         .map(|w| w[1].clone())
         .collect();
+    let every: u64 = args
+        .windows(2)
+        .find(|w| w[0] == "--every")
+        .and_then(|w| w[1].parse().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(100);
     let scene = load_scene_with_overrides(&path, &sets).unwrap();
     let (mut st, mut s) = stepper_for(&scene).unwrap();
     let t0 = Instant::now();
     let mut last = (0u64, 0u64, 0u64, Instant::now());
     for k in 1..=steps {
         st.step(&mut s).unwrap();
-        if k % 100 == 0 {
+        if k % every == 0 {
             let now = Instant::now();
             println!(
                 "{:5} t={:.2} {:7.3} ms/step it/step {:6.1} fact/step {:5.2} fallbacks {} rescues {} vmax {:.3e}",
                 k,
                 s.t,
-                (now - last.3).as_secs_f64() * 1e3 / 100.0,
-                (st.iterations - last.0) as f64 / 100.0,
-                (st.solver_factorisations() - last.1) as f64 / 100.0,
+                (now - last.3).as_secs_f64() * 1e3 / every as f64,
+                (st.iterations - last.0) as f64 / every as f64,
+                (st.solver_factorisations() - last.1) as f64 / every as f64,
                 st.solver_fallbacks() - last.2,
                 st.solver_rescues(),
                 s.v.iter().fold(0.0f64, |m, v| m.max(v.abs()))
