@@ -239,7 +239,18 @@ fn islands_give_the_answer_of_the_whole_problem() {
 /// The 215-block running-bond wall under a rectangular pulse of 0.8 g for 0.3 s (above its
 /// friction coefficient, 0.7: the wall slides on the ground), with the settings `set`.
 fn the_215_block_wall_under_a_pulse(set: &[&str]) -> Scene {
+    the_215_block_wall_under_a_pulse_on(None, set)
+}
+
+/// [`the_215_block_wall_under_a_pulse`], with the bottom course's interfaces with the ground at
+/// `base_friction` if given.
+fn the_215_block_wall_under_a_pulse_on(base_friction: Option<f64>, set: &[&str]) -> Scene {
     let mut text = WallSpec::running_bond(10, 21).to_toml();
+    if let Some(mu) = base_friction {
+        for b in 0..21 {
+            text.push_str(&format!("\n[contact.interfaces.c0b{b}]\nfriction = {mu}\n"));
+        }
+    }
     text.push_str(
         "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = 7.848\nduration = 0.3\n",
     );
@@ -356,14 +367,7 @@ fn reused_rescues_give_the_solutions_of_solves_afresh() {
 /// last rescue held; solved a second time, drifted, each step's problem is.
 #[test]
 fn a_rescues_held_rows_are_tried_only_within_its_step() {
-    let mut text = WallSpec::running_bond(10, 21).to_toml();
-    for b in 0..21 {
-        text.push_str(&format!("\n[contact.interfaces.c0b{b}]\nfriction = 0.5\n"));
-    }
-    text.push_str(
-        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = 7.848\nduration = 0.3\n",
-    );
-    let s = scene(&text, &["native.locate_impacts=false"]);
+    let s = the_215_block_wall_under_a_pulse_on(Some(0.5), &["native.locate_impacts=false"]);
     let (mut stepper, mut state) = stepper_for(&s).unwrap();
     let (mut across, mut within) = (SparseSolver::new(), SparseSolver::new());
     for _ in 0..10 {
