@@ -830,7 +830,8 @@ impl SparseSolver {
     /// alternately) until `MAX_NEWTON` runs out. Measured (`wall_steps`, ten steps of the 0.8 g
     /// pulse; docs/method.md, "A rigidly sliding wall"): the 215-block wall sliding as one piece
     /// (its base at friction 0.5) 274 -> 247 factorisations and 11.1 -> 7.8 ms a step at step
-    /// ends, 216 -> 195 and 9.2 -> 6.5 ms located; the sliding walls of 215 / 430 / 860 blocks
+    /// ends, 216 -> 195 and 9.2 -> 6.5 ms located; the located sliding 107-block wall 45.0 ->
+    /// 27.3 factorisations and 8.8 -> 5.1 ms a step; the sliding walls of 215 / 430 / 860 blocks
     /// at step ends and the located 215-block wall the same factorisations.
     fn solve_holding_rescued(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let start = self.u.clone();
