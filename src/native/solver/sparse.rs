@@ -827,12 +827,13 @@ impl SparseSolver {
     /// sub-step from the same instant) is tried so: the next step's rows can have the same
     /// keys, but the rows the rescue held no longer match its solution, and there the Newton
     /// steps with them zigzag (the exact line search stretching them 1.5 to 2.9 times,
-    /// alternately) until `MAX_NEWTON` runs out. Measured (`wall_steps`, ten steps of the 0.8 g
-    /// pulse; docs/method.md, "A rigidly sliding wall"): the 215-block wall sliding as one piece
-    /// (its base at friction 0.5) 274 -> 247 factorisations and 11.1 -> 7.8 ms a step at step
-    /// ends, 216 -> 195 and 9.2 -> 6.5 ms located; the located sliding 107-block wall 45.0 ->
-    /// 27.3 factorisations and 8.8 -> 5.1 ms a step; the sliding walls of 215 / 430 / 860 blocks
-    /// at step ends and the located 215-block wall the same factorisations.
+    /// alternately, up to 4.1 in the first steps) until `MAX_NEWTON` runs out. Measured
+    /// (`wall_steps`, ten steps of the 0.8 g pulse; docs/method.md, "A rigidly sliding wall"):
+    /// the 215-block wall sliding as one piece (its base at friction 0.5) 274 -> 247
+    /// factorisations and 11.1 -> 7.8 ms a step at step ends, 216 -> 195 and 9.2 -> 6.5 ms
+    /// located; the located sliding 107-block wall 45.0 -> 27.3 factorisations and 8.8 -> 5.1 ms
+    /// a step; the sliding walls of 215 / 430 / 860 blocks at step ends and the located
+    /// 215-block wall the same factorisations.
     fn solve_holding_rescued(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let start = self.u.clone();
         self.hold_rescued = true;
