@@ -101,7 +101,11 @@ impl Trajectory {
     }
 
     pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+        self.write_csv_to(std::io::BufWriter::new(std::fs::File::create(path)?))
+    }
+
+    /// The CSV of [`Trajectory::write_csv`], written to `w`.
+    pub fn write_csv_to(&self, mut w: impl Write) -> std::io::Result<()> {
         writeln!(w, "{}", self.header().join(","))?;
         for k in 0..self.t.len() {
             write!(w, "{:e}", self.t[k])?;
@@ -196,9 +200,8 @@ mod tests {
                 [0.1, 0.2, 0.3, 0.4, 0.5, 0.6],
             ],
         );
-        let dir = std::env::temp_dir().join(format!("rb-traj-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("t.csv");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
         tr.write_csv(&p).unwrap();
         assert_eq!(Trajectory::read_csv(&p).unwrap(), tr);
     }

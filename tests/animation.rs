@@ -8,10 +8,10 @@ mod common;
 
 use common::{bin, root, run_ok};
 use rockbench::trajectory::Trajectory;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("rb-anim", name)
 }
 
@@ -306,7 +306,6 @@ fn the_report_animates_the_blocks_where_the_trajectory_puts_them() {
         "verdict cells above the fold: {cells} pixels"
     );
     eprintln!("chromium checks: {:.1} s", t0.elapsed().as_secs_f64());
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// `rockbench animate` on two `rockbench run` outputs: one page, the first run solid, a GIF.
@@ -391,5 +390,4 @@ fn animate_draws_runs_made_with_run() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("--video"), "{err}");
-    let _ = std::fs::remove_dir_all(&out);
 }

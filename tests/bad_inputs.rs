@@ -2,6 +2,8 @@
 //! `rockbench check` and must fail with exactly one line on stderr that names the file, the
 //! field and the problem, with a non-zero exit and no panic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -131,7 +133,7 @@ fn templates_of_the_catalogue_are_valid() {
         assert!(out.stderr.is_empty());
     }
     // The one-block template with a good CSV record is valid too.
-    let tmp = std::env::temp_dir().join(format!("rb-bad-template-{}", std::process::id()));
+    let tmp = common::tmp("rb-bad", "template");
     std::fs::create_dir_all(tmp.join("records")).unwrap();
     std::fs::copy(dir().join("records/good.csv"), tmp.join("records/good.csv")).unwrap();
     let text = "name = \"ok\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n\n[excitation.horizontal]\nkind = \"record\"\nfile = \"records/good.csv\"\n";
@@ -142,7 +144,6 @@ fn templates_of_the_catalogue_are_valid() {
         .output()
         .unwrap();
     assert!(out.status.success(), "{:?}", out);
-    std::fs::remove_dir_all(&tmp).ok();
 }
 
 /// `--set` reaches into arrays: `blocks[1].density` changes the second block only, and the

@@ -5,9 +5,9 @@ mod common;
 
 use common::{bin, root, run_ok};
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("rb-cmp", name)
 }
 
@@ -139,8 +139,6 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
     // The upper block's first crossing on its pedestal (VALIDATION.md: ~0.615 s).
     let t1: f64 = first[4].parse().unwrap();
     assert!((t1 - 0.615).abs() < 0.01, "{t1}");
-    let _ = std::fs::remove_dir_all(&out);
-    let _ = std::fs::remove_dir_all(&out2);
 }
 
 #[test]
@@ -204,5 +202,4 @@ fn slender_report_renders_in_headless_chromium() {
     assert!((reference - 0.4674).abs() < 1e-4, "{reference}");
 
     common::assert_report_renders(&out);
-    let _ = std::fs::remove_dir_all(&out);
 }

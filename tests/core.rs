@@ -1,6 +1,8 @@
 //! The core's acceptance checks: Housner's numbers, the native engine against Housner,
 //! primal against dual, the paper's two-block case, and the two excitation routes.
 
+mod common;
+
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::native::solver::{ClarabelSolver, ContactSolver};
 use rockbench::native::{Formulation, stepper_for};
@@ -224,8 +226,7 @@ fn inertial_forces_and_moving_ground_give_the_same_rotation() {
 /// A prescribed displacement history (support movement) through both routes.
 #[test]
 fn displacement_history_gives_the_same_rotation_through_both_routes() {
-    let dir = std::env::temp_dir().join(format!("rb-disp-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::tmp("rb-disp", "record");
     // d(t) of a half-sine acceleration pulse of 6 m/s^2 over 0.3 s, sampled every 1 ms.
     let (amp, dur) = (6.0f64, 0.3f64);
     let mut csv = String::from("time,displacement\n");

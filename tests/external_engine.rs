@@ -4,6 +4,8 @@
 //! are tested from Python: tests/python/.)
 #![cfg(unix)]
 
+mod common;
+
 use rockbench::engines::external::ExternalEngine;
 use rockbench::engines::{Engine, EngineError, run_timed};
 use rockbench::scene::{Scene, load_scene_with_overrides};
@@ -18,21 +20,17 @@ fn short_scene(extra: &[&str]) -> Scene {
     load_scene_with_overrides(Path::new("validation/scenes/housner-slender.toml"), &o).unwrap()
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rb-ext-test-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// An executable stand-in for the interpreter. `$out` is the worker's `--out` directory.
-fn fake_python(name: &str, body: &str) -> PathBuf {
-    let path = scratch(name).join("python");
+/// An executable stand-in for the interpreter, in a scratch directory that lives as long as
+/// the directory returned with it. `$out` is the worker's `--out` directory.
+fn fake_python(name: &str, body: &str) -> (common::TmpDir, PathBuf) {
+    let dir = common::tmp("rb-ext-test", name);
+    let path = dir.join("python");
     let script = format!(
         "#!/bin/sh\nwhile [ $# -gt 0 ]; do case \"$1\" in --out) out=\"$2\"; shift;; esac; shift; done\n{body}\n"
     );
     std::fs::write(&path, script).unwrap();
     std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
-    path
+    (dir, path)
 }
 
 const HEADER: &str = "t,block_x,block_z,block_phi,block_vx,block_vz,block_omega";
@@ -74,7 +72,7 @@ fn failure(r: Result<impl std::fmt::Debug, EngineError>) -> String {
 
 #[test]
 fn a_well_behaved_worker_is_read_back_and_its_events_computed_here() {
-    let py = fake_python("ok", &good_outputs(11, None));
+    let (_scratch, py) = fake_python("ok", &good_outputs(11, None));
     let (out, summary) = run_timed(&engine(&py), &short_scene(&[])).unwrap();
     assert_eq!(out.trajectory.len(), 11);
     assert_eq!(summary.engine_version, "stand-in 1.0");
@@ -88,7 +86,7 @@ fn a_well_behaved_worker_is_read_back_and_its_events_computed_here() {
 
 #[test]
 fn a_crashing_worker_is_a_failed_run_with_its_last_error_line() {
-    let py = fake_python(
+    let (_scratch, py) = fake_python(
         "crash",
         "echo 'Traceback (most recent call last):' >&2\necho 'mujoco: RuntimeError: boom' >&2\nexit 1",
     );
@@ -101,7 +99,7 @@ fn a_crashing_worker_is_a_failed_run_with_its_last_error_line() {
 
 #[test]
 fn a_hanging_worker_is_killed_at_the_timeout() {
-    let py = fake_python("hang", "exec sleep 30");
+    let (_scratch, py) = fake_python("hang", "exec sleep 30");
     let start = Instant::now();
     let m = failure(engine(&py).run(&short_scene(&["mujoco.timeout=0.5"])));
     let took = start.elapsed();
@@ -112,10 +110,10 @@ fn a_hanging_worker_is_killed_at_the_timeout() {
 
 #[test]
 fn a_worker_killed_mid_run_is_a_failed_run_and_the_harness_goes_on() {
-    let dir = scratch("killed");
+    let dir = common::tmp("rb-ext-test", "killed");
     let pidfile = dir.join("pid");
     let _ = std::fs::remove_file(&pidfile);
-    let py = fake_python("killed", "echo $$ > \"$PIDFILE\"\nexec sleep 30");
+    let (_scratch, py) = fake_python("killed", "echo $$ > \"$PIDFILE\"\nexec sleep 30");
     let eng = engine(&py).with_env("PIDFILE", pidfile.to_str().unwrap());
     let scene = short_scene(&[]);
     let worker = std::thread::spawn(move || eng.run(&scene));
@@ -137,20 +135,20 @@ fn a_worker_killed_mid_run_is_a_failed_run_and_the_harness_goes_on() {
     let m = failure(worker.join().unwrap());
     assert!(m.contains("killed by signal 9"), "{m}");
     // The harness goes on: the next run works.
-    let py = fake_python("after-kill", &good_outputs(11, None));
+    let (_scratch, py) = fake_python("after-kill", &good_outputs(11, None));
     assert!(engine(&py).run(&short_scene(&[])).is_ok());
 }
 
 #[test]
 fn a_nan_in_the_trajectory_is_a_failed_run() {
-    let py = fake_python("nan", &good_outputs(11, Some(7)));
+    let (_scratch, py) = fake_python("nan", &good_outputs(11, Some(7)));
     let m = failure(engine(&py).run(&short_scene(&[])));
     assert!(m.contains("NaN"), "{m}");
 }
 
 #[test]
 fn a_trajectory_that_stops_early_is_a_failed_run() {
-    let py = fake_python("short", &good_outputs(6, None));
+    let (_scratch, py) = fake_python("short", &good_outputs(6, None));
     let m = failure(engine(&py).run(&short_scene(&[])));
     assert!(m.contains("truncated") && m.contains("0.005"), "{m}");
 }
@@ -161,7 +159,7 @@ fn a_trajectory_cut_mid_line_is_a_failed_run_naming_the_line() {
         "{}\nprintf '0.011,0,1.2' >> \"$out/trajectory.csv\"",
         good_outputs(11, None)
     );
-    let py = fake_python("cut", &body);
+    let (_scratch, py) = fake_python("cut", &body);
     let m = failure(engine(&py).run(&short_scene(&[])));
     assert!(m.contains("line 13"), "{m}");
 }
@@ -169,7 +167,7 @@ fn a_trajectory_cut_mid_line_is_a_failed_run_naming_the_line() {
 #[test]
 fn a_missing_summary_is_a_failed_run() {
     let body = format!("{}\nrm \"$out/summary.json\"", good_outputs(11, None));
-    let py = fake_python("nosummary", &body);
+    let (_scratch, py) = fake_python("nosummary", &body);
     let m = failure(engine(&py).run(&short_scene(&[])));
     assert!(m.contains("summary.json"), "{m}");
 }
@@ -182,7 +180,7 @@ fn a_missing_interpreter_says_how_to_install_it() {
 
 #[test]
 fn a_python_without_rockbench_says_how_to_install_it() {
-    let py = fake_python(
+    let (_scratch, py) = fake_python(
         "nomodule",
         "echo '/usr/bin/python3: Error while finding module specification for '\\''rockbench.worker'\\'' (ModuleNotFoundError: No module named '\\''rockbench'\\'')' >&2\nexit 1",
     );
@@ -192,7 +190,7 @@ fn a_python_without_rockbench_says_how_to_install_it() {
 
 #[test]
 fn a_bad_timeout_setting_names_the_field() {
-    let py = fake_python("badtimeout", &good_outputs(11, None));
+    let (_scratch, py) = fake_python("badtimeout", &good_outputs(11, None));
     match engine(&py).run(&short_scene(&["mujoco.timeout=-1"])) {
         Err(EngineError::Scene(e)) => assert_eq!(e.field, "mujoco.timeout", "{e}"),
         other => panic!("expected a scene error, got {other:?}"),

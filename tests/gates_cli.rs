@@ -1,18 +1,15 @@
 //! `rockbench gate`: failing and passing gates, known failures, JUnit XML, the run cache and
 //! one-line errors for bad gate files.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::root;
+
+use std::path::Path;
 use std::process::{Command, Output};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rb-gate-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> common::TmpDir {
+    common::tmp("rb-gate", name)
 }
 
 fn slender() -> String {
@@ -99,7 +96,6 @@ fn impossible_tolerance_fails_names_the_gate_and_the_rerun_is_cached() {
     );
     let (_, so3, _) = gate(&dir, &changed);
     assert!(so3.contains("0 from the cache, 2 run now"), "{so3}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -130,7 +126,6 @@ fn known_failures_pass_while_failing_and_fail_when_they_start_passing() {
         se.contains("now-fixed") && se.contains("unexpected pass"),
         "{se}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -184,7 +179,6 @@ fn bad_gate_files_are_one_line_naming_the_field() {
             "want {field}: {se}"
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

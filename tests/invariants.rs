@@ -1,6 +1,8 @@
 //! The invariant checks: they hold on the engines' runs of the validation scenes, and each one
 //! fails on a trajectory broken in the way it is meant to catch.
 
+mod common;
+
 use rockbench::engines::{Engine, engine_by_name};
 use rockbench::invariants::*;
 use rockbench::scene::{Scene, load_scene_with_overrides};
@@ -230,8 +232,7 @@ fn standing_applies_only_to_statically_stable_scenes() {
 
 #[test]
 fn an_overhanging_block_is_not_standing_and_falls() {
-    let dir = std::env::temp_dir().join(format!("rb-overhang-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::tmp("rb-overhang", "scene");
     let p = dir.join("overhang.toml");
     std::fs::write(
         &p,
@@ -248,7 +249,6 @@ fn an_overhanging_block_is_not_standing_and_falls() {
         "{:?}",
         t.blocks[1].phi.last()
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A small block (H = 0.05 m, H/B = 2.5: p = 16.5 1/s) rocking freely for 4 s, as in the
@@ -330,7 +330,8 @@ fn mirror_check_measures_the_round_off_amplification_of_chattering_contacts() {
 /// within round-off.
 #[test]
 fn stress_exits_on_a_broken_contract_only() {
-    let out = std::env::temp_dir().join(format!("rb-stress-contract-{}", std::process::id()));
+    let scratch = common::tmp("rb-stress", "contract");
+    let out = scratch.join("out");
     let run = |extra: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_rockbench"))
             .args([
@@ -383,5 +384,4 @@ fn stress_exits_on_a_broken_contract_only() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("--contract rapier.nope=1"), "{err}");
-    let _ = std::fs::remove_dir_all(&out);
 }

@@ -3,18 +3,18 @@
 //! without the interpreter these tests fail with a message naming `make siconos`.
 #![cfg(unix)]
 
+mod common;
+
+use common::root;
+
 use rockbench::engines::external::ExternalEngine;
 use rockbench::engines::siconos::{
     DEFAULT_STEP as SICONOS_DEFAULT_STEP, WORKER_SCRIPT as SICONOS_WORKER,
 };
 use rockbench::engines::{Engine, EngineError, engine_by_name};
 use rockbench::scene::load_scene_with_overrides;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The Siconos interpreter, or a failure saying how to make it.
 fn require_siconos() {
@@ -35,11 +35,8 @@ fn require_siconos() {
     );
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rb-siconos-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> common::TmpDir {
+    common::tmp("rb-siconos", name)
 }
 
 /// `(value, reference)` of a metric of block `block` of engine `siconos`.
@@ -117,7 +114,6 @@ fn agrees_with_housner(scene: &str) {
         );
     }
     assert_eq!(summary["settings"]["step"], SICONOS_DEFAULT_STEP);
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]

@@ -198,8 +198,7 @@ fn a_wall_loaded_below_its_static_collapse_acceleration_stays_at_rest() {
 /// of 0.3 g from 0.2 s leaves that at its start.
 #[test]
 fn check_prints_the_rest_interval_and_the_onset() {
-    let dir = std::env::temp_dir().join(format!("rb-collapse-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::tmp("rb-collapse", "block");
     let file = dir.join("block.toml");
     let text = format!(
         "{}[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {}\nduration = 0.5\nstart = 0.2\n",
@@ -212,7 +211,6 @@ fn check_prints_the_rest_interval_and_the_onset() {
         .arg(&file)
         .output()
         .unwrap();
-    std::fs::remove_dir_all(&dir).ok();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{out:?}");
     assert!(

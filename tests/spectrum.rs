@@ -1,6 +1,8 @@
 //! `rockbench spectrum` against the closed forms of the linearised slender block
 //! (VULNERABILITY.md), the similarity law, and its one-line errors.
 
+mod common;
+
 use rockbench::engines::{Engine, housner::HousnerEngine, native::NativeEngine};
 use rockbench::spectrum::*;
 use std::f64::consts::PI;
@@ -234,7 +236,8 @@ fn rockbench(args: &[&str]) -> (bool, String, String) {
 /// Bad input stops before running anything, with one line naming the problem.
 #[test]
 fn spectrum_bad_input_one_line_errors() {
-    let dir = std::env::temp_dir().join(format!("rb-spectrum-bad-{}", std::process::id()));
+    let scratch = common::tmp("rb-spectrum", "bad");
+    let dir = scratch.join("out");
     let d = dir.to_str().unwrap();
     for (args, expect) in [
         (
@@ -275,7 +278,8 @@ fn spectrum_bad_input_one_line_errors() {
 /// The command writes its CSV, SVG and JSON; every map cell records its stop.
 #[test]
 fn spectrum_command_writes_outputs() {
-    let dir = std::env::temp_dir().join(format!("rb-spectrum-{}", std::process::id()));
+    let scratch = common::tmp("rb-spectrum", "outputs");
+    let dir = scratch.join("out");
     let d = dir.to_str().unwrap();
     let (ok, out, err) = rockbench(&[
         "spectrum",
@@ -315,5 +319,4 @@ fn spectrum_command_writes_outputs() {
             .contains("clarabel")
     );
     assert!(json["engines"]["housner"]["version"].is_string());
-    std::fs::remove_dir_all(&dir).ok();
 }

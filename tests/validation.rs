@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::root;
+
 use rockbench::validation::references::same_file;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -13,15 +15,8 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_rockbench"))
 }
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rb-val-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> common::TmpDir {
+    common::tmp("rb-val", name)
 }
 
 fn run(cmd: &mut Command) -> (bool, String, String) {
@@ -97,7 +92,6 @@ fn references_are_reproduced() {
             assert!(text.contains(key), "{}: no `{key}`", p.display());
         }
     }
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// The rectangular-pulse thresholds found by bisection with the (nonlinear) Housner engine
@@ -350,7 +344,6 @@ fn validate_subset_matrix_and_report() {
     assert!(html.contains("<table class=\"verdict\" id=\"matrix\">"));
 
     common::assert_report_renders(&out);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 fn line_has(so: &str, case: &str, what: &str) -> bool {
@@ -383,7 +376,6 @@ fn a_bad_suite_is_one_clear_line() {
     let (ok, _, se) = run(bin().args(["validate", p.to_str().unwrap(), "--quiet"]));
     assert!(!ok);
     assert!(se.contains("bogus"), "{se}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The suite and both gate files load; every gate belongs to a case; every case has its
@@ -486,5 +478,4 @@ fn gate_include_and_target() {
     .unwrap();
     let e = rockbench::gates::load_gates(&dir.join("c.toml")).unwrap_err();
     assert!(e.to_string().contains("include[0]"), "{e}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -275,10 +275,9 @@ mod tests {
     /// The spec's threshold and quiet time are `static_threshold` and `quiet_after`.
     #[test]
     fn the_spec_reproduces_the_threshold_and_the_quiet_time() {
-        let dir = std::env::temp_dir().join(format!("rb-early-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = tempfile::tempdir().unwrap();
         let a = [0.0, 1.0, -3.0, 0.5, 2.0, -0.2, 0.1, 0.0];
-        let f = record(&dir, &a);
+        let f = record(dir.path(), &a);
         let s = scene(&format!(
             "[excitation.horizontal]\nkind = \"record\"\nfile = \"{f}\"\nscale = 1.0\n"
         ));

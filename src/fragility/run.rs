@@ -664,9 +664,8 @@ mod tests {
     /// below the threshold does not move at all; 5 % above it, it rocks.
     #[test]
     fn below_the_static_threshold_the_native_stack_does_not_move() {
-        let dir = std::env::temp_dir().join(format!("rb-threshold-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("burst.csv");
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("burst.csv");
         let mut csv = String::from("t,a\n");
         for k in 0..=200 {
             let t = k as f64 * 0.01;

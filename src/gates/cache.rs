@@ -189,8 +189,8 @@ mod tests {
 
     #[test]
     fn a_stored_run_is_served_back_identically() {
-        let dir = std::env::temp_dir().join(format!("rb-cache-unit-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path().join("cache");
         let scene = parse_scene_str(
             &SCENE.replace("[[blocks]]", "[initial]\ntilt = 0.1\n[[blocks]]"),
             false,
@@ -209,6 +209,5 @@ mod tests {
         assert_eq!(a.trajectory, b.trajectory);
         assert_eq!(a.exact_impacts, b.exact_impacts);
         assert_eq!(first.summary, again.summary);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

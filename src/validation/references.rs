@@ -254,19 +254,9 @@ fn list(v: &[f64]) -> String {
 }
 
 fn csv(tr: &Trajectory) -> Result<String, String> {
-    let dir = std::env::temp_dir().join(format!("rockbench-ref-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let p = dir.join(format!("t{}.csv", rand_suffix()));
-    tr.write_csv(&p).map_err(|e| e.to_string())?;
-    let s = std::fs::read_to_string(&p).map_err(|e| e.to_string())?;
-    let _ = std::fs::remove_file(&p);
-    Ok(s)
-}
-
-fn rand_suffix() -> u64 {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static N: AtomicU64 = AtomicU64::new(0);
-    N.fetch_add(1, Ordering::Relaxed)
+    let mut bytes = Vec::new();
+    tr.write_csv_to(&mut bytes).map_err(|e| e.to_string())?;
+    String::from_utf8(bytes).map_err(|e| e.to_string())
 }
 
 /// A sliding block: starts at `x0`, `z0` with velocity `v0` relative to the ground, is first

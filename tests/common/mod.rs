@@ -14,12 +14,47 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A fresh scratch directory `<prefix>-<name>-<pid>` under the system's temporary directory.
-pub fn tmp(prefix: &str, name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("{prefix}-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A scratch directory, removed when dropped; a test that panics keeps it for inspection
+/// (its path is printed). Derefs to its [`Path`].
+pub struct TmpDir(Option<tempfile::TempDir>);
+
+impl std::ops::Deref for TmpDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.as_ref().expect("a live scratch directory").path()
+    }
+}
+
+impl AsRef<Path> for TmpDir {
+    fn as_ref(&self) -> &Path {
+        self
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for TmpDir {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.as_os_str()
+    }
+}
+
+impl Drop for TmpDir {
+    fn drop(&mut self) {
+        if std::thread::panicking()
+            && let Some(dir) = self.0.take()
+        {
+            eprintln!("scratch directory kept: {}", dir.keep().display());
+        }
+    }
+}
+
+/// A fresh scratch directory `<prefix>-<name>-XXXXXX` under the system's temporary directory.
+pub fn tmp(prefix: &str, name: &str) -> TmpDir {
+    TmpDir(Some(
+        tempfile::Builder::new()
+            .prefix(&format!("{prefix}-{name}-"))
+            .tempdir()
+            .expect("a scratch directory"),
+    ))
 }
 
 /// Run a command that must succeed; its stdout.
