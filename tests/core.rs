@@ -295,3 +295,26 @@ fn housner_refuses_stacks_with_a_clear_message() {
         .to_string();
     assert!(e.contains("single block") && e.contains("2 blocks"), "{e}");
 }
+
+/// The tests' scratch directories (`common::tmp`) are removed when their test ends, and kept
+/// for inspection when it panics.
+#[test]
+fn scratch_directories_go_with_their_test_unless_it_fails() {
+    let dir = common::tmp("rb-scratch", "passing");
+    let path = dir.to_path_buf();
+    std::fs::write(dir.join("file"), "x").unwrap();
+    assert!(path.join("file").is_file());
+    drop(dir);
+    assert!(!path.exists(), "{} left behind", path.display());
+
+    let kept = std::sync::Mutex::new(None);
+    let outcome = std::panic::catch_unwind(|| {
+        let dir = common::tmp("rb-scratch", "failing");
+        *kept.lock().unwrap() = Some(dir.to_path_buf());
+        panic!("a failing test");
+    });
+    assert!(outcome.is_err());
+    let path = kept.into_inner().unwrap().expect("the directory's path");
+    assert!(path.is_dir(), "{} not kept", path.display());
+    std::fs::remove_dir_all(&path).unwrap();
+}
