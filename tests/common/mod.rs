@@ -16,12 +16,12 @@ pub fn root() -> PathBuf {
 
 /// A scratch directory, removed when dropped; a test that panics keeps it for inspection
 /// (its path is printed). Derefs to its [`Path`].
-pub struct TmpDir(Option<tempfile::TempDir>);
+pub struct TmpDir(tempfile::TempDir);
 
 impl std::ops::Deref for TmpDir {
     type Target = Path;
     fn deref(&self) -> &Path {
-        self.0.as_ref().expect("a live scratch directory").path()
+        self.0.path()
     }
 }
 
@@ -39,22 +39,21 @@ impl AsRef<std::ffi::OsStr> for TmpDir {
 
 impl Drop for TmpDir {
     fn drop(&mut self) {
-        if std::thread::panicking()
-            && let Some(dir) = self.0.take()
-        {
-            eprintln!("scratch directory kept: {}", dir.keep().display());
+        if std::thread::panicking() {
+            self.0.disable_cleanup(true);
+            eprintln!("scratch directory kept: {}", self.0.path().display());
         }
     }
 }
 
 /// A fresh scratch directory `<prefix>-<name>-XXXXXX` under the system's temporary directory.
 pub fn tmp(prefix: &str, name: &str) -> TmpDir {
-    TmpDir(Some(
+    TmpDir(
         tempfile::Builder::new()
             .prefix(&format!("{prefix}-{name}-"))
             .tempdir()
             .expect("a scratch directory"),
-    ))
+    )
 }
 
 /// Run a command that must succeed; its stdout.
