@@ -110,9 +110,8 @@ fn a_hanging_worker_is_killed_at_the_timeout() {
 
 #[test]
 fn a_worker_killed_mid_run_is_a_failed_run_and_the_harness_goes_on() {
-    let dir = common::tmp("rb-ext-test", "killed");
-    let pidfile = dir.join("pid");
-    let (_scratch, py) = fake_python("killed", "echo $$ > \"$PIDFILE\"\nexec sleep 30");
+    let (scratch, py) = fake_python("killed", "echo $$ > \"$PIDFILE\"\nexec sleep 30");
+    let pidfile = scratch.join("pid");
     let eng = engine(&py).with_env("PIDFILE", pidfile.to_str().unwrap());
     let scene = short_scene(&[]);
     let worker = std::thread::spawn(move || eng.run(&scene));
