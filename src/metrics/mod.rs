@@ -50,6 +50,7 @@
 //!   the two and not the other.
 //! - Cost (block `(run)`): `wall_time` (s), `steps`, `solver_iterations`.
 
+pub mod ensemble;
 pub mod grid;
 
 use crate::events::{self, History, Peak};
