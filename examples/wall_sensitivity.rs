@@ -442,6 +442,7 @@ fn study() -> anyhow::Result<()> {
         "| configuration | engine version | ms a step (median) | s a run (median) | mean shift, mm (largest) | spread, mm | difference, mm | in standard errors | overturned | not in every member |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     let mut first: Option<Ensemble> = None;
+    let mut ensembles: Vec<Ensemble> = Vec::new();
     for c in &configs {
         let mine: Vec<&Run> = runs.iter().filter(|r| r.config == c.label).collect();
         let e = Ensemble::of(&mine.iter().map(|r| r.final_dx.clone()).collect::<Vec<_>>())
@@ -494,7 +495,28 @@ fn study() -> anyhow::Result<()> {
                 split.join(", ")
             }
         );
-        first.get_or_insert(e);
+        first.get_or_insert_with(|| e.clone());
+        ensembles.push(e);
+    }
+    let _ = writeln!(
+        md,
+        "\nEvery pair of configurations: the difference of their means, RMS over the blocks \
+         (largest in brackets), and over its standard error.\n\n| configuration | against | \
+         difference, mm | in standard errors |\n|---|---|---|---|"
+    );
+    for (i, a) in ensembles.iter().enumerate() {
+        for (j, b) in ensembles.iter().enumerate().skip(i + 1) {
+            let d = b.difference(a).map_err(|e| anyhow::anyhow!(e))?;
+            let _ = writeln!(
+                md,
+                "| `{}` | `{}` | {:.3} ({:.3}) | {:.1} |",
+                configs[j].label,
+                configs[i].label,
+                1e3 * d.rms,
+                1e3 * d.max,
+                d.rms / d.standard_error
+            );
+        }
     }
     let md_path = out.join("sensitivity.md");
     std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
