@@ -42,7 +42,11 @@
 //! sets `native.dt` (rapier keeps its own step): the per-step figures of a finer step, whose
 //! cost per simulated second is theirs times `1e-3 / dt`.
 
+#[path = "common/flags.rs"]
+mod flags;
+
 use anyhow::{Context, bail};
+use flags::check_flags;
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::gallery::GallerySpec;
 use rockbench::native::collapse::{CollapseOnset, collapse_onset};
@@ -77,26 +81,6 @@ const FLAGS: [&str; 14] = [
     "--budget",
     "--out",
 ];
-
-/// Every argument is a known flag followed by its value, each flag given once: a mistyped flag
-/// is an error, not a default run of the whole series.
-fn check_flags(args: &[String]) -> anyhow::Result<()> {
-    let mut seen: Vec<&str> = Vec::new();
-    let mut rest = args.iter();
-    while let Some(flag) = rest.next() {
-        if !FLAGS.contains(&flag.as_str()) {
-            bail!("unknown argument {flag:?}; usage: {USAGE}");
-        }
-        if seen.contains(&flag.as_str()) {
-            bail!("{flag}: given twice");
-        }
-        seen.push(flag);
-        if rest.next().is_none() {
-            bail!("{flag}: needs a value");
-        }
-    }
-    Ok(())
-}
 
 fn arg(args: &[String], name: &str, default: &str) -> String {
     args.windows(2)
@@ -246,7 +230,7 @@ fn main() -> anyhow::Result<()> {
         println!("{USAGE}");
         return Ok(());
     }
-    check_flags(&args)?;
+    check_flags(&args, &FLAGS, USAGE)?;
     let list = |name: &str, default: &str| -> anyhow::Result<Vec<usize>> {
         arg(&args, name, default)
             .split(',')

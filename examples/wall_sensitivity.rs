@@ -20,7 +20,11 @@
 //! directory is refused. Writes `OUT/sensitivity.md`, and for the generated wall `OUT/scene.toml`
 //! (the scene as run, before the overrides).
 
+#[path = "common/flags.rs"]
+mod flags;
+
 use anyhow::{Context, bail};
+use flags::check_flags;
 use rockbench::engines::registry::load_scene_with_overrides;
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::metrics::displacement;
@@ -75,24 +79,6 @@ struct Run {
     /// The overturned blocks' indices.
     overturned: Vec<usize>,
     final_dx: Vec<f64>,
-}
-
-fn check_flags(args: &[String]) -> anyhow::Result<()> {
-    let mut seen: Vec<&str> = Vec::new();
-    let mut rest = args.iter();
-    while let Some(flag) = rest.next() {
-        if !FLAGS.contains(&flag.as_str()) {
-            bail!("unknown argument {flag:?}; usage: {USAGE}");
-        }
-        if seen.contains(&flag.as_str()) {
-            bail!("{flag}: given twice");
-        }
-        seen.push(flag);
-        if rest.next().is_none() {
-            bail!("{flag}: needs a value");
-        }
-    }
-    Ok(())
 }
 
 fn arg<'a>(args: &'a [String], name: &str, default: &'a str) -> &'a str {
@@ -234,7 +220,7 @@ fn study() -> anyhow::Result<()> {
         println!("{USAGE}");
         return Ok(());
     }
-    check_flags(&args)?;
+    check_flags(&args, &FLAGS, USAGE)?;
     let given = |name: &str| args.iter().any(|a| a == name);
     let positive = |v: f64| v > 0.0;
     let members = number(&args, "--members", "4", "a whole number, 2 or more", |v| {
