@@ -272,10 +272,11 @@ bench-walls-in-motion:
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --ground-friction 0.5 --locate-impacts false --out out/bench-walls-in-motion/one-piece/step-ends
 
 # The 215-block wall slid by a 0.8 g pulse for 0.2 s, 0.5 s, as ensembles of four runs whose
-# pulse amplitudes differ by 1e-12: impacts at step ends at dt 1e-3 / 5e-4 / 2.5e-4, located,
-# rapier at its defaults and finer; each setting's mean against the first's, in mm and in
-# standard errors of the round-off spread; out/bench-walls-sensitivity (resumes an interrupted
-# study). About 15 minutes (docs/method.md, "A sliding wall's answer is decided at round-off").
+# pulse amplitudes differ by 1e-12: impacts at step ends at dt 1e-3 / 5e-4 / 2.5e-4 / 1.25e-4,
+# located at 1e-3 / 5e-4, rapier at its defaults and finer; every pair of settings compared, in
+# mm and in standard errors of the round-off spread; out/bench-walls-sensitivity (resumes an
+# interrupted study). About 40 minutes (docs/method.md, "A sliding wall's answer is decided at
+# round-off").
 bench-walls-sensitivity:
 	$(CARGO) run --release --example wall_sensitivity -- --out out/bench-walls-sensitivity
 

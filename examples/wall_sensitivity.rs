@@ -52,12 +52,14 @@ const FLAGS: [&str; 10] = [
     "--out",
 ];
 
-/// Impacts at the end of their step at three step sizes, located impacts (the default), rapier at
-/// its defaults and at a finer step with more sub-steps.
+/// Impacts at the end of their step at four step sizes, located impacts (the default) at two,
+/// rapier at its defaults and at a finer step with more sub-steps.
 const DEFAULT_CONFIGS: &str = "native:native.locate_impacts=false,\
 native:native.locate_impacts=false;native.dt=5e-4,\
 native:native.locate_impacts=false;native.dt=2.5e-4,\
+native:native.locate_impacts=false;native.dt=1.25e-4,\
 native,\
+native:native.dt=5e-4,\
 rapier,\
 rapier:rapier.dt=2.5e-4;rapier.solver_iterations=32";
 
