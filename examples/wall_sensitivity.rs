@@ -3,8 +3,9 @@
 //! `VALUE (1 + k epsilon)` (`--epsilon`, 1e-12 by default: a perturbation at round-off level).
 //! Per run: every block's final horizontal displacement (`rockbench::metrics::displacement`),
 //! the blocks that overturned, and the cost. Per configuration (`rockbench::metrics::ensemble`):
-//! the ensemble's spread, how its mean differs from the first configuration's, in mm and in
-//! standard errors of that difference, and whether its members overturn the same blocks.
+//! the ensemble's spread, how its mean differs from the first configuration's and from every
+//! other's, in mm and in standard errors of that difference, and whether its members overturn
+//! the same blocks.
 //! Where a setting's difference is within a few standard errors, the two settings are not told
 //! apart by a scene whose answer is decided at round-off (docs/method.md, "A sliding wall's
 //! answer is decided at round-off").
