@@ -95,10 +95,13 @@ pub fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of `v` (NaN for none): the wall time of repeated runs.
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     let n = v.len();
-    if n % 2 == 1 {
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
         v[n / 2]
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
@@ -355,4 +358,16 @@ pub fn plot(rows: &[BenchRow]) -> Plot {
         });
     }
     plot
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(vec![4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(Vec::new()).is_nan());
+    }
 }

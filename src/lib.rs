@@ -51,6 +51,7 @@ pub mod paper;
 pub mod python;
 pub mod report;
 pub mod scene;
+pub mod sensitivity;
 pub mod spectrum;
 pub mod stress;
 pub mod summary;

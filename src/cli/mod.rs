@@ -9,6 +9,7 @@ mod fragility;
 mod gate;
 mod references;
 mod run;
+mod sensitivity;
 mod spectrum;
 mod stress;
 mod validate;
@@ -63,6 +64,10 @@ enum Command {
     /// stripes and IDA, fitted curves with bootstrap intervals; writes DIR/report.html,
     /// outcomes.csv, fits.csv, differences.csv, capacities.csv and fragility.json.
     Fragility(fragility::FragilityArgs),
+    /// A scene run as ensembles perturbed at round-off, one per configuration: the spread of
+    /// each, and whether two configurations differ beyond it; writes DIR/runs.csv and
+    /// DIR/sensitivity.md (resumes an interrupted study).
+    Sensitivity(sensitivity::SensitivityArgs),
 }
 
 /// The `--help` text of an engine option: its own line, then every engine of the registry and
@@ -77,6 +82,7 @@ pub fn main() -> Result<()> {
     match cli.command {
         Command::Run(a) => run::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Sensitivity(a) => sensitivity::run(a),
         Command::Converge(a) => converge::run(a),
         Command::Check(a) => check::check(a),
         Command::Compare(a) => compare::compare_cmd(a),

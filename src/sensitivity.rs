@@ -1,0 +1,435 @@
+//! Sensitivity studies: a scene run as ensembles, one per configuration, to tell whether two
+//! settings (or engines) give different answers where the answer is decided at round-off (a
+//! wall in motion; docs/method.md, "A sliding wall's answer is decided at round-off").
+//!
+//! Each configuration runs the scene `members` times, member `k` with one scene value set to
+//! `VALUE (1 + k epsilon)` (1e-12: a perturbation at round-off level). Per run: every block's
+//! final horizontal displacement ([`crate::metrics::displacement`]), the blocks that
+//! overturned, and the cost. Per configuration ([`crate::metrics::ensemble`]): the ensemble's
+//! spread, how its mean differs from the first configuration's and from every other's, in mm
+//! and in standard errors of that difference, and whether its members overturn the same blocks.
+//!
+//! A configuration is `ENGINE[:KEY=VALUE[;KEY=VALUE...]]` (scene overrides, as `--set`).
+//! Every run is appended to `OUT/runs.csv` as it ends, and a run already there is not run
+//! again: an interrupted study resumes where it stopped. `OUT/runs.csv` starts with the study's
+//! parameters (the scene's text hashed); another study's directory is refused. Every
+//! configuration's scene is checked before anything is written. Writes `OUT/sensitivity.md`.
+
+use crate::bench::median;
+use crate::engines::registry::load_scene_with_overrides;
+use crate::engines::{engine_by_name, run_timed};
+use crate::metrics::displacement;
+use crate::metrics::ensemble::Ensemble;
+use anyhow::{Context, bail};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+/// One configuration: an engine and the scene overrides it runs with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    /// As given: `ENGINE[:KEY=VALUE[;KEY=VALUE...]]`.
+    pub label: String,
+    pub engine: String,
+    pub sets: Vec<String>,
+}
+
+/// Configurations separated by commas, each an engine of the registry.
+pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
+    let mut configs: Vec<Config> = Vec::new();
+    for label in text.split(',').map(str::trim) {
+        let (engine, sets) = label.split_once(':').unwrap_or((label, ""));
+        if engine.is_empty() {
+            bail!("--configs: a configuration without an engine: {label:?}");
+        }
+        if let Err(e) = engine_by_name(engine) {
+            bail!("--configs: {label:?}: {e}");
+        }
+        let sets: Vec<String> = sets
+            .split(';')
+            .filter(|s| !s.is_empty())
+            .map(str::to_string)
+            .collect();
+        if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
+            bail!("--configs: {label:?}: {s:?} is not KEY=VALUE");
+        }
+        if configs.iter().any(|c| c.label == label) {
+            bail!("--configs: {label:?} given twice");
+        }
+        configs.push(Config {
+            label: label.to_string(),
+            engine: engine.to_string(),
+            sets,
+        });
+    }
+    Ok(configs)
+}
+
+/// A study: the scene, what is perturbed, and the configurations.
+#[derive(Debug, Clone)]
+pub struct Study {
+    /// The scene file (its records are read beside it).
+    pub scene: PathBuf,
+    /// What the report says the scene is.
+    pub about: String,
+    /// The perturbed scene value (`KEY`) and its value.
+    pub perturb: (String, f64),
+    pub epsilon: f64,
+    pub members: usize,
+    pub configs: Vec<Config>,
+    /// Overrides of every run, before the perturbation and the configuration's own.
+    pub sets: Vec<String>,
+}
+
+/// One run of a study.
+#[derive(Debug, Clone)]
+pub struct Run {
+    pub config: String,
+    pub member: usize,
+    pub wall_s: f64,
+    pub steps: u64,
+    pub engine_version: String,
+    /// The overturned blocks' indices.
+    pub overturned: Vec<usize>,
+    pub final_dx: Vec<f64>,
+}
+
+impl Study {
+    /// Check the study: its numbers, every configuration's scene, and the runs already in
+    /// `out` (refused if they are another study's). Returns the blocks' names and those runs.
+    pub fn check(&self, out: &Path) -> anyhow::Result<(Vec<String>, Vec<Run>)> {
+        if self.members < 2 {
+            bail!("--members: must be 2 or more (got {})", self.members);
+        }
+        if !(self.epsilon > 0.0 && self.epsilon < 1e-3) {
+            bail!(
+                "--epsilon: must be positive and below 1e-3 (got {})",
+                self.epsilon
+            );
+        }
+        let (key, value) = &self.perturb;
+        if !(value.is_finite() && *value != 0.0) {
+            bail!("--perturb: {key} must be finite and non-zero (got {value})");
+        }
+        if self.configs.is_empty() {
+            bail!("--configs: none given");
+        }
+        for c in &self.configs {
+            load_scene_with_overrides(&self.scene, &self.run_sets(c, 0))
+                .with_context(|| c.label.clone())?;
+        }
+        let base = load_scene_with_overrides(&self.scene, &self.sets)?;
+        let names: Vec<String> = base.blocks.iter().map(|b| b.name.clone()).collect();
+        let runs = read_runs(&out.join("runs.csv"), &self.parameters()?, names.len())?;
+        Ok((names, runs))
+    }
+
+    /// Run what is not in `out` yet, then write `out/sensitivity.md`; returns its text.
+    /// `progress` receives a line after each run.
+    pub fn run(&self, out: &Path, progress: &dyn Fn(&str)) -> anyhow::Result<String> {
+        let (names, mut runs) = self.check(out)?;
+        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        let runs_path = out.join("runs.csv");
+        if runs.is_empty() {
+            let header: String = names.iter().map(|n| format!(",{n}")).collect();
+            std::fs::write(
+                &runs_path,
+                format!(
+                    "{}\nconfig,member,wall_s,steps,engine_version,overturned{header}\n",
+                    self.parameters()?
+                ),
+            )
+            .with_context(|| format!("cannot write {}", runs_path.display()))?;
+        }
+        let mut file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&runs_path)
+            .with_context(|| format!("cannot append to {}", runs_path.display()))?;
+        let total = self.configs.len() * self.members;
+        for c in &self.configs {
+            for k in 0..self.members {
+                if runs.iter().any(|r| r.config == c.label && r.member == k) {
+                    continue;
+                }
+                let scene = load_scene_with_overrides(&self.scene, &self.run_sets(c, k))?;
+                let engine = engine_by_name(&c.engine)?;
+                let (o, s) = run_timed(engine.as_ref(), &scene)
+                    .with_context(|| format!("{}, member {k}", c.label))?;
+                let window = (0.0, scene.duration);
+                let run = Run {
+                    config: c.label.clone(),
+                    member: k,
+                    wall_s: s.wall_time_s,
+                    steps: s.steps,
+                    engine_version: s.engine_version.replace(',', ";"),
+                    overturned: (0..names.len())
+                        .filter(|&i| s.blocks[i].overturned)
+                        .collect(),
+                    final_dx: (0..names.len())
+                        .map(|i| displacement(&o.trajectory, i, window).0.unwrap_or(f64::NAN))
+                        .collect(),
+                };
+                let overturned: Vec<String> =
+                    run.overturned.iter().map(|i| i.to_string()).collect();
+                let dx: String = run.final_dx.iter().map(|x| format!(",{x:?}")).collect();
+                writeln!(
+                    file,
+                    "{},{},{},{},{},{}{dx}",
+                    run.config,
+                    run.member,
+                    run.wall_s,
+                    run.steps,
+                    run.engine_version,
+                    overturned.join(";")
+                )?;
+                file.flush()?;
+                runs.push(run);
+                progress(&format!(
+                    "[{}/{total}] {}, member {k}: {:.1} s, {:.2} ms a step",
+                    self.done(&runs),
+                    c.label,
+                    s.wall_time_s,
+                    1e3 * s.wall_time_s / s.steps.max(1) as f64
+                ));
+            }
+        }
+        let md = self.render(out, &names, &runs)?;
+        let md_path = out.join("sensitivity.md");
+        std::fs::write(&md_path, &md)
+            .with_context(|| format!("cannot write {}", md_path.display()))?;
+        Ok(md)
+    }
+
+    /// The overrides of member `k` of configuration `c`.
+    fn run_sets(&self, c: &Config, k: usize) -> Vec<String> {
+        let (key, value) = &self.perturb;
+        let mut sets = self.sets.clone();
+        sets.push(format!(
+            "{key}={:?}",
+            value * (1.0 + k as f64 * self.epsilon)
+        ));
+        sets.extend(c.sets.iter().cloned());
+        sets
+    }
+
+    /// The first line of `runs.csv`: what makes two studies' runs comparable.
+    fn parameters(&self) -> anyhow::Result<String> {
+        let text = std::fs::read_to_string(&self.scene)
+            .with_context(|| format!("cannot read {}", self.scene.display()))?;
+        let (key, value) = &self.perturb;
+        Ok(format!(
+            "# sensitivity: scene {:016x}, {key} = {value:?} x (1 + k {:e}), sets [{}], rockbench {}",
+            text_hash(&text),
+            self.epsilon,
+            self.sets.join(" "),
+            env!("CARGO_PKG_VERSION")
+        ))
+    }
+
+    /// Runs of this study's configurations and members done.
+    fn done(&self, runs: &[Run]) -> usize {
+        self.configs
+            .iter()
+            .map(|c| {
+                (0..self.members)
+                    .filter(|&m| runs.iter().any(|r| r.config == c.label && r.member == m))
+                    .count()
+            })
+            .sum()
+    }
+
+    fn render(&self, out: &Path, names: &[String], runs: &[Run]) -> anyhow::Result<String> {
+        let (key, value) = &self.perturb;
+        let mut md = String::new();
+        let _ = writeln!(
+            md,
+            "# A scene's answer as an ensemble\n\n{}; {} members a configuration, member k with \
+             `{key}` = {value:?} x (1 + k {:e}){}. Final horizontal displacements of every \
+             block, relative to the ground (the scene `{}`; the runs in `{}`). Spread: RMS over \
+             the blocks of the members' sample deviation (largest in brackets). Difference: of \
+             each ensemble's mean from the first configuration's, RMS over the blocks (largest \
+             in brackets), and over its standard error (docs/quantities.md, \"Ensembles\"). \
+             Overturned: each member's count, and the blocks that some members overturn and \
+             others do not.\n",
+            self.about,
+            self.members,
+            self.epsilon,
+            if self.sets.is_empty() {
+                String::new()
+            } else {
+                format!(", every run with `{}`", self.sets.join(" "))
+            },
+            self.scene.display(),
+            out.join("runs.csv").display()
+        );
+        let _ = writeln!(
+            md,
+            "| configuration | engine version | ms a step (median) | s a run (median) | mean shift, mm (largest) | spread, mm | difference, mm | in standard errors | overturned | not in every member |\n|---|---|---|---|---|---|---|---|---|---|"
+        );
+        let mut ensembles: Vec<Ensemble> = Vec::new();
+        for c in &self.configs {
+            let mine: Vec<&Run> = runs.iter().filter(|r| r.config == c.label).collect();
+            let e = Ensemble::of(&mine.iter().map(|r| r.final_dx.clone()).collect::<Vec<_>>())
+                .map_err(|e| anyhow::anyhow!("{}: {e}", c.label))?;
+            let step_ms = median(
+                mine.iter()
+                    .map(|r| 1e3 * r.wall_s / r.steps.max(1) as f64)
+                    .collect(),
+            );
+            let run_s = median(mine.iter().map(|r| r.wall_s).collect());
+            let shift = e.mean.iter().sum::<f64>() / e.mean.len().max(1) as f64;
+            let largest = e.mean.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            let difference = match ensembles.first() {
+                None => "(reference) | -".to_string(),
+                Some(f) => difference_cells(&e, f)?,
+            };
+            let counts: Vec<String> = mine
+                .iter()
+                .map(|r| r.overturned.len().to_string())
+                .collect();
+            let split: Vec<&str> = (0..names.len())
+                .filter(|i| {
+                    let n = mine.iter().filter(|r| r.overturned.contains(i)).count();
+                    n > 0 && n < mine.len()
+                })
+                .map(|i| names[i].as_str())
+                .collect();
+            let _ = writeln!(
+                md,
+                "| `{}` | {} | {step_ms:.3} | {run_s:.2} | {:.2} ({:.2}) | {:.3} ({:.3}) | {difference} | {} | {} |",
+                c.label,
+                mine[0].engine_version,
+                1e3 * shift,
+                1e3 * largest,
+                1e3 * e.spread(),
+                1e3 * e.largest_spread(),
+                counts.join(" / "),
+                if split.is_empty() {
+                    "-".to_string()
+                } else {
+                    split.join(", ")
+                }
+            );
+            ensembles.push(e);
+        }
+        let _ = writeln!(
+            md,
+            "\nEvery pair of configurations: the difference of their means, RMS over the blocks \
+             (largest in brackets), and over its standard error.\n\n| configuration | against | \
+             difference, mm | in standard errors |\n|---|---|---|---|"
+        );
+        for (i, a) in ensembles.iter().enumerate() {
+            for (j, b) in ensembles.iter().enumerate().skip(i + 1) {
+                let _ = writeln!(
+                    md,
+                    "| `{}` | `{}` | {} |",
+                    self.configs[j].label,
+                    self.configs[i].label,
+                    difference_cells(b, a)?
+                );
+            }
+        }
+        Ok(md)
+    }
+}
+
+/// `mm rms (largest) | ratio to the standard error` of `a` against `b`.
+fn difference_cells(a: &Ensemble, b: &Ensemble) -> anyhow::Result<String> {
+    let d = a.difference(b).map_err(|e| anyhow::anyhow!(e))?;
+    let ratio = d.rms / d.standard_error;
+    let ratio = if ratio < 1e3 {
+        format!("{ratio:.1}")
+    } else {
+        format!("{ratio:.1e}")
+    };
+    Ok(format!("{:.3} ({:.3}) | {ratio}", 1e3 * d.rms, 1e3 * d.max))
+}
+
+/// The runs already in `path` (made with `parameters`, for `n_blocks` blocks).
+fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<Vec<Run>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => bail!("cannot read {}: {e}", path.display()),
+    };
+    let mut lines = text.lines();
+    if lines.next() != Some(parameters) {
+        bail!(
+            "{}: holds the runs of another study (its first line is not {parameters:?}): remove \
+             it or give another --out",
+            path.display()
+        );
+    }
+    lines.next(); // The header.
+    let mut runs = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let bad = || {
+            format!(
+                "{}: line {}: not a run of this study",
+                path.display(),
+                k + 3
+            )
+        };
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 6 + n_blocks {
+            bail!("{}", bad());
+        }
+        let overturned = f[5]
+            .split(';')
+            .filter(|x| !x.is_empty())
+            .map(|x| x.parse::<usize>())
+            .collect::<Result<Vec<_>, _>>()
+            .with_context(bad)?;
+        let final_dx = f[6..]
+            .iter()
+            .map(|x| x.parse::<f64>())
+            .collect::<Result<Vec<_>, _>>()
+            .with_context(bad)?;
+        runs.push(Run {
+            config: f[0].to_string(),
+            member: f[1].parse().with_context(bad)?,
+            wall_s: f[2].parse().with_context(bad)?,
+            steps: f[3].parse().with_context(bad)?,
+            engine_version: f[4].to_string(),
+            overturned,
+            final_dx,
+        });
+    }
+    Ok(runs)
+}
+
+/// FNV-1a of the scene's text: a study's runs belong to one scene.
+fn text_hash(text: &str) -> u64 {
+    text.bytes().fold(0xcbf29ce484222325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100000001b3)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn configurations_parse_or_say_what_is_wrong() {
+        let c = parse_configs("native,rapier:rapier.dt=5e-4;rapier.solver_iterations=16").unwrap();
+        assert_eq!(c.len(), 2);
+        assert_eq!(c[0].engine, "native");
+        assert!(c[0].sets.is_empty());
+        assert_eq!(
+            c[1].label,
+            "rapier:rapier.dt=5e-4;rapier.solver_iterations=16"
+        );
+        assert_eq!(
+            c[1].sets,
+            vec!["rapier.dt=5e-4", "rapier.solver_iterations=16"]
+        );
+        let e = parse_configs("bogus").unwrap_err().to_string();
+        assert!(e.contains("unknown engine"), "{e}");
+        let e = parse_configs("native:native.dt").unwrap_err().to_string();
+        assert!(e.contains("is not KEY=VALUE"), "{e}");
+        let e = parse_configs("rapier,rapier").unwrap_err().to_string();
+        assert!(e.contains("given twice"), "{e}");
+        let e = parse_configs(":native.dt=1e-3").unwrap_err().to_string();
+        assert!(e.contains("without an engine"), "{e}");
+    }
+}

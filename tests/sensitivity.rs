@@ -1,0 +1,118 @@
+//! `rockbench sensitivity`: a scene run as ensembles, resumed, and refused where it should be.
+
+mod common;
+
+use common::{bin, root, tmp};
+use std::path::Path;
+use std::process::Output;
+
+/// The study of the toppling wall by rapier at two steps, two members, 1 s, with the options of
+/// `over` in place of these.
+fn study(out: &Path, over: &[&str]) -> Output {
+    let scene = root().join("validation/scenes/wall-in-motion-pulse.toml");
+    let mut options = vec![
+        ("--perturb", "excitation.horizontal.amplitude=4.905"),
+        ("--configs", "rapier,rapier:rapier.dt=5e-4"),
+        ("--members", "2"),
+        ("--set", "duration=1.0"),
+    ];
+    for pair in over.chunks(2) {
+        match options.iter_mut().find(|(k, _)| *k == pair[0]) {
+            Some(o) => o.1 = pair[1],
+            None => options.push((pair[0], pair[1])),
+        }
+    }
+    let mut cmd = bin();
+    cmd.args([
+        "sensitivity",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    for (k, v) in options {
+        cmd.args([k, v]);
+    }
+    cmd.output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).to_string()
+}
+
+/// The `(spread, largest spread)` cells of a configuration's row, mm.
+fn spread_of(md: &str, config: &str) -> (f64, f64) {
+    let row = md
+        .lines()
+        .find(|l| l.starts_with(&format!("| `{config}` |")))
+        .unwrap_or_else(|| panic!("no row for {config} in\n{md}"));
+    let cell = row.split('|').nth(6).unwrap().trim();
+    let (a, b) = cell.split_once(" (").unwrap();
+    (a.parse().unwrap(), b.trim_end_matches(')').parse().unwrap())
+}
+
+#[test]
+fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
+    let dir = tmp("rb-sensitivity", "study");
+    let out = dir.join("study");
+    // Members 1e-6 apart, so that they surely differ.
+    let first = study(&out, &["--epsilon", "1e-6"]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let progress = stderr(&first);
+    assert_eq!(progress.matches("member").count(), 4, "{progress}");
+    let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(runs.lines().count(), 2 + 4, "{runs}");
+    assert!(runs.starts_with("# sensitivity: scene "));
+    let md = std::fs::read_to_string(out.join("sensitivity.md")).unwrap();
+    let (spread, largest) = spread_of(&md, "rapier");
+    assert!(spread > 0.0 && largest >= spread, "{md}");
+    assert!(
+        md.contains("| `rapier:rapier.dt=5e-4` | `rapier` |"),
+        "the pair's row: {md}"
+    );
+
+    // Run again: every run is there, none is run, the tables are the same.
+    let again = study(&out, &["--epsilon", "1e-6"]);
+    assert!(again.status.success(), "{}", stderr(&again));
+    assert_eq!(
+        stderr(&again).matches("member").count(),
+        0,
+        "{}",
+        stderr(&again)
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("sensitivity.md")).unwrap(),
+        md
+    );
+
+    // Another study in the same directory is refused, and the runs stay as they were.
+    let other = study(&out, &["--epsilon", "1e-9"]);
+    assert!(!other.status.success());
+    let e = stderr(&other);
+    assert!(e.contains("runs.csv") && e.contains("another study"), "{e}");
+    assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    assert_eq!(std::fs::read_to_string(out.join("runs.csv")).unwrap(), runs);
+}
+
+#[test]
+fn bad_studies_say_what_is_wrong_and_write_nothing() {
+    let dir = tmp("rb-sensitivity", "bad");
+    for (extra, expected) in [
+        (&["--configs", "rapier:rapier.dtt=1"][..], "dtt"),
+        (&["--configs", "bogus"][..], "unknown engine"),
+        (&["--members", "1"][..], "--members"),
+        (&["--epsilon", "0.1"][..], "--epsilon"),
+        (
+            &["--perturb", "excitation.horizontal.amplitud=4.9"][..],
+            "amplitud",
+        ),
+        (&["--perturb", "amplitude"][..], "KEY=VALUE"),
+    ] {
+        let out = dir.join(expected.replace(['-', ' '], "_"));
+        let o = study(&out, extra);
+        assert!(!o.status.success(), "{extra:?} passed");
+        let e = stderr(&o);
+        assert!(e.contains(expected), "{extra:?}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{extra:?}: one line: {e}");
+        assert!(!out.join("runs.csv").exists(), "{extra:?} wrote its runs");
+    }
+}
