@@ -6,15 +6,18 @@ use common::{bin, root, tmp};
 use std::path::Path;
 use std::process::Output;
 
-/// The study of the toppling wall by rapier at two steps, two members, 1 s, with the options of
-/// `over` in place of these.
+/// The study of a slender block overturned by a rectangular pulse, by the native engine at two
+/// steps, two members, 3 s, with the options of `over` in place of these.
 fn study(out: &Path, over: &[&str]) -> Output {
-    let scene = root().join("validation/scenes/wall-in-motion-pulse.toml");
+    let scene = root().join("validation/scenes/pulse-rectangular-pt0p5-above.toml");
     let mut options = vec![
-        ("--perturb", "excitation.horizontal.amplitude=4.905"),
-        ("--configs", "rapier,rapier:rapier.dt=5e-4"),
+        (
+            "--perturb",
+            "excitation.horizontal.amplitude=2.544058691052",
+        ),
+        ("--configs", "native,native:native.dt=5e-4"),
         ("--members", "2"),
-        ("--set", "duration=1.0"),
+        ("--set", "duration=3.0"),
     ];
     for pair in over.chunks(2) {
         match options.iter_mut().find(|(k, _)| *k == pair[0]) {
@@ -63,12 +66,14 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
     assert_eq!(runs.lines().count(), 2 + 4, "{runs}");
     assert!(runs.starts_with("# sensitivity: scene "));
     let md = std::fs::read_to_string(out.join("sensitivity.md")).unwrap();
-    let (spread, largest) = spread_of(&md, "rapier");
+    let (spread, largest) = spread_of(&md, "native");
     assert!(spread > 0.0 && largest >= spread, "{md}");
     assert!(
-        md.contains("| `rapier:rapier.dt=5e-4` | `rapier` |"),
+        md.contains("| `native:native.dt=5e-4` | `native` |"),
         "the pair's row: {md}"
     );
+    // The block overturns in every member.
+    assert!(md.contains("| 1 / 1 | - |"), "{md}");
 
     // Run again: every run is there, none is run, the tables are the same.
     let again = study(&out, &["--epsilon", "1e-6"]);
@@ -97,7 +102,7 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
 fn bad_studies_say_what_is_wrong_and_write_nothing() {
     let dir = tmp("rb-sensitivity", "bad");
     for (extra, expected) in [
-        (&["--configs", "rapier:rapier.dtt=1"][..], "dtt"),
+        (&["--configs", "native:native.dtt=1"][..], "dtt"),
         (&["--configs", "bogus"][..], "unknown engine"),
         (&["--members", "1"][..], "--members"),
         (&["--epsilon", "0.1"][..], "--epsilon"),
