@@ -411,23 +411,23 @@ mod tests {
 
     #[test]
     fn configurations_parse_or_say_what_is_wrong() {
-        let c = parse_configs("native,rapier:rapier.dt=5e-4;rapier.solver_iterations=16").unwrap();
+        let c = parse_configs("native,native:native.dt=5e-4;native.locate_impacts=false").unwrap();
         assert_eq!(c.len(), 2);
         assert_eq!(c[0].engine, "native");
         assert!(c[0].sets.is_empty());
         assert_eq!(
             c[1].label,
-            "rapier:rapier.dt=5e-4;rapier.solver_iterations=16"
+            "native:native.dt=5e-4;native.locate_impacts=false"
         );
         assert_eq!(
             c[1].sets,
-            vec!["rapier.dt=5e-4", "rapier.solver_iterations=16"]
+            vec!["native.dt=5e-4", "native.locate_impacts=false"]
         );
         let e = parse_configs("bogus").unwrap_err().to_string();
         assert!(e.contains("unknown engine"), "{e}");
         let e = parse_configs("native:native.dt").unwrap_err().to_string();
         assert!(e.contains("is not KEY=VALUE"), "{e}");
-        let e = parse_configs("rapier,rapier").unwrap_err().to_string();
+        let e = parse_configs("native,native").unwrap_err().to_string();
         assert!(e.contains("given twice"), "{e}");
         let e = parse_configs(":native.dt=1e-3").unwrap_err().to_string();
         assert!(e.contains("without an engine"), "{e}");
