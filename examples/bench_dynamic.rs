@@ -46,7 +46,7 @@
 mod flags;
 
 use anyhow::{Context, bail};
-use flags::check_flags;
+use flags::{arg, check_flags};
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::gallery::GallerySpec;
 use rockbench::native::collapse::{CollapseOnset, collapse_onset};
@@ -81,13 +81,6 @@ const FLAGS: [&str; 14] = [
     "--budget",
     "--out",
 ];
-
-fn arg(args: &[String], name: &str, default: &str) -> String {
-    args.windows(2)
-        .find(|w| w[0] == name)
-        .map(|w| w[1].clone())
-        .unwrap_or_else(|| default.to_string())
-}
 
 /// The number after `name`, if `name` is given.
 fn optional_number(args: &[String], name: &str) -> anyhow::Result<Option<f64>> {

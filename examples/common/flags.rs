@@ -21,3 +21,10 @@ pub fn check_flags(args: &[String], flags: &[&str], usage: &str) -> anyhow::Resu
     }
     Ok(())
 }
+
+/// The value of flag `name` (checked by [`check_flags`]), or `default`.
+pub fn arg<'a>(args: &'a [String], name: &str, default: &'a str) -> &'a str {
+    args.windows(2)
+        .find(|w| w[0] == name)
+        .map_or(default, |w| w[1].as_str())
+}
