@@ -480,6 +480,8 @@ pub fn compare_runs(
     // the same for blocks displaced (overturned, or moved more than their width).
     let mut overturned = (0usize, 0usize, 0usize);
     let mut displaced = (0usize, 0usize, 0usize);
+    // The largest difference of a block's final horizontal displacement (run - reference).
+    let mut displacement_diff: Option<f64> = None;
     for (si, s) in all.iter().enumerate() {
         let (a, r, _) = &eh.series[si];
         let (e, f) = (&ev[si], &er[si]);
@@ -649,6 +651,9 @@ pub fn compare_runs(
                 displacement(&reference.trajectory, s.block, window),
             );
             push(lab, "displacement_x_final".into(), dx.0, dr.0, "m");
+            if let (Some(x), Some(y)) = (dx.0, dr.0) {
+                displacement_diff = Some(displacement_diff.unwrap_or(0.0).max((x - y).abs()));
+            }
             push(lab, "max_drift".into(), dx.1, dr.1, "m");
             let width = scene.blocks[s.block].width;
             let (de, df) = (
@@ -672,6 +677,13 @@ pub fn compare_runs(
         "max_drift".into(),
         drift(&run.trajectory),
         drift(&reference.trajectory),
+        "m",
+    );
+    push(
+        RUN_ROW,
+        "displacement_x_final_max_abs_diff".into(),
+        displacement_diff,
+        None,
         "m",
     );
     for ((count, disagreements), (run_n, ref_n, differ)) in [
@@ -720,6 +732,7 @@ pub fn is_known_metric(name: &str) -> bool {
         "energy_final",
         "energy_rms_diff",
         "displacement_x_final",
+        "displacement_x_final_max_abs_diff",
         "max_drift",
         "overturned_count",
         "overturning_disagreements",

@@ -357,6 +357,15 @@ fn a_block_that_falls_off_without_overturning_is_displaced() {
         get(&rows, RUN_ROW, "overturning_disagreements"),
         (Some(0.0), None)
     );
+    // The largest difference of a final displacement over the blocks: the statue's 1.5 - 0.5.
+    let (diff, none) = get(&rows, RUN_ROW, "displacement_x_final_max_abs_diff");
+    assert!(none.is_none());
+    close(diff.unwrap(), 1.0, 1e-12, "largest displacement difference");
+    let same = compare_runs(&sc, &run, &run, &MetricSettings::default()).unwrap();
+    assert_eq!(
+        get(&same, RUN_ROW, "displacement_x_final_max_abs_diff"),
+        (Some(0.0), None)
+    );
     // An overturned block is displaced wherever it lies.
     assert!(is_displaced(true, Some(0.0), 1.0));
     assert!(!is_displaced(false, None, 1.0));

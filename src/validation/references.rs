@@ -259,47 +259,58 @@ fn csv(tr: &Trajectory) -> Result<String, String> {
     String::from_utf8(bytes).map_err(|e| e.to_string())
 }
 
-/// A sliding block: starts at `x0`, `z0` with velocity `v0` relative to the ground, is first
-/// accelerated relative to the ground by `a_rel` for `t_push` s (0: no push), then slides with
-/// constant deceleration `mu_g` until it stops.
+/// A sliding block: starts with velocity `v0` relative to the ground, is first accelerated
+/// relative to the ground by `a_rel` for `t_push` s (0: no push), then slides with constant
+/// deceleration `mu_g` until it stops.
 #[derive(Clone, Copy)]
 struct Slide {
-    x0: f64,
-    z0: f64,
     v0: f64,
     a_rel: f64,
     t_push: f64,
     mu_g: f64,
 }
 
-/// The closed-form history of a [`Slide`], sampled every `dt` up to `t_end`.
-fn sliding_trajectory(name: &str, sl: &Slide, dt: f64, t_end: f64) -> Trajectory {
-    let Slide {
-        x0,
-        z0,
-        v0,
-        a_rel,
-        t_push,
-        mu_g,
-    } = *sl;
-    let mut tr = Trajectory::new(&[name.to_string()]);
-    // State at the end of the push.
-    let v1 = v0 + a_rel * t_push;
-    let x1 = x0 + v0 * t_push + 0.5 * a_rel * t_push * t_push;
-    let t_stop = t_push + v1.abs() / mu_g;
-    let n = (t_end / dt).round() as usize;
-    for k in 0..=n {
-        let t = k as f64 * dt;
-        let (x, v) = if t <= t_push {
-            (x0 + v0 * t + 0.5 * a_rel * t * t, v0 + a_rel * t)
+impl Slide {
+    /// Displacement and velocity relative to the ground at time `t`.
+    fn at(&self, t: f64) -> (f64, f64) {
+        let Slide {
+            v0,
+            a_rel,
+            t_push,
+            mu_g,
+        } = *self;
+        // State at the end of the push.
+        let v1 = v0 + a_rel * t_push;
+        let x1 = v0 * t_push + 0.5 * a_rel * t_push * t_push;
+        let t_stop = t_push + v1.abs() / mu_g;
+        if t <= t_push {
+            (v0 * t + 0.5 * a_rel * t * t, v0 + a_rel * t)
         } else if t < t_stop {
             let s = t - t_push;
             let d = -v1.signum() * mu_g;
             (x1 + v1 * s + 0.5 * d * s * s, v1 + d * s)
         } else {
             (x1 + v1 * v1.abs() / (2.0 * mu_g), 0.0)
-        };
-        tr.push(t, &[[x, z0, 0.0, v, 0.0, 0.0]]);
+        }
+    }
+}
+
+/// The closed-form history of blocks sliding together by a [`Slide`] from their laid-out
+/// places, sampled every `dt` up to `t_end`.
+fn sliding_trajectory(scene: &Scene, sl: &Slide, dt: f64, t_end: f64) -> Trajectory {
+    let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
+    let lay = scene.layout();
+    let mut tr = Trajectory::new(&names);
+    let n = (t_end / dt).round() as usize;
+    for k in 0..=n {
+        let t = k as f64 * dt;
+        let (x, v) = sl.at(t);
+        let states: Vec<[f64; 6]> = lay
+            .blocks
+            .iter()
+            .map(|b| [b.x + x, b.z, 0.0, v, 0.0, 0.0])
+            .collect();
+        tr.push(t, &states);
     }
     tr
 }
@@ -408,17 +419,13 @@ upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, sho
             .unwrap_or(0.0);
         let mu = scene.friction_below(0);
         let g = scene.gravity;
-        let lay = scene.layout();
-        let (x0, z0) = (lay.blocks[0].x, lay.blocks[0].z);
         let slide = Slide {
-            x0,
-            z0,
             v0,
             a_rel: 0.0,
             t_push: 0.0,
             mu_g: mu * g,
         };
-        let tr = sliding_trajectory(&b.name, &slide, 1e-3, scene.duration);
+        let tr = sliding_trajectory(&scene, &slide, 1e-3, scene.duration);
         let d = v0 * v0 / (2.0 * mu * g);
         let mut r = header("sliding-block: closed-form sliding under Coulomb friction");
         let _ = writeln!(
@@ -429,55 +436,49 @@ upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, sho
         tree.insert(format!("reference-data/{case}/reference.toml"), r);
         tree.insert(format!("reference-data/{case}/trajectory.csv"), csv(&tr)?);
 
-        let scene2 = load("sliding-block-ground-acceleration.toml")?;
-        let b2 = &scene2.blocks[0];
-        let mu2 = scene2.friction_below(0);
-        let (a, t1) = match scene2
-            .excitation
-            .as_ref()
-            .and_then(|e| e.horizontal.clone())
-        {
-            Some(crate::scene::MotionSpec::Rectangular {
-                amplitude,
-                duration,
-                ..
-            }) => (amplitude, duration),
-            _ => {
-                return Err(
-                    "sliding-block-ground-acceleration: expects a rectangular pulse".into(),
-                );
-            }
-        };
-        let lay2 = scene2.layout();
-        // Relative to the ground the block accelerates by -(a - mu g) during the pulse.
-        let a_rel = -(a - mu2 * g);
-        let slide2 = Slide {
-            x0: lay2.blocks[0].x,
-            z0: lay2.blocks[0].z,
-            v0: 0.0,
-            a_rel,
-            t_push: t1,
-            mu_g: mu2 * g,
-        };
-        let tr2 = sliding_trajectory(&b2.name, &slide2, 1e-3, scene2.duration);
-        let v1 = a_rel * t1;
-        let d2 = 0.5 * a_rel * t1 * t1 - v1 * v1 / (2.0 * mu2 * g);
-        let mut r2 = header(
-            "sliding-block-ground-acceleration: closed-form sliding under a constant ground acceleration above mu g",
-        );
-        let _ = writeln!(
-            r2,
-            "a_m_per_s2 = {a}\npulse_s = {t1}\nmu = {mu2}\ng = {g}\nrelative_acceleration_m_per_s2 = {a_rel:.10}   # -(a - mu g)\n\
-relative_displacement_m = {d2:.10}   # -(a - mu g) t1^2 / 2 - v1^2 / (2 mu g), v1 = (a - mu g) t1"
-        );
-        tree.insert(
-            "reference-data/sliding-block-ground-acceleration/reference.toml".into(),
-            r2,
-        );
-        tree.insert(
-            "reference-data/sliding-block-ground-acceleration/trajectory.csv".into(),
-            csv(&tr2)?,
-        );
+        // Under a rectangular pulse above mu g: a block, and a wall that slides whole.
+        for (c, file, what) in [
+            (
+                "sliding-block-ground-acceleration",
+                "sliding-block-ground-acceleration.toml",
+                "closed-form sliding under a constant ground acceleration above mu g",
+            ),
+            (
+                "wall-sliding-whole",
+                "wall-sliding-whole.toml",
+                "a wall sliding whole under a constant ground acceleration above mu g: every block the sliding block's closed form",
+            ),
+        ] {
+            let scene = load(file)?;
+            let mu = scene.friction_below(0);
+            let (a, t1) = match scene.excitation.as_ref().and_then(|e| e.horizontal.clone()) {
+                Some(crate::scene::MotionSpec::Rectangular {
+                    amplitude,
+                    duration,
+                    ..
+                }) => (amplitude, duration),
+                _ => return Err(format!("{c}: expects a rectangular pulse")),
+            };
+            // Relative to the ground the blocks accelerate by -(a - mu g) during the pulse.
+            let a_rel = -(a - mu * g);
+            let slide = Slide {
+                v0: 0.0,
+                a_rel,
+                t_push: t1,
+                mu_g: mu * g,
+            };
+            let tr = sliding_trajectory(&scene, &slide, 1e-3, scene.duration);
+            let v1 = a_rel * t1;
+            let d = 0.5 * a_rel * t1 * t1 - v1 * v1 / (2.0 * mu * g);
+            let mut r = header(&format!("{c}: {what}"));
+            let _ = writeln!(
+                r,
+                "a_m_per_s2 = {a}\npulse_s = {t1}\nmu = {mu}\ng = {g}\nrelative_acceleration_m_per_s2 = {a_rel:.10}   # -(a - mu g)\n\
+relative_displacement_m = {d:.10}   # -(a - mu g) t1^2 / 2 - v1^2 / (2 mu g), v1 = (a - mu g) t1"
+            );
+            tree.insert(format!("reference-data/{c}/reference.toml"), r);
+            tree.insert(format!("reference-data/{c}/trajectory.csv"), csv(&tr)?);
+        }
         for c in [case, "sliding-block-ground-acceleration"] {
             tree.insert(
                 format!("reference-data/{c}/PROVENANCE.md"),
@@ -489,6 +490,15 @@ relative_displacement_m = {d2:.10}   # -(a - mu g) t1^2 / 2 - v1^2 / (2 mu g), v
                 ),
             );
         }
+        tree.insert(
+            "reference-data/wall-sliding-whole/PROVENANCE.md".into(),
+            provenance(
+                "wall-sliding-whole",
+                "the closed-form history of the sliding block under the pulse (reference.toml), applied to every block of the wall from its laid-out place, sampled every 1 ms (trajectory.csv: x relative to the ground, z constant, no rotation)",
+                "",
+                "elementary mechanics. The ground's friction (0.5) is below the bed joints' (0.7): with the base sliding, the wall's acceleration is mu_ground g, and each bed joint carries mu_ground times the weight above it, inside its cone, so no joint slips; no block can tip (b/h = 2.4 > a/g = 0.8), nor the wall as a whole (4.2 m long, 0.75 m high). So under Coulomb friction the wall slides as one rigid block. Under the associative law its sliding base lifts by mu |slip| a step and lands again (dilatancy), and soft-contact engines let the joints creep: the case measures both",
+            ),
+        );
     }
 
     // 5. Pulse overturning: thresholds by bisection, scenes just below and just above.
