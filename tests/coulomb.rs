@@ -4,7 +4,7 @@
 
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::native::coulomb::{Coulomb, CoulombMethod, lemke_step};
-use rockbench::native::solver::ActiveSetSolver;
+use rockbench::native::solver::{ActiveSetSolver, ContactSolver, SolveFailure};
 use rockbench::native::stepper_for;
 use rockbench::native::{StepProblem, StepSolution};
 use rockbench::scene::{Scene, load_scene_with_overrides, parse_scene_str};
@@ -593,5 +593,68 @@ fn the_two_block_case_converges_with_coulomb_friction_under_the_impact_stepper()
     for (k, (a, b)) in coarse.iter().zip(&fine).enumerate() {
         eprintln!("event {k}: {a:.6} s at dt 1e-3, {b:.6} s at 2.5e-4");
         assert!((a - b).abs() < 1e-4, "event {k}: {a} s against {b} s");
+    }
+}
+
+/// A back-end whose solutions carry round-off: every displacement moved by `eps`, the sign
+/// alternating from solve to solve (as the sparse back-end's do on a large wall, by a few
+/// 1e-13 m).
+struct WithRoundoff {
+    inner: ActiveSetSolver,
+    eps: f64,
+    sign: f64,
+}
+
+impl ContactSolver for WithRoundoff {
+    fn name(&self) -> &'static str {
+        "active set with round-off"
+    }
+    fn solve_into(&mut self, p: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
+        self.inner.solve_into(p, out)?;
+        self.sign = -self.sign;
+        for d in &mut out.dq {
+            *d += self.sign * self.eps;
+        }
+        Ok(())
+    }
+    fn save(&self) -> Vec<u8> {
+        self.inner.save()
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        self.inner.restore(state)
+    }
+}
+
+/// The sliding block's first step (a slip of about 2 mm, so offsets settle to
+/// `COULOMB_TOLERANCE (1 + s / COULOMB_SCALE)` = 1.1e-12 m and are accepted to
+/// `COULOMB_ROUNDOFF` times the same, 1.1e-10 m), solved by a back-end whose displacements
+/// carry alternating round-off: at 1e-11 m the offsets cannot settle and the least-changed
+/// iterate is accepted at the back-ends' row tolerance, satisfying the law to that size; at
+/// 1e-9 m it is not, and the step goes to Lemke's method.
+#[test]
+fn offsets_that_round_off_keeps_from_settling_are_accepted_at_the_row_tolerance() {
+    let scene = load_scene_with_overrides(&scene_path("sliding-block"), &[COULOMB.into()]).unwrap();
+    let (st, state) = stepper_for(&scene).unwrap();
+    let pr = st.next_problem(&state);
+    for (eps, settles) in [(1e-11, true), (1e-9, false)] {
+        let mut fp = Coulomb::default();
+        let mut noisy = WithRoundoff {
+            inner: ActiveSetSolver::new(),
+            eps,
+            sign: 1.0,
+        };
+        let sol = fp.solve(&mut noisy, &pr).unwrap();
+        assert_eq!(fp.roundoff_settles, u64::from(settles), "round-off {eps}");
+        assert_eq!(fp.lemke_solves, u64::from(!settles), "round-off {eps}");
+        if settles {
+            assert_eq!(fp.iterations, 40);
+            let dot = |r: &[(usize, f64)], x: &[f64]| r.iter().map(|&(i, c)| c * x[i]).sum::<f64>();
+            for (k, c) in pr.contacts.iter().enumerate() {
+                let dn = c.g_n + dot(&c.nrow, &sol.dq);
+                if sol.normal[k] > 0.0 {
+                    assert!(dn.abs() < 2e-10, "point {k}: loaded and open by {dn}");
+                }
+            }
+        }
     }
 }

@@ -235,10 +235,11 @@ impl NativeEngine {
                 }
                 if stepper.coulomb.problems > 0 {
                     notes.push(format!(
-                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem), {} solved by Lemke's method ({} pivots)",
+                        "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem), {} settled to the back-ends' row tolerance, {} solved by Lemke's method ({} pivots)",
                         stepper.coulomb.problems,
                         stepper.coulomb.iterations,
                         stepper.coulomb.iterations as f64 / stepper.coulomb.problems as f64,
+                        stepper.coulomb.roundoff_settles,
                         stepper.coulomb.lemke_solves,
                         stepper.coulomb.lemke_pivots
                     ));
