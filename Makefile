@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-walls-sensitivity bench-gallery \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery \
 	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -270,6 +270,13 @@ bench-walls-in-motion:
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --out out/bench-walls-in-motion/step-ends
 	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10 --pulse 0.8 --duration 0.01 --ground-friction 0.5 --out out/bench-walls-in-motion/one-piece/located
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --ground-friction 0.5 --locate-impacts false --out out/bench-walls-in-motion/one-piece/step-ends
+
+# Walls that slide whole (64 / 215 / 430 blocks, bed joints at 0.7 on a ground at 0.5, a 0.8 g
+# pulse for 0.2 s, 0.5 s) against the sliding block's closed form: cost a step and the largest
+# error of a block's final displacement, the native engine's settings and laws and rapier's;
+# out/bench-walls-sliding-whole. About 2 minutes (docs/method.md, "A wall that slides whole").
+bench-walls-sliding-whole:
+	$(CARGO) run --release --example wall_sliding_whole -- --courses 3,10,20 --out out/bench-walls-sliding-whole
 
 # The 215-block wall slid by a 0.8 g pulse for 0.2 s, 0.5 s, as ensembles of four runs whose
 # pulse amplitudes differ by 1e-12: impacts at step ends at dt 1e-3 / 5e-4 / 2.5e-4 / 1.25e-4,

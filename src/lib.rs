@@ -52,6 +52,7 @@ pub mod python;
 pub mod report;
 pub mod scene;
 pub mod sensitivity;
+pub mod sliding;
 pub mod spectrum;
 pub mod stress;
 pub mod summary;

@@ -12,6 +12,7 @@ use crate::engines::{Engine, housner::HousnerEngine, native::NativeEngine};
 use crate::events;
 use crate::metrics::{MetricSettings, Run, run_events};
 use crate::scene::{Scene, parse_scene_str};
+use crate::sliding::Slide;
 use crate::trajectory::Trajectory;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -259,42 +260,6 @@ fn csv(tr: &Trajectory) -> Result<String, String> {
     String::from_utf8(bytes).map_err(|e| e.to_string())
 }
 
-/// A sliding block: starts with velocity `v0` relative to the ground, is first accelerated
-/// relative to the ground by `a_rel` for `t_push` s (0: no push), then slides with constant
-/// deceleration `mu_g` until it stops.
-#[derive(Clone, Copy)]
-struct Slide {
-    v0: f64,
-    a_rel: f64,
-    t_push: f64,
-    mu_g: f64,
-}
-
-impl Slide {
-    /// Displacement and velocity relative to the ground at time `t`.
-    fn at(&self, t: f64) -> (f64, f64) {
-        let Slide {
-            v0,
-            a_rel,
-            t_push,
-            mu_g,
-        } = *self;
-        // State at the end of the push.
-        let v1 = v0 + a_rel * t_push;
-        let x1 = v0 * t_push + 0.5 * a_rel * t_push * t_push;
-        let t_stop = t_push + v1.abs() / mu_g;
-        if t <= t_push {
-            (v0 * t + 0.5 * a_rel * t * t, v0 + a_rel * t)
-        } else if t < t_stop {
-            let s = t - t_push;
-            let d = -v1.signum() * mu_g;
-            (x1 + v1 * s + 0.5 * d * s * s, v1 + d * s)
-        } else {
-            (x1 + v1 * v1.abs() / (2.0 * mu_g), 0.0)
-        }
-    }
-}
-
 /// The closed-form history of blocks sliding together by a [`Slide`] from their laid-out
 /// places, sampled every `dt` up to `t_end`.
 fn sliding_trajectory(scene: &Scene, sl: &Slide, dt: f64, t_end: f64) -> Trajectory {
@@ -459,14 +424,8 @@ upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, sho
                 }) => (amplitude, duration),
                 _ => return Err(format!("{c}: expects a rectangular pulse")),
             };
-            // Relative to the ground the blocks accelerate by -(a - mu g) during the pulse.
-            let a_rel = -(a - mu * g);
-            let slide = Slide {
-                v0: 0.0,
-                a_rel,
-                t_push: t1,
-                mu_g: mu * g,
-            };
+            let slide = Slide::under_pulse(a, t1, mu, g);
+            let a_rel = slide.a_rel;
             let tr = sliding_trajectory(&scene, &slide, 1e-3, scene.duration);
             let v1 = a_rel * t1;
             let d = 0.5 * a_rel * t1 * t1 - v1 * v1 / (2.0 * mu * g);

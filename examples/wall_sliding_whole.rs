@@ -1,0 +1,154 @@
+//! Walls that slide whole, cost against accuracy (`make bench-walls-sliding-whole`): running-bond
+//! walls (`rockbench::walls`, `--courses` of 21 blocks of 0.6 x 0.25 m, bed joints at friction
+//! 0.7) on a ground at friction 0.5, under a rectangular pulse of 0.8 g for 0.2 s, run to rest
+//! (0.5 s). Where the 0.5 g the sliding base transmits is inside the wall's rest interval, every
+//! block ends where the sliding block's closed form puts it (`rockbench::sliding`); each
+//! configuration's cost a step and largest error of a block's final displacement against it are
+//! written to `OUT/results.csv` and as a table on stdout (docs/method.md, "A wall that slides
+//! whole, against its closed form").
+
+#[path = "common/flags.rs"]
+mod flags;
+
+use anyhow::{Context, bail};
+use flags::{arg, check_flags};
+use rockbench::engines::{engine_by_name, run_timed};
+use rockbench::scene::parse_scene_str;
+use rockbench::sensitivity::parse_configs;
+use rockbench::sliding::Slide;
+use rockbench::walls::WallSpec;
+use std::fmt::Write as _;
+use std::path::Path;
+
+const USAGE: &str = "cargo run --release --example wall_sliding_whole -- \
+[--courses 3,10,20] [--configs ENGINE[:KEY=VALUE[;KEY=VALUE]],...] [--out out/bench-walls-sliding-whole]";
+
+const FLAGS: [&str; 3] = ["--courses", "--configs", "--out"];
+
+/// The native engine's default (impacts located), its impacts at step ends, its Coulomb law;
+/// rapier at its defaults, with more iterations and at a finer step.
+const DEFAULT_CONFIGS: &str = "native,\
+native:native.locate_impacts=false,\
+native:native.friction_law=\"coulomb\",\
+rapier,\
+rapier:rapier.solver_iterations=16,\
+rapier:rapier.dt=2.5e-4";
+
+/// The loading: a pulse of `PULSE` m/s^2 for `PULSE_DURATION` s on a ground at `GROUND_MU`.
+const PULSE: f64 = 0.8 * 9.81;
+const PULSE_DURATION: f64 = 0.2;
+const GROUND_MU: f64 = 0.5;
+const DURATION: f64 = 0.5;
+
+fn main() {
+    rockbench::allocator::keep_freed_memory();
+    if let Err(e) = benchmark() {
+        // One line: the error and its causes.
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+/// The scene of a wall of `courses` courses.
+fn wall(courses: usize) -> (String, usize) {
+    let w = WallSpec {
+        duration: DURATION,
+        ..WallSpec::running_bond(courses, 21)
+    };
+    let mut text = w.to_toml();
+    for b in 0..21 {
+        let _ = write!(
+            text,
+            "\n[contact.interfaces.c0b{b}]\nfriction = {GROUND_MU:?}\n"
+        );
+    }
+    let _ = write!(
+        text,
+        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {PULSE:?}\nduration = \
+         {PULSE_DURATION:?}\nstart = 0\n"
+    );
+    (text, w.n_blocks())
+}
+
+fn benchmark() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        println!("{USAGE}");
+        return Ok(());
+    }
+    check_flags(&args, &FLAGS, USAGE)?;
+    let courses: Vec<usize> = arg(&args, "--courses", "3,10,20")
+        .split(',')
+        .map(|c| match c.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => bail!("--courses: {c:?} is not a whole number of courses, 1 or more"),
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let configs = parse_configs(arg(&args, "--configs", DEFAULT_CONFIGS))?;
+    let out = Path::new(arg(&args, "--out", "out/bench-walls-sliding-whole"));
+    // Every scene and override checked before anything runs.
+    let mut runs = Vec::new();
+    for &c in &courses {
+        let (text, blocks) = wall(c);
+        for config in &configs {
+            let scene = parse_scene_str(&text, false, "wall", &config.sets)
+                .with_context(|| format!("{} on {c} courses", config.label))?;
+            runs.push((c, blocks, config, scene));
+        }
+    }
+    let g = runs.first().map_or(9.81, |r| r.3.gravity);
+    let slide = Slide::under_pulse(PULSE, PULSE_DURATION, GROUND_MU, g).distance();
+    let mut csv = String::from(
+        "courses,blocks,config,wall_time_s,steps,ms_per_step,max_abs_error_m,rms_error_m\n",
+    );
+    let mut table = format!(
+        "Closed form: every block {:.6} m back relative to the ground.\n\n\
+         | blocks | configuration | s for the 0.5 s | ms a step | largest error, m | rms error, m |\n|---|---|---|---|---|---|\n",
+        -slide
+    );
+    for (c, blocks, config, scene) in &runs {
+        eprintln!("{} blocks, {} ...", blocks, config.label);
+        let engine = engine_by_name(&config.engine)?;
+        let row = match run_timed(engine.as_ref(), scene) {
+            Ok((output, summary)) => {
+                let tr = &output.trajectory;
+                let last = tr.t.len() - 1;
+                let errors: Vec<f64> = tr
+                    .blocks
+                    .iter()
+                    .map(|b| (b.x[last] - b.x[0]) - slide)
+                    .collect();
+                let max = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+                let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+                let ms = 1e3 * summary.wall_time_s / summary.steps.max(1) as f64;
+                let _ = writeln!(
+                    csv,
+                    "{c},{blocks},\"{}\",{},{},{ms},{max:e},{rms:e}",
+                    config.label.replace('"', "\"\""),
+                    summary.wall_time_s,
+                    summary.steps
+                );
+                format!(
+                    "{:.2} | {ms:.3} | {max:.3e} | {rms:.3e}",
+                    summary.wall_time_s
+                )
+            }
+            // A run that fails is reported as such (e.g. Coulomb friction beyond its solvers).
+            Err(e) => {
+                let _ = writeln!(
+                    csv,
+                    "{c},{blocks},\"{}\",,,,,",
+                    config.label.replace('"', "\"\"")
+                );
+                format!("failed: {e} | - | - | -")
+            }
+        };
+        let _ = writeln!(table, "| {blocks} | `{}` | {row} |", config.label);
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let path = out.join("results.csv");
+    std::fs::write(&path, csv).with_context(|| format!("cannot write {}", path.display()))?;
+    print!("{table}");
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
