@@ -19,13 +19,19 @@ pub const COULOMB_TOLERANCE: f64 = 1e-13;
 pub const COULOMB_SCALE: f64 = 1e-4;
 /// Plain fixed-point iterations before secant steps may be taken (see [`Coulomb::solve`]).
 pub const COULOMB_PLAIN: usize = 3;
-/// When the offsets have not settled to `COULOMB_TOLERANCE` in `COULOMB_ITERATIONS` solves, the
-/// iterate that changed least is accepted if its change is within `COULOMB_ROUNDOFF (1 + s /
-/// COULOMB_SCALE)` m: the tolerance to which the sparse and dense back-ends hold every row
-/// (`ROW_TOLERANCE`, 1e-11 (1 + |r|)), so a loaded point lifts or sinks by no more than any
-/// row may. On large walls the back-end's solutions carry round-off of a few 1e-13 m, below
-/// which the offsets cannot settle (docs/method.md, "A wall that slides whole").
+/// When the offsets have not settled to `COULOMB_TOLERANCE` in `COULOMB_ITERATIONS` solves and
+/// Lemke's method gives no answer (the LCP beyond its dense limit, or no answer passing the
+/// check), the iterate that changed least is accepted if its change is within
+/// `COULOMB_ROUNDOFF (1 + s / COULOMB_SCALE)` m: the tolerance to which the sparse and dense
+/// back-ends hold every row (`ROW_TOLERANCE`, 1e-11 (1 + |r|)), so a loaded point lifts or
+/// sinks by no more than any row may. On large walls the back-end's solutions carry round-off
+/// of a few 1e-13 m, below which the offsets cannot settle (docs/method.md, "A wall that
+/// slides whole").
 pub const COULOMB_ROUNDOFF: f64 = 1e-11;
+
+/// Why the fixed point did not settle, and its least-changed iterate's offsets and solution
+/// if that settled to round-off.
+type Unsettled = (String, Option<Box<(Vec<f64>, StepSolution)>>);
 
 fn row_dot(row: &SparseRow, x: &[f64]) -> f64 {
     row.iter().map(|&(i, c)| c * x[i]).sum()
@@ -64,7 +70,8 @@ impl Coulomb {
     /// Solve a step problem under Coulomb's law: the fixed point on the slip offsets with the
     /// given back-end (the fast path), then, if it does not settle in `COULOMB_ITERATIONS`
     /// solves or a back-end fails, Lemke's method on the problem's LCP (which terminates).
-    /// Lemke's answer is checked against the law; a failure of both is an error.
+    /// Lemke's answer is checked against the law. When it gives none, the fixed point's
+    /// least-changed iterate if it settled to round-off (`COULOMB_ROUNDOFF`); else an error.
     pub fn solve(
         &mut self,
         solver: &mut dyn ContactSolver,
@@ -74,12 +81,12 @@ impl Coulomb {
             return solver.solve(pr);
         }
         self.problems += 1;
-        let fast = match self.method {
+        let (fast, roundoff) = match self.method {
             CoulombMethod::FixedPointThenLemke => match self.fixed_point(solver, pr) {
                 Ok(sol) => return Ok(sol),
-                Err(why) => why,
+                Err(unsettled) => unsettled,
             },
-            CoulombMethod::Lemke => String::new(),
+            CoulombMethod::Lemke => (String::new(), None),
         };
         self.slide.clear();
         self.lemke_solves += 1;
@@ -88,6 +95,11 @@ impl Coulomb {
                 self.lemke_pivots += pivots as u64;
                 self.remember(pr, &sol);
                 Ok(sol)
+            }
+            Err(_) if let Some(settled) = roundoff => {
+                let (offsets, sol) = *settled;
+                self.roundoff_settles += 1;
+                Ok(self.settled(pr, &offsets, sol))
             }
             Err(why) => Err(SolveFailure {
                 solver: "coulomb (fixed point, then Lemke)",
@@ -111,12 +123,13 @@ impl Coulomb {
     }
 
     /// The fixed point `s <- mu |d_t(s)|`, each iterate one solve of the back-end; on failure
-    /// the reason.
+    /// the reason, and the least-changed iterate's offsets and solution if it settled to
+    /// round-off (`COULOMB_ROUNDOFF`).
     fn fixed_point(
         &mut self,
         solver: &mut dyn ContactSolver,
         pr: &StepProblem,
-    ) -> Result<StepSolution, String> {
+    ) -> Result<StepSolution, Unsettled> {
         let mut shifted = pr.clone();
         let mut s: Vec<f64> = pr
             .contacts
@@ -139,9 +152,12 @@ impl Coulomb {
             for (r, (c, sk)) in shifted.contacts.iter_mut().zip(pr.contacts.iter().zip(&s)) {
                 r.g_n = c.g_n + sk;
             }
-            let mut sol = solver
-                .solve(&shifted)
-                .map_err(|e| format!("the back-end failed on a shifted problem ({e})"))?;
+            let mut sol = solver.solve(&shifted).map_err(|e| {
+                (
+                    format!("the back-end failed on a shifted problem ({e})"),
+                    None,
+                )
+            })?;
             iterations += sol.iterations;
             let mut change = 0.0f64;
             let mut size = 0.0f64;
@@ -200,16 +216,18 @@ impl Coulomb {
             previous = Some((std::mem::replace(&mut s, next), g.clone()));
             last_change = change;
         }
-        if let Some((change, tolerance, s, mut sol)) = least
-            && change <= tolerance
-        {
-            self.roundoff_settles += 1;
-            sol.iterations = iterations;
-            return Ok(self.settled(pr, &s, sol));
-        }
-        Err(format!(
-            "the slip offsets did not settle in {COULOMB_ITERATIONS} solves of {} (last change {last_change:.3e} m)",
-            solver.name()
+        let roundoff = least
+            .filter(|(change, tolerance, ..)| change <= tolerance)
+            .map(|(_, _, s, mut sol)| {
+                sol.iterations = iterations;
+                Box::new((s, sol))
+            });
+        Err((
+            format!(
+                "the slip offsets did not settle in {COULOMB_ITERATIONS} solves of {} (last change {last_change:.3e} m)",
+                solver.name()
+            ),
+            roundoff,
         ))
     }
 
