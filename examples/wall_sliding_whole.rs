@@ -13,6 +13,7 @@ mod flags;
 use anyhow::{Context, bail};
 use flags::{arg, check_flags};
 use rockbench::engines::{engine_by_name, run_timed};
+use rockbench::loglog;
 use rockbench::scene::parse_scene_str;
 use rockbench::sensitivity::parse_configs;
 use rockbench::sliding::Slide;
@@ -106,7 +107,9 @@ fn benchmark() -> anyhow::Result<()> {
          | blocks | configuration | s for the 0.5 s | ms a step | largest error, m | rms error, m |\n|---|---|---|---|---|---|\n",
         -slide
     );
-    for (c, blocks, config, scene) in &runs {
+    // Per configuration, (blocks, ms a step) of the runs that finished.
+    let mut costs: Vec<Vec<(f64, f64)>> = vec![Vec::new(); configs.len()];
+    for (i, (c, blocks, config, scene)) in runs.iter().enumerate() {
         eprintln!("{} blocks, {} ...", blocks, config.label);
         let engine = engine_by_name(&config.engine)?;
         let row = match run_timed(engine.as_ref(), scene) {
@@ -121,6 +124,7 @@ fn benchmark() -> anyhow::Result<()> {
                 let max = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
                 let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
                 let ms = 1e3 * summary.wall_time_s / summary.steps.max(1) as f64;
+                costs[i % configs.len()].push((*blocks as f64, ms));
                 let _ = writeln!(
                     csv,
                     "{c},{blocks},\"{}\",{},{},{ms},{max:e},{rms:e}",
@@ -144,6 +148,23 @@ fn benchmark() -> anyhow::Result<()> {
             }
         };
         let _ = writeln!(table, "| {blocks} | `{}` | {row} |", config.label);
+    }
+    table.push_str(
+        "\nGrowth of the cost a step with the blocks (all of them in motion): log-log slope\n\n\
+         | configuration | fitted slope | standard error | between neighbours |\n|---|---|---|---|\n",
+    );
+    for (config, pairs) in configs.iter().zip(&costs) {
+        if let Some(f) = loglog::fit(pairs) {
+            let _ = writeln!(
+                table,
+                "| `{}` | {:.2} | {} | {:.2} to {:.2} |",
+                config.label,
+                f.slope,
+                f.std_error.map_or("-".into(), |e| format!("{e:.2}")),
+                f.local.0,
+                f.local.1
+            );
+        }
     }
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let path = out.join("results.csv");
