@@ -54,21 +54,11 @@ fn main() {
 fn wall(courses: usize) -> (String, usize) {
     let w = WallSpec {
         duration: DURATION,
+        ground_friction: Some(GROUND_MU),
+        pulse: Some((PULSE, PULSE_DURATION)),
         ..WallSpec::running_bond(courses, 21)
     };
-    let mut text = w.to_toml();
-    for b in 0..21 {
-        let _ = write!(
-            text,
-            "\n[contact.interfaces.c0b{b}]\nfriction = {GROUND_MU:?}\n"
-        );
-    }
-    let _ = write!(
-        text,
-        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {PULSE:?}\nduration = \
-         {PULSE_DURATION:?}\nstart = 0\n"
-    );
-    (text, w.n_blocks())
+    (w.to_toml(), w.n_blocks())
 }
 
 fn benchmark() -> anyhow::Result<()> {

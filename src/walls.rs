@@ -20,6 +20,11 @@ pub struct WallSpec {
     pub duration: f64,
     /// `(file as written in the scene, scale)` of a horizontal acceleration record.
     pub record: Option<(String, f64)>,
+    /// Friction of the bottom course's interfaces with the ground, if not `friction`.
+    pub ground_friction: Option<f64>,
+    /// `(amplitude m/s^2, duration s)` of a rectangular pulse of horizontal ground acceleration
+    /// from 0 s (instead of a record).
+    pub pulse: Option<(f64, f64)>,
 }
 
 impl WallSpec {
@@ -34,6 +39,8 @@ impl WallSpec {
             friction: 0.7,
             duration: 5.0,
             record: None,
+            ground_friction: None,
+            pulse: None,
         }
     }
 
@@ -88,6 +95,18 @@ impl WallSpec {
             );
         }
         write_contact_and_record(&mut s, self.friction, self.record.as_ref());
+        if let Some(mu) = self.ground_friction {
+            for b in 0..self.per_course {
+                let _ = writeln!(s, "\n[contact.interfaces.c0b{b}]\nfriction = {mu}");
+            }
+        }
+        if let Some((amplitude, duration)) = self.pulse {
+            let _ = writeln!(
+                s,
+                "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {amplitude:?}\n\
+                 duration = {duration:?}\nstart = 0"
+            );
+        }
         s
     }
 }
@@ -111,6 +130,30 @@ pub(crate) fn write_contact_and_record(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The ground's friction on the bottom course only, and the pulse, as the scene reads them.
+    #[test]
+    fn a_wall_on_its_own_ground_under_a_pulse_reads_back() {
+        let w = WallSpec {
+            ground_friction: Some(0.5),
+            pulse: Some((7.848, 0.2)),
+            ..WallSpec::running_bond(3, 7)
+        };
+        let s = crate::scene::parse_scene_str(&w.to_toml(), false, "wall", &[]).unwrap();
+        assert_eq!(s.blocks.len(), 22);
+        for (i, b) in s.blocks.iter().enumerate() {
+            let want = if b.name.starts_with("c0b") { 0.5 } else { 0.7 };
+            assert_eq!(s.friction_below(i), want, "{}", b.name);
+        }
+        match s.excitation.and_then(|e| e.horizontal) {
+            Some(crate::scene::MotionSpec::Rectangular {
+                amplitude,
+                duration,
+                ..
+            }) => assert_eq!((amplitude, duration), (7.848, 0.2)),
+            other => panic!("{other:?}"),
+        }
+    }
 
     #[test]
     fn the_benchmark_wall_has_215_blocks_and_no_overlap() {

@@ -635,14 +635,12 @@ impl ContactSolver for WithRoundoff {
 /// and the step fails naming both reasons.
 #[test]
 fn offsets_that_round_off_keeps_from_settling_are_accepted_at_the_row_tolerance() {
-    let mut text = WallSpec::running_bond(10, 21).to_toml();
-    for b in 0..21 {
-        text.push_str(&format!("\n[contact.interfaces.c0b{b}]\nfriction = 0.5\n"));
-    }
-    text.push_str(
-        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = 7.848\nduration = 0.2\n",
-    );
-    let scene = parse_scene_str(&text, false, "wall", &[COULOMB.into()]).unwrap();
+    let wall = WallSpec {
+        ground_friction: Some(0.5),
+        pulse: Some((7.848, 0.2)),
+        ..WallSpec::running_bond(10, 21)
+    };
+    let scene = parse_scene_str(&wall.to_toml(), false, "wall", &[COULOMB.into()]).unwrap();
     let (st, state) = stepper_for(&scene).unwrap();
     let pr = st.next_problem(&state);
     assert!(4 * pr.contacts.len() > LEMKE_MAX_UNKNOWNS);

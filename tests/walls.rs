@@ -605,16 +605,13 @@ fn a_wall_under_a_record_slides_on_no_frictionless_closing() {
 /// and stops at `mu g` after it, `(a - mu g) t1^2 / 2 + ((a - mu g) t1)^2 / (2 mu g)` back.
 fn sliding_whole_error(courses: usize, set: &[&str]) -> f64 {
     let (a, t1, mu) = (7.848, 0.2, 0.5);
-    let mut w = WallSpec::running_bond(courses, 21);
-    w.duration = 0.5;
-    let mut text = w.to_toml();
-    for b in 0..21 {
-        text.push_str(&format!("\n[contact.interfaces.c0b{b}]\nfriction = {mu}\n"));
-    }
-    text.push_str(&format!(
-        "\n[excitation.horizontal]\nkind = \"rectangular\"\namplitude = {a}\nduration = {t1}\n"
-    ));
-    let s = scene(&text, set);
+    let w = WallSpec {
+        duration: 0.5,
+        ground_friction: Some(mu),
+        pulse: Some((a, t1)),
+        ..WallSpec::running_bond(courses, 21)
+    };
+    let s = scene(&w.to_toml(), set);
     let (mut stepper, mut state) = stepper_for(&s).unwrap();
     let x0: Vec<f64> = state.q.chunks(3).map(|q| q[0]).collect();
     let dt = stepper.settings.dt;

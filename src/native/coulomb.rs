@@ -146,8 +146,9 @@ impl Coulomb {
         // secant step below).
         let mut g = vec![0.0; s.len()];
         let mut previous: Option<(Vec<f64>, Vec<f64>)> = None;
-        // The iterate that changed least: its change, its tolerance, its offsets and solution.
-        let mut least: Option<(f64, f64, Vec<f64>, StepSolution)> = None;
+        // Of the iterates that settled to round-off (`COULOMB_ROUNDOFF`), the one that changed
+        // least: its change, offsets and solution (kept only for those: no copy otherwise).
+        let mut least: Option<(f64, Vec<f64>, StepSolution)> = None;
         for k in 0..COULOMB_ITERATIONS {
             for (r, (c, sk)) in shifted.contacts.iter_mut().zip(pr.contacts.iter().zip(&s)) {
                 r.g_n = c.g_n + sk;
@@ -189,8 +190,8 @@ impl Coulomb {
                 sol.iterations = iterations;
                 return Ok(self.settled(pr, &s, sol));
             }
-            if least.as_ref().is_none_or(|l| change < l.0) {
-                least = Some((change, COULOMB_ROUNDOFF * scale, s.clone(), sol.clone()));
+            if change <= COULOMB_ROUNDOFF * scale && least.as_ref().is_none_or(|l| change < l.0) {
+                least = Some((change, s.clone(), sol.clone()));
             }
             // Next offsets: the plain iterate `g`, or, when it converges slowly or cycles
             // (change not below a tenth of the previous one, after the first few), a secant
@@ -216,12 +217,10 @@ impl Coulomb {
             previous = Some((std::mem::replace(&mut s, next), g.clone()));
             last_change = change;
         }
-        let roundoff = least
-            .filter(|(change, tolerance, ..)| change <= tolerance)
-            .map(|(_, _, s, mut sol)| {
-                sol.iterations = iterations;
-                Box::new((s, sol))
-            });
+        let roundoff = least.map(|(_, s, mut sol)| {
+            sol.iterations = iterations;
+            Box::new((s, sol))
+        });
         Err((
             format!(
                 "the slip offsets did not settle in {COULOMB_ITERATIONS} solves of {} (last change {last_change:.3e} m)",

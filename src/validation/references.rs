@@ -425,10 +425,8 @@ upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, sho
                 _ => return Err(format!("{c}: expects a rectangular pulse")),
             };
             let slide = Slide::under_pulse(a, t1, mu, g);
-            let a_rel = slide.a_rel;
+            let (a_rel, d) = (slide.a_rel, slide.distance());
             let tr = sliding_trajectory(&scene, &slide, 1e-3, scene.duration);
-            let v1 = a_rel * t1;
-            let d = 0.5 * a_rel * t1 * t1 - v1 * v1 / (2.0 * mu * g);
             let mut r = header(&format!("{c}: {what}"));
             let _ = writeln!(
                 r,
