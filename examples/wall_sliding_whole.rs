@@ -3,9 +3,10 @@
 //! 0.7) on a ground at friction 0.5, under a rectangular pulse of 0.8 g for 0.2 s, run to rest
 //! (0.5 s). Where the 0.5 g the sliding base transmits is inside the wall's rest interval, every
 //! block ends where the sliding block's closed form puts it (`rockbench::sliding`); each
-//! configuration's cost a step and largest error of a block's final displacement against it are
-//! written to `OUT/results.csv` and as a table on stdout (docs/method.md, "A wall that slides
-//! whole, against its closed form").
+//! configuration's cost a step, the largest error of a block's final displacement against it
+//! and the range of the bottom course's errors (where the wall rocks as it slides, how far
+//! its base falls short) are written to `OUT/results.csv` and as a table on stdout
+//! (docs/method.md, "A wall that slides whole, against its closed form").
 
 #[path = "common/flags.rs"]
 mod flags;
@@ -22,9 +23,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 const USAGE: &str = "cargo run --release --example wall_sliding_whole -- \
-[--courses 3,10,20] [--configs ENGINE[:KEY=VALUE[;KEY=VALUE]],...] [--out out/bench-walls-sliding-whole]";
+[--courses 3,10,20] [--per-course 21] [--configs ENGINE[:KEY=VALUE[;KEY=VALUE]],...] [--out out/bench-walls-sliding-whole]";
 
-const FLAGS: [&str; 3] = ["--courses", "--configs", "--out"];
+const FLAGS: [&str; 4] = ["--courses", "--per-course", "--configs", "--out"];
 
 /// The native engine's default (impacts located), its impacts at step ends, its Coulomb law;
 /// rapier at its defaults, with more iterations and at a finer step.
@@ -50,13 +51,13 @@ fn main() {
     }
 }
 
-/// The scene of a wall of `courses` courses.
-fn wall(courses: usize) -> (String, usize) {
+/// The scene of a wall of `courses` courses of `per_course` blocks.
+fn wall(courses: usize, per_course: usize) -> (String, usize) {
     let w = WallSpec {
         duration: DURATION,
         ground_friction: Some(GROUND_MU),
         pulse: Some((PULSE, PULSE_DURATION)),
-        ..WallSpec::running_bond(courses, 21)
+        ..WallSpec::running_bond(courses, per_course)
     };
     (w.to_toml(), w.n_blocks())
 }
@@ -75,12 +76,16 @@ fn benchmark() -> anyhow::Result<()> {
             _ => bail!("--courses: {c:?} is not a whole number of courses, 1 or more"),
         })
         .collect::<anyhow::Result<_>>()?;
+    let per_course = match arg(&args, "--per-course", "21").trim().parse::<usize>() {
+        Ok(n) if n >= 2 => n,
+        _ => bail!("--per-course: not a whole number of blocks, 2 or more"),
+    };
     let configs = parse_configs(arg(&args, "--configs", DEFAULT_CONFIGS))?;
     let out = Path::new(arg(&args, "--out", "out/bench-walls-sliding-whole"));
     // Every scene and override checked before anything runs.
     let mut runs = Vec::new();
     for &c in &courses {
-        let (text, blocks) = wall(c);
+        let (text, blocks) = wall(c, per_course);
         for config in &configs {
             let scene = parse_scene_str(&text, false, "wall", &config.sets)
                 .with_context(|| format!("{} on {c} courses", config.label))?;
@@ -90,11 +95,11 @@ fn benchmark() -> anyhow::Result<()> {
     let g = runs.first().map_or(9.81, |r| r.3.gravity);
     let slide = Slide::under_pulse(PULSE, PULSE_DURATION, GROUND_MU, g).distance();
     let mut csv = String::from(
-        "courses,blocks,config,wall_time_s,steps,ms_per_step,max_abs_error_m,rms_error_m\n",
+        "courses,per_course,blocks,config,wall_time_s,steps,ms_per_step,max_abs_error_m,rms_error_m,bottom_course_min_error_m,bottom_course_max_error_m\n",
     );
     let mut table = format!(
         "Closed form: every block {:.6} m back relative to the ground.\n\n\
-         | blocks | configuration | s for the 0.5 s | ms a step | largest error, m | rms error, m |\n|---|---|---|---|---|---|\n",
+         | blocks | configuration | s for the 0.5 s | ms a step | largest error, m | rms error, m | bottom course's errors, m |\n|---|---|---|---|---|---|---|\n",
         -slide
     );
     // Per configuration, (blocks, ms a step) of the runs that finished.
@@ -113,17 +118,26 @@ fn benchmark() -> anyhow::Result<()> {
                     .collect();
                 let max = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
                 let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+                // The bottom course (`c0b*`): the blocks on the sliding ground.
+                let (bottom_min, bottom_max) = tr
+                    .blocks
+                    .iter()
+                    .zip(&errors)
+                    .filter(|(b, _)| b.name.starts_with("c0b"))
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, &e)| {
+                        (lo.min(e), hi.max(e))
+                    });
                 let ms = 1e3 * summary.wall_time_s / summary.steps.max(1) as f64;
                 costs[i % configs.len()].push((*blocks as f64, ms));
                 let _ = writeln!(
                     csv,
-                    "{c},{blocks},\"{}\",{},{},{ms},{max:e},{rms:e}",
+                    "{c},{per_course},{blocks},\"{}\",{},{},{ms},{max:e},{rms:e},{bottom_min:e},{bottom_max:e}",
                     config.label.replace('"', "\"\""),
                     summary.wall_time_s,
                     summary.steps
                 );
                 format!(
-                    "{:.2} | {ms:.3} | {max:.3e} | {rms:.3e}",
+                    "{:.2} | {ms:.3} | {max:.3e} | {rms:.3e} | {bottom_min:.3e} to {bottom_max:.3e}",
                     summary.wall_time_s
                 )
             }
@@ -131,10 +145,10 @@ fn benchmark() -> anyhow::Result<()> {
             Err(e) => {
                 let _ = writeln!(
                     csv,
-                    "{c},{blocks},\"{}\",,,,,",
+                    "{c},{per_course},{blocks},\"{}\",,,,,,,",
                     config.label.replace('"', "\"\"")
                 );
-                format!("failed: {e} | - | - | -")
+                format!("failed: {e} | - | - | - | -")
             }
         };
         let _ = writeln!(table, "| {blocks} | `{}` | {row} |", config.label);
