@@ -52,7 +52,7 @@ pub enum CoulombMethod {
 #[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Coulomb {
     pub method: CoulombMethod,
-    /// Problems solved by Lemke's method, and its pivots in all.
+    /// Problems solved by Lemke's method (its answer taken), and its pivots in all.
     pub lemke_solves: u64,
     pub lemke_pivots: u64,
     /// Slip offsets `s_k` of the last solution, sorted by contact key (the warm start of the
@@ -89,9 +89,9 @@ impl Coulomb {
             CoulombMethod::Lemke => (String::new(), None),
         };
         self.slide.clear();
-        self.lemke_solves += 1;
         match lemke_step(pr) {
             Ok((sol, pivots)) => {
+                self.lemke_solves += 1;
                 self.lemke_pivots += pivots as u64;
                 self.remember(pr, &sol);
                 Ok(sol)
