@@ -18,7 +18,7 @@ use rockbench::loglog;
 use rockbench::scene::parse_scene_str;
 use rockbench::sensitivity::parse_configs;
 use rockbench::sliding::Slide;
-use rockbench::walls::WallSpec;
+use rockbench::walls::{SLIDING_GROUND_FRICTION, SLIDING_PULSE, WallSpec};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -36,12 +36,6 @@ rapier,\
 rapier:rapier.solver_iterations=16,\
 rapier:rapier.dt=2.5e-4";
 
-/// The loading: a pulse of `PULSE` m/s^2 for `PULSE_DURATION` s on a ground at `GROUND_MU`.
-const PULSE: f64 = 0.8 * 9.81;
-const PULSE_DURATION: f64 = 0.2;
-const GROUND_MU: f64 = 0.5;
-const DURATION: f64 = 0.5;
-
 fn main() {
     rockbench::allocator::keep_freed_memory();
     if let Err(e) = benchmark() {
@@ -49,17 +43,6 @@ fn main() {
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }
-}
-
-/// The scene of a wall of `courses` courses of `per_course` blocks.
-fn wall(courses: usize, per_course: usize) -> (String, usize) {
-    let w = WallSpec {
-        duration: DURATION,
-        ground_friction: Some(GROUND_MU),
-        pulse: Some((PULSE, PULSE_DURATION)),
-        ..WallSpec::running_bond(courses, per_course)
-    };
-    (w.to_toml(), w.n_blocks())
 }
 
 fn benchmark() -> anyhow::Result<()> {
@@ -85,7 +68,8 @@ fn benchmark() -> anyhow::Result<()> {
     // Every scene and override checked before anything runs.
     let mut runs = Vec::new();
     for &c in &courses {
-        let (text, blocks) = wall(c, per_course);
+        let w = WallSpec::sliding_whole(c, per_course);
+        let (text, blocks) = (w.to_toml(), w.n_blocks());
         for config in &configs {
             let scene = parse_scene_str(&text, false, "wall", &config.sets)
                 .with_context(|| format!("{} on {c} courses", config.label))?;
@@ -93,7 +77,8 @@ fn benchmark() -> anyhow::Result<()> {
         }
     }
     let g = runs.first().map_or(9.81, |r| r.3.gravity);
-    let slide = Slide::under_pulse(PULSE, PULSE_DURATION, GROUND_MU, g).distance();
+    let (a, t1) = SLIDING_PULSE;
+    let slide = Slide::under_pulse(a, t1, SLIDING_GROUND_FRICTION, g).distance();
     let mut csv = String::from(
         "courses,per_course,blocks,config,wall_time_s,steps,ms_per_step,max_abs_error_m,rms_error_m,bottom_course_min_error_m,bottom_course_max_error_m\n",
     );

@@ -8,6 +8,12 @@
 
 use std::fmt::Write as _;
 
+/// The wall that slides whole ([`WallSpec::sliding_whole`]): the ground's friction, the pulse
+/// `(amplitude m/s^2, duration s)` of 0.8 g for 0.2 s, and the time to rest (s).
+pub const SLIDING_GROUND_FRICTION: f64 = 0.5;
+pub const SLIDING_PULSE: (f64, f64) = (7.848, 0.2);
+pub const SLIDING_DURATION: f64 = 0.5;
+
 /// A wall and what shakes it.
 #[derive(Debug, Clone)]
 pub struct WallSpec {
@@ -41,6 +47,20 @@ impl WallSpec {
             record: None,
             ground_friction: None,
             pulse: None,
+        }
+    }
+
+    /// The wall that slides whole (docs/method.md, "A wall that slides whole"): the benchmark's
+    /// wall on a ground at friction `SLIDING_GROUND_FRICTION` (its bed joints at 0.7) under a
+    /// rectangular pulse `SLIDING_PULSE`, run to rest (`SLIDING_DURATION`). Where the 0.5 g the
+    /// sliding base transmits is inside the wall's rest interval, every block ends where the
+    /// sliding block's closed form puts it (`crate::sliding::Slide::under_pulse`).
+    pub fn sliding_whole(courses: usize, per_course: usize) -> Self {
+        WallSpec {
+            duration: SLIDING_DURATION,
+            ground_friction: Some(SLIDING_GROUND_FRICTION),
+            pulse: Some(SLIDING_PULSE),
+            ..WallSpec::running_bond(courses, per_course)
         }
     }
 
@@ -134,11 +154,7 @@ mod tests {
     /// The ground's friction on the bottom course only, and the pulse, as the scene reads them.
     #[test]
     fn a_wall_on_its_own_ground_under_a_pulse_reads_back() {
-        let w = WallSpec {
-            ground_friction: Some(0.5),
-            pulse: Some((7.848, 0.2)),
-            ..WallSpec::running_bond(3, 7)
-        };
+        let w = WallSpec::sliding_whole(3, 7);
         let s = crate::scene::parse_scene_str(&w.to_toml(), false, "wall", &[]).unwrap();
         assert_eq!(s.blocks.len(), 22);
         for (i, b) in s.blocks.iter().enumerate() {

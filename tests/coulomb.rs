@@ -650,11 +650,7 @@ impl ContactSolver for WithRoundoff {
 /// and the step fails naming both reasons.
 #[test]
 fn offsets_that_round_off_keeps_from_settling_are_accepted_at_the_row_tolerance() {
-    let wall = WallSpec {
-        ground_friction: Some(0.5),
-        pulse: Some((7.848, 0.2)),
-        ..WallSpec::running_bond(10, 21)
-    };
+    let wall = WallSpec::sliding_whole(10, 21);
     let scene = parse_scene_str(&wall.to_toml(), false, "wall", &[COULOMB.into()]).unwrap();
     let (st, state) = stepper_for(&scene).unwrap();
     let pr = st.next_problem(&state);

@@ -7,7 +7,8 @@ use rockbench::gallery::GallerySpec;
 use rockbench::native::solver::{ClarabelSolver, ContactSolver, SparseSolver};
 use rockbench::native::{NativeState, Stepper, stepper_for};
 use rockbench::scene::{Scene, parse_scene_str};
-use rockbench::walls::WallSpec;
+use rockbench::sliding::Slide;
+use rockbench::walls::{SLIDING_GROUND_FRICTION, SLIDING_PULSE, WallSpec};
 
 fn record() -> String {
     common::root()
@@ -604,13 +605,7 @@ fn a_wall_under_a_record_slides_on_no_frictionless_closing() {
 /// block's closed form: relative to the ground the base slides at `-(a - mu g)` during the pulse
 /// and stops at `mu g` after it, `(a - mu g) t1^2 / 2 + ((a - mu g) t1)^2 / (2 mu g)` back.
 fn sliding_whole_error(courses: usize, set: &[&str]) -> f64 {
-    let (a, t1, mu) = (7.848, 0.2, 0.5);
-    let w = WallSpec {
-        duration: 0.5,
-        ground_friction: Some(mu),
-        pulse: Some((a, t1)),
-        ..WallSpec::running_bond(courses, 21)
-    };
+    let w = WallSpec::sliding_whole(courses, 21);
     let s = scene(&w.to_toml(), set);
     let (mut stepper, mut state) = stepper_for(&s).unwrap();
     let x0: Vec<f64> = state.q.chunks(3).map(|q| q[0]).collect();
@@ -618,13 +613,13 @@ fn sliding_whole_error(courses: usize, set: &[&str]) -> f64 {
     while state.t < s.duration - 0.5 * dt {
         stepper.step(&mut state).unwrap();
     }
-    let rel = a - mu * s.gravity;
-    let slide = 0.5 * rel * t1 * t1 + (rel * t1).powi(2) / (2.0 * mu * s.gravity);
+    let (a, t1) = SLIDING_PULSE;
+    let slide = Slide::under_pulse(a, t1, SLIDING_GROUND_FRICTION, s.gravity).distance();
     state
         .q
         .chunks(3)
         .zip(&x0)
-        .map(|(q, x)| (x - q[0] - slide).abs())
+        .map(|(q, x)| (q[0] - x - slide).abs())
         .fold(0.0, f64::max)
 }
 
