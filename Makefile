@@ -273,8 +273,9 @@ bench-walls-in-motion:
 
 # Walls that slide whole (64 / 215 / 430 blocks, bed joints at 0.7 on a ground at 0.5, a 0.8 g
 # pulse for 0.2 s, 0.5 s) against the sliding block's closed form: cost a step and the largest
-# error of a block's final displacement, the native engine's settings and laws and rapier's;
-# out/bench-walls-sliding-whole. About 2 minutes (docs/method.md, "A wall that slides whole").
+# error of a block's final displacement, the native engine's settings and laws and rapier's, each
+# at several steps; out/bench-walls-sliding-whole (results.csv, a work-precision figure per wall).
+# About 3 minutes (docs/method.md, "A wall that slides whole").
 bench-walls-sliding-whole:
 	$(CARGO) run --release --example wall_sliding_whole -- --courses 3,10,20 --out out/bench-walls-sliding-whole
 

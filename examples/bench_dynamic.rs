@@ -202,8 +202,16 @@ fn measure_apart(path: &Path, engine: &str, budget: Duration) -> anyhow::Result<
     ))
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() {
     rockbench::allocator::keep_freed_memory();
+    if let Err(e) = benchmark() {
+        // One line: the error and its causes.
+        eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+        std::process::exit(1);
+    }
+}
+
+fn benchmark() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("--run-one") {
         let [_, path, engine] = &args[..] else {

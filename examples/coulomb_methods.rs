@@ -10,25 +10,26 @@ use rockbench::scene::load_scene_with_overrides;
 use std::time::Instant;
 
 fn main() {
+    if let Err(e) = compare() {
+        // One line: the error and its causes.
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn compare() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(path) = args.first() else {
-        eprintln!("usage: coulomb_methods SCENE [KEY=VALUE ...]");
-        std::process::exit(2);
+        anyhow::bail!("usage: coulomb_methods SCENE [KEY=VALUE ...]");
     };
     let mut set: Vec<String> = vec!["native.friction_law=\"coulomb\"".into()];
     set.extend(args[1..].iter().cloned());
-    let scene = match load_scene_with_overrides(std::path::Path::new(path), &set) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("{e}");
-            std::process::exit(2);
-        }
-    };
-    let dt = rockbench::native::settings_of(&scene).unwrap().dt;
+    let scene = load_scene_with_overrides(std::path::Path::new(path), &set)?;
+    let dt = rockbench::native::settings_of(&scene)?.dt;
     let n = ((scene.duration / dt).ceil() as u64).max(1);
     let mut runs = Vec::new();
     for method in [CoulombMethod::FixedPointThenLemke, CoulombMethod::Lemke] {
-        let (mut st, mut s) = stepper_for(&scene).unwrap();
+        let (mut st, mut s) = stepper_for(&scene)?;
         st.coulomb.method = method;
         let mut states = Vec::new();
         let t = Instant::now();
@@ -64,4 +65,5 @@ fn main() {
         }
     }
     println!("largest position/rotation difference {d:.3e} (step {at})");
+    Ok(())
 }

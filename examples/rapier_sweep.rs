@@ -87,15 +87,23 @@ fn two_block(scene: &Scene, native: &Summary) -> String {
 }
 
 fn main() {
+    if let Err(e) = sweep() {
+        // One line: the error and its causes.
+        eprintln!("error: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn sweep() -> Result<(), String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/scenes");
-    let load = |n: &str| load_scene(&dir.join(n)).unwrap_or_else(|e| panic!("{e}"));
-    let slender = load("housner-slender.toml");
-    let square = load("housner-square.toml");
-    let mut two = load("two-block-free-rocking.toml");
+    let load = |n: &str| load_scene(&dir.join(n)).map_err(|e| e.to_string());
+    let slender = load("housner-slender.toml")?;
+    let square = load("housner-square.toml")?;
+    let mut two = load("two-block-free-rocking.toml")?;
     two.duration = 2.5;
-    let h_slender = run("housner", &slender).unwrap();
-    let h_square = run("housner", &square).unwrap();
-    let native = run("native", &two).unwrap().1;
+    let h_slender = run("housner", &slender)?;
+    let h_square = run("housner", &square)?;
+    let native = run("native", &two)?.1;
 
     type Edit = fn(&mut RapierSettings);
     let variants: Vec<(&str, Edit)> = vec![
@@ -181,4 +189,5 @@ fn main() {
             two_block(&with(&two), &native)
         );
     }
+    Ok(())
 }

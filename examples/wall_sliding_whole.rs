@@ -5,7 +5,9 @@
 //! block ends where the sliding block's closed form puts it (`rockbench::sliding`); each
 //! configuration's cost a step, the largest error of a block's final displacement against it
 //! and the range of the bottom course's errors (where the wall rocks as it slides, how far
-//! its base falls short) are written to `OUT/results.csv` and as a table on stdout
+//! its base falls short) are written to `OUT/results.csv` and as a table on stdout, and each
+//! wall's work-precision figure (largest error against the wall time for the 0.5 s, one curve
+//! per configuration through its step sizes) to `OUT/work_precision_BLOCKS.svg`
 //! (docs/method.md, "A wall that slides whole, against its closed form").
 
 #[path = "common/flags.rs"]
@@ -13,6 +15,7 @@ mod flags;
 
 use anyhow::{Context, bail};
 use flags::{arg, check_flags};
+use rockbench::bench::{ConfigPoint, configs_plot};
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::loglog;
 use rockbench::scene::parse_scene_str;
@@ -27,14 +30,21 @@ const USAGE: &str = "cargo run --release --example wall_sliding_whole -- \
 
 const FLAGS: [&str; 4] = ["--courses", "--per-course", "--configs", "--out"];
 
-/// The native engine's default (impacts located), its impacts at step ends, its Coulomb law;
-/// rapier at its defaults, with more iterations and at a finer step.
+/// The native engine's default (impacts located) and at two finer steps, its impacts at step
+/// ends, its Coulomb law; rapier at its defaults and three finer steps, and with more
+/// iterations at two steps (each method's step sizes make one curve of the work-precision
+/// figures).
 const DEFAULT_CONFIGS: &str = "native,\
+native:native.dt=5e-4,\
+native:native.dt=2.5e-4,\
 native:native.locate_impacts=false,\
 native:native.friction_law=\"coulomb\",\
 rapier,\
+rapier:rapier.dt=5e-4,\
+rapier:rapier.dt=2.5e-4,\
+rapier:rapier.dt=1e-4,\
 rapier:rapier.solver_iterations=16,\
-rapier:rapier.dt=2.5e-4";
+rapier:rapier.solver_iterations=16;rapier.dt=2.5e-4";
 
 fn main() {
     rockbench::allocator::keep_freed_memory();
@@ -87,8 +97,10 @@ fn benchmark() -> anyhow::Result<()> {
          | blocks | configuration | s for the 0.5 s | ms a step | largest error, m | rms error, m | bottom course's errors, m |\n|---|---|---|---|---|---|---|\n",
         -slide
     );
-    // Per configuration, (blocks, ms a step) of the runs that finished.
+    // Per configuration, (blocks, ms a step) of the runs that finished; per wall, the runs'
+    // (configuration, wall time, largest error) for its work-precision figure.
     let mut costs: Vec<Vec<(f64, f64)>> = vec![Vec::new(); configs.len()];
+    let mut accuracy: Vec<(usize, ConfigPoint)> = Vec::new();
     for (i, (c, blocks, config, scene)) in runs.iter().enumerate() {
         eprintln!("{} blocks, {} ...", blocks, config.label);
         let engine = engine_by_name(&config.engine)?;
@@ -114,6 +126,14 @@ fn benchmark() -> anyhow::Result<()> {
                     });
                 let ms = 1e3 * summary.wall_time_s / summary.steps.max(1) as f64;
                 costs[i % configs.len()].push((*blocks as f64, ms));
+                accuracy.push((
+                    *blocks,
+                    ConfigPoint {
+                        config,
+                        cost: summary.wall_time_s,
+                        error: max,
+                    },
+                ));
                 let _ = writeln!(
                     csv,
                     "{c},{per_course},{blocks},\"{}\",{},{},{ms},{max:e},{rms:e},{bottom_min:e},{bottom_max:e}",
@@ -158,6 +178,25 @@ fn benchmark() -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let path = out.join("results.csv");
     std::fs::write(&path, csv).with_context(|| format!("cannot write {}", path.display()))?;
+    let mut walls: Vec<usize> = accuracy.iter().map(|a| a.0).collect();
+    walls.dedup();
+    for blocks in walls {
+        let points: Vec<ConfigPoint> = accuracy
+            .iter()
+            .filter(|a| a.0 == blocks)
+            .map(|a| a.1.clone())
+            .collect();
+        let plot = configs_plot(
+            &format!("{blocks}-block wall sliding whole: largest error against cost"),
+            "log10 wall time for the 0.5 s (s)",
+            "log10 largest error of a final displacement (m)",
+            &points,
+        );
+        let figure = out.join(format!("work_precision_{blocks}.svg"));
+        std::fs::write(&figure, plot.render())
+            .with_context(|| format!("cannot write {}", figure.display()))?;
+        eprintln!("wrote {}", figure.display());
+    }
     print!("{table}");
     eprintln!("wrote {}", path.display());
     Ok(())

@@ -1,34 +1,61 @@
 //! Diagnostics: step a scene with the native engine and print per-step cost and counters.
 //! `cargo run --release --example wall_steps -- SCENE [STEPS] [--every N] [--set K=V ...]`
 //! (a line every `N` steps, 100 by default)
+use anyhow::{Context, bail};
 use rockbench::native::stepper_for;
 use rockbench::scene::load_scene_with_overrides;
 use std::time::Instant;
 
+const USAGE: &str = "usage: wall_steps SCENE [STEPS] [--every N] [--set K=V ...]";
+
 fn main() {
+    if let Err(e) = steps() {
+        // One line: the error and its causes.
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn steps() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(path) = args.first().map(std::path::PathBuf::from) else {
-        eprintln!("usage: wall_steps SCENE [STEPS] [--every N] [--set K=V ...]");
-        std::process::exit(2);
+        bail!("{USAGE}");
     };
-    let steps: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000);
-    let sets: Vec<String> = args
-        .windows(2)
-        .filter(|w| w[0] == "--set")
-        .map(|w| w[1].clone())
-        .collect();
-    let every: u64 = args
-        .windows(2)
-        .find(|w| w[0] == "--every")
-        .and_then(|w| w[1].parse().ok())
-        .filter(|&n| n > 0)
-        .unwrap_or(100);
-    let scene = load_scene_with_overrides(&path, &sets).unwrap();
-    let (mut st, mut s) = stepper_for(&scene).unwrap();
+    let steps: u64 =
+        match args.get(1).filter(|a| !a.starts_with("--")) {
+            Some(a) => a.parse().ok().filter(|&n| n > 0).with_context(|| {
+                format!("STEPS: {a:?} is not a whole number of steps, 1 or more")
+            })?,
+            None => 1000,
+        };
+    // The flags after SCENE [STEPS]: `--set K=V` (repeatable) and `--every N`.
+    let first_flag = if args.len() > 1 && !args[1].starts_with("--") {
+        2
+    } else {
+        1
+    };
+    let (mut sets, mut every) = (Vec::new(), 100u64);
+    let mut rest = args[first_flag..].iter();
+    while let Some(flag) = rest.next() {
+        let value = rest
+            .next()
+            .with_context(|| format!("{flag}: needs a value; {USAGE}"))?;
+        match flag.as_str() {
+            "--set" => sets.push(value.clone()),
+            "--every" => {
+                every = value.parse().ok().filter(|&n| n > 0).with_context(|| {
+                    format!("--every: {value:?} is not a whole number of steps, 1 or more")
+                })?
+            }
+            _ => bail!("unknown argument {flag:?}; {USAGE}"),
+        }
+    }
+    let scene = load_scene_with_overrides(&path, &sets)?;
+    let (mut st, mut s) = stepper_for(&scene)?;
     let t0 = Instant::now();
     let mut last = (0u64, 0u64, 0u64, Instant::now());
     for k in 1..=steps {
-        st.step(&mut s).unwrap();
+        st.step(&mut s)?;
         if k % every == 0 {
             let now = Instant::now();
             println!(
@@ -63,4 +90,5 @@ fn main() {
         st.solver_rescues(),
         st.solver_factor_updates()
     );
+    Ok(())
 }

@@ -9,7 +9,7 @@ use crate::compare::{ReferenceSpec, Status, classify};
 use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{RunOutput, engine_by_name, run_timed};
 use crate::metrics::{Cost, MetricRow, MetricSettings, Run, compare_runs};
-use crate::report::svg::{Curve, Plot};
+use crate::report::svg::{Curve, Marker, Plot};
 use crate::scene::Scene;
 use crate::summary::Summary;
 use crate::trajectory::Trajectory;
@@ -315,12 +315,14 @@ pub fn write(dir: &Path, rows: &[BenchRow], command: &str) -> Result<(), String>
     Ok(())
 }
 
+/// The curves' colours, in order.
+const PALETTE: [&str; 8] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
+];
+
 /// The work-precision figure: one line per engine/variant through its step sizes, log10
 /// error against log10 time.
 pub fn plot(rows: &[BenchRow]) -> Plot {
-    let palette = [
-        "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
-    ];
     let mut plot = Plot {
         title: "Work-precision: RMS rotation error against median wall time".into(),
         x_label: "log10 wall time (s)".into(),
@@ -351,8 +353,81 @@ pub fn plot(rows: &[BenchRow]) -> Plot {
             } else {
                 format!("{e} {v}")
             },
-            color: palette[i % palette.len()].into(),
+            color: PALETTE[i % PALETTE.len()].into(),
             dashed: v.ends_with("position"),
+            x: pts.iter().map(|p| p.0).collect(),
+            y: pts.iter().map(|p| p.1).collect(),
+        });
+    }
+    plot
+}
+
+/// A run of a work-precision study given as a configuration ([`crate::sensitivity::Config`]):
+/// its cost and its error, both positive.
+#[derive(Debug, Clone)]
+pub struct ConfigPoint<'a> {
+    pub config: &'a crate::sensitivity::Config,
+    pub cost: f64,
+    pub error: f64,
+}
+
+/// The curve of a configuration in a work-precision figure: its engine and its settings other
+/// than the engine's step size (the registry's [`step_setting`]), so that the runs of one
+/// method at several step sizes make one curve.
+pub fn curve_name(config: &crate::sensitivity::Config) -> String {
+    let step = step_setting(&config.engine);
+    let others: Vec<&str> = config
+        .sets
+        .iter()
+        .map(String::as_str)
+        .filter(|s| s.split_once('=').map(|(k, _)| k.trim()) != step)
+        .collect();
+    if others.is_empty() {
+        config.engine.clone()
+    } else {
+        format!("{} {}", config.engine, others.join("; "))
+    }
+}
+
+/// The work-precision figure of configurations: log10 error against log10 cost, one curve per
+/// [`curve_name`] through its runs in order of cost, every run marked (a configuration alone in
+/// its curve is a mark). Runs without a positive, finite cost and error are left out (an exact
+/// answer has no place on a log axis).
+pub fn configs_plot(title: &str, x_label: &str, y_label: &str, points: &[ConfigPoint]) -> Plot {
+    let mut plot = Plot {
+        title: title.into(),
+        x_label: x_label.into(),
+        y_label: y_label.into(),
+        ..Default::default()
+    };
+    let usable = |p: &&ConfigPoint| {
+        p.cost.is_finite() && p.cost > 0.0 && p.error.is_finite() && p.error > 0.0
+    };
+    let mut names: Vec<String> = Vec::new();
+    for p in points.iter().filter(usable) {
+        let name = curve_name(p.config);
+        if !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    for (i, name) in names.into_iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()].to_string();
+        let mut pts: Vec<(f64, f64)> = points
+            .iter()
+            .filter(usable)
+            .filter(|p| curve_name(p.config) == name)
+            .map(|p| (p.cost.log10(), p.error.log10()))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        plot.markers.extend(pts.iter().map(|&(x, y)| Marker {
+            x,
+            y,
+            color: color.clone(),
+        }));
+        plot.curves.push(Curve {
+            name,
+            color,
+            dashed: false,
             x: pts.iter().map(|p| p.0).collect(),
             y: pts.iter().map(|p| p.1).collect(),
         });
@@ -362,7 +437,77 @@ pub fn plot(rows: &[BenchRow]) -> Plot {
 
 #[cfg(test)]
 mod tests {
-    use super::median;
+    use super::{ConfigPoint, configs_plot, curve_name, median};
+    use crate::sensitivity::parse_configs;
+
+    #[test]
+    fn configurations_at_several_steps_make_one_curve_in_order_of_cost() {
+        let configs = parse_configs(
+            "rapier:rapier.dt=1e-4,rapier,native,rapier:rapier.solver_iterations=16;rapier.dt=2.5e-4,\
+             rapier:rapier.dt=5e-4,native:native.friction_law=\"coulomb\"",
+        )
+        .unwrap();
+        assert_eq!(curve_name(&configs[0]), "rapier");
+        assert_eq!(curve_name(&configs[1]), "rapier");
+        assert_eq!(
+            curve_name(&configs[3]),
+            "rapier rapier.solver_iterations=16"
+        );
+        assert_eq!(
+            curve_name(&configs[5]),
+            "native native.friction_law=\"coulomb\""
+        );
+        // (cost, error) per configuration, in the order given; the Coulomb run is exact.
+        let measured = [
+            (10.0, 1e-2),
+            (1.0, 2e-2),
+            (2.0, 1e-6),
+            (5.0, 1.5e-2),
+            (3.0, 1.8e-2),
+            (4.0, 0.0),
+        ];
+        let points: Vec<ConfigPoint> = configs
+            .iter()
+            .zip(measured)
+            .map(|(config, (cost, error))| ConfigPoint {
+                config,
+                cost,
+                error,
+            })
+            .collect();
+        let plot = configs_plot("t", "x", "y", &points);
+        let names: Vec<&str> = plot.curves.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["rapier", "native", "rapier rapier.solver_iterations=16"]
+        );
+        // The rapier curve through its three step sizes, cheapest first, on log axes.
+        let rapier = &plot.curves[0];
+        let expected_x = [1.0f64.log10(), 3.0f64.log10(), 10.0f64.log10()];
+        let expected_y = [2e-2f64.log10(), 1.8e-2f64.log10(), 1e-2f64.log10()];
+        for k in 0..3 {
+            assert!(
+                (rapier.x[k] - expected_x[k]).abs() < 1e-12,
+                "{:?}",
+                rapier.x
+            );
+            assert!(
+                (rapier.y[k] - expected_y[k]).abs() < 1e-12,
+                "{:?}",
+                rapier.y
+            );
+        }
+        // Every usable run is marked in its curve's colour; the exact one is left out.
+        assert_eq!(plot.markers.len(), 5);
+        assert_eq!(
+            plot.markers
+                .iter()
+                .filter(|m| m.color == rapier.color)
+                .count(),
+            3
+        );
+        assert!(plot.render().starts_with("<svg"));
+    }
 
     #[test]
     fn medians_of_odd_and_even_counts() {
