@@ -258,12 +258,58 @@ impl Plot {
                 .iter()
                 .map(|e| e.0.chars().count() as f64 * 6.6 + 34.0)
                 .fold(0.0, f64::max);
-        let lx = LEFT + pw - lw - 6.0;
-        let ly = TOP + 6.0;
+        let lh = 8.0 + 16.0 * entries.len() as f64;
+        // The corner whose box covers the fewest drawn points (top right where it is free).
+        let drawn: Vec<(f64, f64)> = self
+            .curves
+            .iter()
+            .flat_map(|c| {
+                let (dx, dy) = decimate(&c.x, &c.y, 1200);
+                let pts: Vec<(f64, f64)> = dx
+                    .iter()
+                    .zip(&dy)
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .map(|(x, y)| (sx(*x), sy(*y)))
+                    .collect();
+                // Every vertex, and points every 8 px along the segments between them.
+                let mut along = pts.first().copied().into_iter().collect::<Vec<_>>();
+                for w in pts.windows(2) {
+                    let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+                    let steps = ((x1 - x0).hypot(y1 - y0) / 8.0).ceil().max(1.0) as usize;
+                    along.extend((1..=steps).map(|k| {
+                        let t = k as f64 / steps as f64;
+                        (x0 + t * (x1 - x0), y0 + t * (y1 - y0))
+                    }));
+                }
+                along
+            })
+            .chain(
+                self.markers
+                    .iter()
+                    .filter(|m| m.x.is_finite() && m.y.is_finite())
+                    .map(|m| (sx(m.x), sy(m.y))),
+            )
+            .collect();
+        let corners = [
+            (LEFT + pw - lw - 6.0, TOP + 6.0),
+            (LEFT + 6.0, TOP + 6.0),
+            (LEFT + pw - lw - 6.0, TOP + ph - lh - 6.0),
+            (LEFT + 6.0, TOP + ph - lh - 6.0),
+        ];
+        let covered = |(x, y): (f64, f64)| {
+            drawn
+                .iter()
+                .filter(|(px, py)| (x..=x + lw).contains(px) && (y..=y + lh).contains(py))
+                .count()
+        };
+        let (lx, ly) = corners
+            .iter()
+            .copied()
+            .min_by_key(|&c| covered(c))
+            .unwrap_or(corners[0]);
         let _ = write!(
             s,
-            r##"<rect x="{lx:.1}" y="{ly:.1}" width="{lw:.1}" height="{:.1}" fill="#ffffff" fill-opacity="0.9" stroke="#bbb"/>"##,
-            8.0 + 16.0 * entries.len() as f64
+            r##"<rect x="{lx:.1}" y="{ly:.1}" width="{lw:.1}" height="{lh:.1}" fill="#ffffff" fill-opacity="0.9" stroke="#bbb"/>"##
         );
         for (k, (name, color, dashed, marker)) in entries.iter().enumerate() {
             let y = ly + 14.0 + 16.0 * k as f64;
@@ -322,6 +368,61 @@ mod tests {
         let (dx, dy) = decimate(&x, &y, 100);
         assert!(dx.len() <= 200);
         assert!(dy.contains(&5.0) && dy.contains(&-3.0));
+    }
+
+    /// The legend's box: its x and y.
+    fn legend_at(svg: &str) -> (f64, f64) {
+        let at = svg.find(r#"fill-opacity="0.9""#).unwrap();
+        let rect = &svg[svg[..at].rfind("<rect").unwrap()..at];
+        let value = |name: &str| -> f64 {
+            let from = rect.find(&format!(" {name}=\"")).unwrap() + name.len() + 3;
+            rect[from..from + rect[from..].find('"').unwrap()]
+                .parse()
+                .unwrap()
+        };
+        (value("x"), value("y"))
+    }
+
+    #[test]
+    fn the_legend_goes_to_the_corner_the_curves_leave_free() {
+        let curve = |x: Vec<f64>, y: Vec<f64>| Curve {
+            name: "a curve".into(),
+            color: "#000".into(),
+            dashed: false,
+            x,
+            y,
+        };
+        // Rising: the top right is taken, the top left free.
+        let rising = Plot {
+            curves: vec![curve(vec![0.0, 1.0], vec![0.0, 1.0])],
+            ..Default::default()
+        };
+        let (x, y) = legend_at(&rising.render());
+        assert_eq!((x, y), (LEFT + 6.0, TOP + 6.0));
+        // Falling: the top right is free, as by default.
+        let falling = Plot {
+            curves: vec![curve(vec![0.0, 1.0], vec![1.0, 0.0])],
+            ..Default::default()
+        };
+        let (x, y) = legend_at(&falling.render());
+        assert!(x > W / 2.0 && y == TOP + 6.0, "{x} {y}");
+        // A flat line along the top, with marks: the legend goes to the bottom.
+        let mut top = Plot {
+            curves: vec![
+                curve(vec![0.0, 1.0], vec![1.0, 1.0]),
+                curve(vec![0.0, 1.0], vec![0.0, 0.0]),
+            ],
+            ..Default::default()
+        };
+        top.curves[1].x.clear();
+        top.curves[1].y.clear();
+        top.markers.push(Marker {
+            x: 0.5,
+            y: 0.0,
+            color: "#000".into(),
+        });
+        let (_, y) = legend_at(&top.render());
+        assert!(y > H / 2.0, "{y}");
     }
 
     #[test]
