@@ -683,6 +683,7 @@ fn offsets_that_round_off_keeps_from_settling_are_accepted_at_the_row_tolerance(
                 assert_eq!(fp.roundoff_settles, 0);
                 let e = e.to_string();
                 assert!(e.contains("did not settle") && e.contains("Lemke"), "{e}");
+                assert!(e.contains("more than Lemke's dense method takes"), "{e}");
             }
         }
     }

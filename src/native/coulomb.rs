@@ -305,6 +305,16 @@ pub const LEMKE_CHECK: f64 = 1e-9;
 /// entry of the LCP is in metres. Returns the step and the pivots taken.
 pub fn lemke_step(pr: &StepProblem) -> Result<(StepSolution, usize), String> {
     let m = pr.contacts.len();
+    // The size first: the Delassus operator below is dense, `(2m)^2` entries.
+    // Unknowns: N_k at k; for the f-th point with friction, beta+, beta-, lambda at
+    // m + 3f, m + 3f + 1, m + 3f + 2.
+    let friction: Vec<usize> = (0..m).filter(|&k| pr.contacts[k].mu > 0.0).collect();
+    let n = m + 3 * friction.len();
+    if n > LEMKE_MAX_UNKNOWNS {
+        return Err(format!(
+            "the LCP has {n} unknowns ({m} points), more than Lemke's dense method takes ({LEMKE_MAX_UNKNOWNS})"
+        ));
+    }
     let nd = pr.n_dof();
     let minv: Vec<f64> = pr
         .mass
@@ -350,15 +360,6 @@ pub fn lemke_step(pr: &StepProblem) -> Result<(StepSolution, usize), String> {
             ]
         })
         .collect();
-    // Unknowns: N_k at k; for the f-th point with friction, beta+, beta-, lambda at
-    // m + 3f, m + 3f + 1, m + 3f + 2.
-    let friction: Vec<usize> = (0..m).filter(|&k| pr.contacts[k].mu > 0.0).collect();
-    let n = m + 3 * friction.len();
-    if n > LEMKE_MAX_UNKNOWNS {
-        return Err(format!(
-            "the LCP has {n} unknowns ({m} points), more than Lemke's dense method takes ({LEMKE_MAX_UNKNOWNS})"
-        ));
-    }
     // The columns of the LCP matrix that carry W: (LCP column, W row/column, sign).
     let mut force_cols: Vec<(usize, usize, f64)> = (0..m).map(|k| (k, 2 * k, 1.0)).collect();
     for (f, &k) in friction.iter().enumerate() {
