@@ -400,23 +400,24 @@ pub fn configs_plot(title: &str, x_label: &str, y_label: &str, points: &[ConfigP
         y_label: y_label.into(),
         ..Default::default()
     };
-    let usable = |p: &&ConfigPoint| {
-        p.cost.is_finite() && p.cost > 0.0 && p.error.is_finite() && p.error > 0.0
-    };
-    let mut names: Vec<String> = Vec::new();
-    for p in points.iter().filter(usable) {
-        let name = curve_name(p.config);
+    // The usable runs: (curve, log10 cost, log10 error).
+    let named: Vec<(String, f64, f64)> = points
+        .iter()
+        .filter(|p| p.cost.is_finite() && p.cost > 0.0 && p.error.is_finite() && p.error > 0.0)
+        .map(|p| (curve_name(p.config), p.cost.log10(), p.error.log10()))
+        .collect();
+    let mut names: Vec<&String> = Vec::new();
+    for (name, _, _) in &named {
         if !names.contains(&name) {
             names.push(name);
         }
     }
     for (i, name) in names.into_iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()].to_string();
-        let mut pts: Vec<(f64, f64)> = points
+        let mut pts: Vec<(f64, f64)> = named
             .iter()
-            .filter(usable)
-            .filter(|p| curve_name(p.config) == name)
-            .map(|p| (p.cost.log10(), p.error.log10()))
+            .filter(|(n, _, _)| n == name)
+            .map(|&(_, x, y)| (x, y))
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         plot.markers.extend(pts.iter().map(|&(x, y)| Marker {
@@ -425,7 +426,7 @@ pub fn configs_plot(title: &str, x_label: &str, y_label: &str, points: &[ConfigP
             color: color.clone(),
         }));
         plot.curves.push(Curve {
-            name,
+            name: name.clone(),
             color,
             dashed: false,
             x: pts.iter().map(|p| p.0).collect(),

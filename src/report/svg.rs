@@ -212,14 +212,24 @@ impl Plot {
             TOP + ph / 2.0,
             esc(&self.y_label)
         );
-        // Curves.
-        for c in &self.curves {
-            let (dx, dy) = decimate(&c.x, &c.y, 1200);
+        // Curves: each one's decimated finite points, in pixels (drawn, and kept out of the
+        // legend's way below).
+        let pixels: Vec<Vec<(f64, f64)>> = self
+            .curves
+            .iter()
+            .map(|c| {
+                let (dx, dy) = decimate(&c.x, &c.y, 1200);
+                dx.iter()
+                    .zip(&dy)
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .map(|(x, y)| (sx(*x), sy(*y)))
+                    .collect()
+            })
+            .collect();
+        for (c, curve_pixels) in self.curves.iter().zip(&pixels) {
             let mut pts = String::new();
-            for (x, y) in dx.iter().zip(&dy) {
-                if x.is_finite() && y.is_finite() {
-                    let _ = write!(pts, "{:.1},{:.1} ", sx(*x), sy(*y));
-                }
+            for (px, py) in curve_pixels {
+                let _ = write!(pts, "{px:.1},{py:.1} ");
             }
             let _ = write!(
                 s,
@@ -260,17 +270,9 @@ impl Plot {
                 .fold(0.0, f64::max);
         let lh = 8.0 + 16.0 * entries.len() as f64;
         // The corner whose box covers the fewest drawn points (top right where it is free).
-        let drawn: Vec<(f64, f64)> = self
-            .curves
+        let drawn: Vec<(f64, f64)> = pixels
             .iter()
-            .flat_map(|c| {
-                let (dx, dy) = decimate(&c.x, &c.y, 1200);
-                let pts: Vec<(f64, f64)> = dx
-                    .iter()
-                    .zip(&dy)
-                    .filter(|(x, y)| x.is_finite() && y.is_finite())
-                    .map(|(x, y)| (sx(*x), sy(*y)))
-                    .collect();
+            .flat_map(|pts| {
                 // Every vertex, and points every 8 px along the segments between them.
                 let mut along = pts.first().copied().into_iter().collect::<Vec<_>>();
                 for w in pts.windows(2) {
@@ -406,21 +408,16 @@ mod tests {
         };
         let (x, y) = legend_at(&falling.render());
         assert!(x > W / 2.0 && y == TOP + 6.0, "{x} {y}");
-        // A flat line along the top, with marks: the legend goes to the bottom.
-        let mut top = Plot {
-            curves: vec![
-                curve(vec![0.0, 1.0], vec![1.0, 1.0]),
-                curve(vec![0.0, 1.0], vec![0.0, 0.0]),
-            ],
+        // A flat line along the top, a mark below it: the legend goes to the bottom.
+        let top = Plot {
+            curves: vec![curve(vec![0.0, 1.0], vec![1.0, 1.0])],
+            markers: vec![Marker {
+                x: 0.5,
+                y: 0.0,
+                color: "#000".into(),
+            }],
             ..Default::default()
         };
-        top.curves[1].x.clear();
-        top.curves[1].y.clear();
-        top.markers.push(Marker {
-            x: 0.5,
-            y: 0.0,
-            color: "#000".into(),
-        });
         let (_, y) = legend_at(&top.render());
         assert!(y > H / 2.0, "{y}");
     }
