@@ -346,3 +346,20 @@ fn the_sparse_back_end_adds_no_energy_to_a_swaying_colonnade() {
     let swayed = out.trajectory.blocks[30].phi.last().unwrap().abs();
     assert!(swayed > 0.01, "the posts did not sway ({swayed:.3e} rad)");
 }
+
+/// A light post squeezed from under a stack 4e4 times heavier, spinning out at some 60 rad/s
+/// (`make proptest`): its corner ends 1.49 mm inside the ground. The discrete-gradient iteration
+/// of the step stops at `DISCRETE_GRADIENT_SOLVES` with the rows' drift at 1.5e-3 m (it swings
+/// between 5e-2 and 1.5e-3 m from solve to solve), and the last solution is kept as if it had
+/// converged; 17 of the run's 72 iterations that reach the cap end with a drift above 1e-9 m.
+#[test]
+#[ignore = "open defect of the impact stepper: a discrete-gradient iteration that ends at its cap unconverged is kept"]
+fn a_light_post_squeezed_from_under_a_stack_stays_out_of_the_ground() {
+    let (scene, out) = native_run_of("light-post-squeezed-from-under-a-stack.toml");
+    let (ground, pair, where_) = rockbench::invariants::max_penetration(&scene, &out.trajectory);
+    let limit = 1e-4 * rockbench::invariants::smallest_dimension(&scene);
+    assert!(
+        ground <= limit && pair <= limit,
+        "penetration {ground:.3e} / {pair:.3e} m ({where_}), limit {limit:.3e} m"
+    );
+}
