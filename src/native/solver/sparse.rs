@@ -628,11 +628,14 @@ impl SparseSolver {
                     row.axpy(-self.rho[i] * self.y[i], &mut self.du);
                 }
             }
-            // The work of the residual `-du` before the solve, against `u' P u`.
+            // The work of the residual `-du` before the solve, against `u' P u`: on homogeneous
+            // rows only (`STAGNATION_WORK`).
             let (mut residual_work, mut kinetic) = (0.0, 0.0);
-            for (j, (&d, &u)) in self.du.iter().zip(&self.u).enumerate() {
-                residual_work += d * u;
-                kinetic += p[j] * u * u;
+            if self.homogeneous {
+                for (j, (&d, &u)) in self.du.iter().zip(&self.u).enumerate() {
+                    residual_work += d * u;
+                    kinetic += p[j] * u * u;
+                }
             }
             self.envelope.solve(&mut self.du);
             let tau = self.line_search(p, q);
