@@ -58,6 +58,13 @@ pub const DRIFT_TOLERANCE: f64 = 1e-15;
 pub const VELOCITY_TOLERANCE: f64 = 1e-13;
 /// Impact stepper: most solves of one step for its discrete-gradient rows.
 pub const DISCRETE_GRADIENT_SOLVES: usize = 4;
+/// Impact stepper: a discrete-gradient iteration that ends at `DISCRETE_GRADIENT_SOLVES` with
+/// a drift above this (m) has not converged: its rows do not hold the points at their faces
+/// (the drift is how far they miss), and the step is taken again as two halves.
+pub const CONVERGED_DRIFT: f64 = PENETRATION_TOLERANCE;
+/// Impact stepper: the most times a step is halved for its discrete-gradient iteration to
+/// converge; a part of the step `2^-HALVINGS` long that still does not is an error.
+pub const HALVINGS: u32 = 10;
 /// Impact stepper: an impact instant located within this fraction of the step of the step's
 /// end is taken at its end: the ordinary sub-step, whose position-level rows close the points
 /// there and whose end velocity is settled plastically, is kept. The rest of the step after
@@ -330,9 +337,21 @@ struct Workspace {
     dq: Vec<f64>,
     /// Which points of a sub-step end closed, given back by `step_locating`.
     closed: Vec<bool>,
+    /// What a step that is halved starts again from (`Stepper::advance`), one per halving.
+    restarts: Vec<Restart>,
     detection: Detection,
     /// The contact points of the step before last, whose buffer detection fills again.
     contacts: Vec<ContactPoint>,
+}
+
+/// What a step changes that its redo as two halves must start from: the state and the impact
+/// stepper's memory of the last step (the back-ends' warm starts only change the path at the
+/// solvers' tolerance, and sleeping islands woken by the first try stay awake).
+struct Restart {
+    state: NativeState,
+    accel: Vec<f64>,
+    loaded: Vec<u64>,
+    struck: Vec<u64>,
 }
 
 /// Detection's working storage: the placed rectangles and the broad phase's pairs.
@@ -386,6 +405,9 @@ pub struct Stepper {
     /// Impact stepper: located impact instants taken at the end of their step
     /// (`END_OF_STEP`).
     pub end_of_step_instants: u64,
+    /// Impact stepper: steps (or parts of steps) taken again as two halves because their
+    /// discrete-gradient iteration did not converge (`CONVERGED_DRIFT`).
+    pub halved_steps: u64,
     /// Impact stepper: the acceleration of the last sub-step (the predictor of the next).
     accel: Vec<f64>,
     /// Sorted keys of the points that carried a normal force at the end of the last step
@@ -438,6 +460,7 @@ struct Carried<'a> {
     last_contacts: &'a [ContactPoint],
     last_solution: &'a StepSolution,
     counters: [u64; 10],
+    halved_steps: u64,
     accel: &'a [f64],
     loaded: &'a [u64],
     struck: &'a [u64],
@@ -453,6 +476,9 @@ struct CarriedOwned {
     last_contacts: Vec<ContactPoint>,
     last_solution: StepSolution,
     counters: [u64; 10],
+    /// Absent from the checkpoints of builds that did not halve steps.
+    #[serde(default)]
+    halved_steps: u64,
     accel: Vec<f64>,
     loaded: Vec<u64>,
     struck: Vec<u64>,
@@ -473,6 +499,15 @@ pub enum StepError {
     },
     #[error("step {step} (t = {t:.6} s): the state became non-finite")]
     NonFinite { step: u64, t: f64 },
+    #[error(
+        "step {step} (t = {t:.6} s): the impact stepper's discrete-gradient rows did not converge in a part of the step {h:.3e} s long: the points miss their faces by {drift:.3e} m (more than {CONVERGED_DRIFT:e} m)"
+    )]
+    Unconverged {
+        step: u64,
+        t: f64,
+        h: f64,
+        drift: f64,
+    },
 }
 
 impl Stepper {
@@ -511,6 +546,7 @@ impl Stepper {
             start_impacts: 0,
             halved_instants: 0,
             end_of_step_instants: 0,
+            halved_steps: 0,
             settled_velocities: 0,
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
@@ -540,6 +576,7 @@ impl Stepper {
             last_contacts: &self.last_contacts,
             last_solution: &self.last_solution,
             counters,
+            halved_steps: self.halved_steps,
             accel: &self.accel,
             loaded: &self.loaded,
             struck: &self.struck,
@@ -564,6 +601,7 @@ impl Stepper {
         self.solver.restore(&c.solver.0)?;
         self.velocity_solver.restore(&c.velocity_solver.0)?;
         counters!(self) = c.counters;
+        self.halved_steps = c.halved_steps;
         self.last_contacts = c.last_contacts;
         self.last_solution = c.last_solution;
         self.accel = c.accel;
@@ -977,8 +1015,70 @@ impl Stepper {
             Some(_) => self.ground_step(s, dt).a_eff.0,
             None => 0.0,
         };
-        if let Some(sl) = self.sleep.as_mut() {
-            sl.wake_for_excitation(ax);
+        let sol = self.advance(s, dt, 0)?;
+        s.step += 1;
+        self.fall_asleep(s, ax);
+        self.last_solution = sol;
+        Ok(&self.last_solution)
+    }
+
+    /// Take `s` on by `dt` (a step, or a part of one halved `halvings` times): once, or, if a
+    /// discrete-gradient iteration does not converge (`StepError::Unconverged`), again from its
+    /// start as two halves.
+    fn advance(
+        &mut self,
+        s: &mut NativeState,
+        dt: f64,
+        halvings: u32,
+    ) -> Result<StepSolution, StepError> {
+        if self.settings.stepper == StepperKind::Paper {
+            return self.advance_once(s, dt);
+        }
+        let mut restart = match self.work.restarts.pop() {
+            Some(mut r) => {
+                r.state.clone_from(s);
+                r.accel.clone_from(&self.accel);
+                r.loaded.clone_from(&self.loaded);
+                r.struck.clone_from(&self.struck);
+                r
+            }
+            None => Restart {
+                state: s.clone(),
+                accel: self.accel.clone(),
+                loaded: self.loaded.clone(),
+                struck: self.struck.clone(),
+            },
+        };
+        let once = self.advance_once(s, dt);
+        let taken = match once {
+            Err(StepError::Unconverged { .. }) if halvings < HALVINGS => {
+                s.clone_from(&restart.state);
+                std::mem::swap(&mut self.accel, &mut restart.accel);
+                std::mem::swap(&mut self.loaded, &mut restart.loaded);
+                std::mem::swap(&mut self.struck, &mut restart.struck);
+                self.under_cone.clear();
+                self.halved_steps += 1;
+                let t_end = restart.state.t + dt;
+                self.advance(s, 0.5 * dt, halvings + 1)
+                    .and_then(|first| {
+                        self.give_back_solution(first);
+                        self.advance(s, 0.5 * dt, halvings + 1)
+                    })
+                    .inspect(|_| s.t = t_end)
+            }
+            other => other,
+        };
+        self.work.restarts.push(restart);
+        taken
+    }
+
+    /// [`Stepper::advance`] in one go.
+    fn advance_once(&mut self, s: &mut NativeState, dt: f64) -> Result<StepSolution, StepError> {
+        if self.sleep.is_some() {
+            let ax = self.ground_step(s, dt).a_eff.0;
+            if let Some(sl) = self.sleep.as_mut() {
+                sl.wake_for_excitation(ax);
+            }
         }
         let mut contacts = self.detect_waking(s);
         let t_end = s.t + dt;
@@ -1005,10 +1105,7 @@ impl Stepper {
             sol
         };
         s.t = t_end;
-        s.step += 1;
-        self.fall_asleep(s, ax);
-        self.last_solution = sol;
-        Ok(&self.last_solution)
+        Ok(sol)
     }
 
     /// Contact points at the current geometry ([`Stepper::detect`]), after waking every
@@ -1613,10 +1710,20 @@ impl Stepper {
             // The paper's stepper locates no impacts: nothing asks which points end closed.
             let mut sol = self.spare_solution();
             self.solve_law_into(&pr, &mut sol)
-                .map(|()| (sol, Vec::new()))
+                .map(|()| (sol, Vec::new(), 0.0))
         };
         self.work.poses = ps;
-        let (mut sol, ends_closed) = solved.map_err(fail)?;
+        let (mut sol, ends_closed, drift) = solved.map_err(fail)?;
+        if drift > CONVERGED_DRIFT {
+            self.give_back_solution(sol);
+            self.give_back(pr);
+            return Err(StepError::Unconverged {
+                step: s.step + 1,
+                t: s.t,
+                h,
+                drift,
+            });
+        }
         let th = self.kinematic_weight();
         for i in 0..s.q.len() {
             let v = (sol.dq[i] / h - (1.0 - th) * s.v[i]) / th;
@@ -1669,7 +1776,7 @@ impl Stepper {
         ps: &[Pose],
         pr: &mut StepProblem,
         h: f64,
-    ) -> Result<(StepSolution, Vec<bool>), SolveFailure> {
+    ) -> Result<(StepSolution, Vec<bool>, f64), SolveFailure> {
         let mut points = std::mem::take(&mut self.work.points);
         points.clear();
         points.extend(contacts.iter().map(|c| MaterialContact::new(c, ps)));
@@ -1689,11 +1796,12 @@ impl Stepper {
         self.work.islands = islands;
         self.work.points = points;
         self.work.dq = dq;
-        solved.map(|sol| (sol, carries))
+        solved.map(|(sol, drift)| (sol, carries, drift))
     }
 
     /// `solve_discrete_gradient`'s iteration from the predicted increment `dq`; `carries`
-    /// receives which points end closed; `islands` is working storage.
+    /// receives which points end closed; `islands` is working storage. Returns the last
+    /// solution and its drift (m: how far the points its rows hold miss their faces).
     fn iterate_discrete_gradient(
         &mut self,
         contacts: &[ContactPoint],
@@ -1702,7 +1810,7 @@ impl Stepper {
         carries: &mut Vec<bool>,
         islands: &mut Islands,
         pr: &mut StepProblem,
-    ) -> Result<StepSolution, SolveFailure> {
+    ) -> Result<(StepSolution, f64), SolveFailure> {
         let mut iterations = 0;
         // Once some islands' points stop drifting, only the others are solved again (the
         // problem is separable over islands): an island's solves are those it needs alone.
@@ -1800,7 +1908,7 @@ impl Stepper {
                 self.work.drifts = drifts;
                 self.gradient_solves += solve as u64;
                 sol.iterations = iterations;
-                return Ok(sol);
+                return Ok((sol, worst));
             }
             if self.bodies.len() == 1 {
                 // One island: solved again whole.
