@@ -316,12 +316,19 @@ const KNOWN_DEFECTS: &[KnownDefect] = &[
 ];
 
 /// The known defect that excuses a violation, if any. Each use is printed (`excused: ...`,
-/// shown with `-- --nocapture`) so that a run's excused classes can be counted.
-fn excused(engine: &str, check: &str, value: f64, scene: &Scene) -> Option<&'static str> {
+/// shown with `-- --nocapture`, with the scene's text) so that a run's excused classes can be
+/// counted and each one run again.
+fn excused(
+    engine: &str,
+    check: &str,
+    value: f64,
+    scene: &Scene,
+    text: &str,
+) -> Option<&'static str> {
     let k = KNOWN_DEFECTS.iter().position(|k| {
         k.engine == engine && k.check == check && value < k.below && (k.applies)(scene)
     })?;
-    eprintln!("excused: known defect {k} ({engine} {check}) value {value:.3e}");
+    eprintln!("excused: known defect {k} ({engine} {check}) value {value:.3e}\n<<<\n{text}>>>");
     Some(KNOWN_DEFECTS[k].reason)
 }
 
@@ -408,7 +415,7 @@ proptest! {
                     let v: Vec<String> = report
                         .violations()
                         .iter()
-                        .filter(|c| excused(name, c.name, c.value, &scene).is_none())
+                        .filter(|c| excused(name, c.name, c.value, &scene, &text).is_none())
                         // Rapier's contacts are soft by design (it settles, sinks and is not
                         // mirror-symmetric at round-off): here it is held to the contract
                         // (finite, complete, deterministic, typed errors); its accuracy is
