@@ -87,6 +87,15 @@ pub struct ContactPoint {
     pub feature: u16,
 }
 
+impl ContactPoint {
+    /// Whether the point is a vertex of the face owner A (an end of A's reference face under
+    /// B's face, `block_contacts`), not of B: such a point stays at its face while it is on
+    /// B's face line, which turns with B.
+    pub fn is_a_vertex_of_the_face_owner(&self) -> bool {
+        self.a.is_some() && self.feature & 7 >= 2
+    }
+}
+
 /// Axis-aligned bounding box of a placed rectangle.
 fn aabb(block: &Placed) -> (f64, f64, f64, f64) {
     let mut bb = (
@@ -292,7 +301,8 @@ pub fn block_contacts(
     let len2 = dot(tan, tan);
     let tol = 1e-9;
     let before = out.len();
-    // Feature ids: reference owner, reference face, incident face, end.
+    // Feature ids: reference owner, reference face, incident face, end (0, 1: B's vertices;
+    // 2, 3: A's, `ContactPoint::is_a_vertex_of_the_face_owner`).
     let base = (owner * 256 + k * 64 + m * 8) as u16;
     // B's vertices over A's face.
     for (e, q) in [q0, q1].into_iter().enumerate() {
