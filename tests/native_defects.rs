@@ -276,6 +276,21 @@ fn stays_out_of_its_faces(file: &str) {
     );
 }
 
+/// The ends of a face-to-face overlap that are the lower block's corners, under a plank that
+/// slides and turns on it (Coulomb friction, so no dilatancy hides them): each stays within the
+/// impact stepper's penetration tolerance of the plank's face. Their normal turned with the
+/// post, and the first step put a corner 6.1e-6 m into the plank (slip times turn).
+#[test]
+fn a_post_under_a_sliding_turning_plank_stays_out_of_it() {
+    let (scene, out) = native_run_of("plank-sliding-and-turning-on-a-post.toml");
+    let (ground, pair, where_) = rockbench::invariants::max_penetration(&scene, &out.trajectory);
+    let limit = rockbench::native::stepper::PENETRATION_TOLERANCE;
+    assert!(
+        ground <= limit && pair <= limit,
+        "penetration {ground:.3e} / {pair:.3e} m ({where_}), limit {limit:.0e} m"
+    );
+}
+
 /// The run's energy never grows above its lowest value so far by more than 1e-10 of `sum m g
 /// H`, and block `block` ends turned by more than `least` rad (the scene did what it is for).
 fn gains_no_energy_while_turning(

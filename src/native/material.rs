@@ -11,7 +11,13 @@
 //! ```
 //!
 //! For a vertex of B on a face of A, `g_n` is the exact distance of the vertex from the face
-//! line whatever the motion; at `q0` the gradients are the rows of `assembly::contact_rows`.
+//! line whatever the motion. The ends of a face-to-face overlap that are A's vertices under B's
+//! face (`ContactPoint::is_a_vertex_of_the_face_owner`) have their normal turn with B instead,
+//! `n(q) = R(phi_B - phi_B0) n0`: `g_n` is then the distance of A's vertex from B's face line
+//! (exact while the faces are parallel at `q0`, as they are where such points arise). Turning
+//! with A, it missed by about the slip times the relative rotation. Either way the gradients at
+//! `q0` are the rows of `assembly::contact_rows` (`d(q0) = 0`, so the normal's turn does not
+//! enter them).
 //! The impact-consistent stepper takes its rows as a *discrete gradient* of these functions
 //! between the ends of the step (Gonzalez's midpoint discrete gradient in the mass metric):
 //!
