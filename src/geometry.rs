@@ -87,15 +87,6 @@ pub struct ContactPoint {
     pub feature: u16,
 }
 
-impl ContactPoint {
-    /// Whether the point is a vertex of the face owner A (an end of A's reference face under
-    /// B's face, `block_contacts`), not of B: such a point stays at its face while it is on
-    /// B's face line, which turns with B.
-    pub fn is_a_vertex_of_the_face_owner(&self) -> bool {
-        self.a.is_some() && self.feature & 7 >= 2
-    }
-}
-
 /// Axis-aligned bounding box of a placed rectangle.
 fn aabb(block: &Placed) -> (f64, f64, f64, f64) {
     let mut bb = (
@@ -301,8 +292,8 @@ pub fn block_contacts(
     let len2 = dot(tan, tan);
     let tol = 1e-9;
     let before = out.len();
-    // Feature ids: reference owner, reference face, incident face, end (0, 1: B's vertices;
-    // 2, 3: A's, `ContactPoint::is_a_vertex_of_the_face_owner`).
+    // Feature ids: reference owner, reference face, incident face, end (0, 1: B's vertices on
+    // A's face; 2, 3: A's vertices on B's face).
     let base = (owner * 256 + k * 64 + m * 8) as u16;
     // B's vertices over A's face.
     for (e, q) in [q0, q1].into_iter().enumerate() {
@@ -321,10 +312,14 @@ pub fn block_contacts(
             }
         }
     }
-    // A's face ends under B's face.
+    // A's face ends under B's face: each is a vertex of A on B's incident face, and is made one
+    // (B the face owner, B's face normal, the vertex's distance from B's face line), so that its
+    // gap is that distance however the bodies move (`native::material`). Measured along A's
+    // normal, as the end of A's face, it is the distance only while the faces are parallel.
     let d = sub(q1, q0);
     let denom = cross(n, d);
     if denom.abs() > 1e-12 * d.0.hypot(d.1) {
+        let nm = nb[m];
         for (e, p) in [p0, p1].into_iter().enumerate() {
             let lam = cross(sub(q0, p), d) / denom; // p + lam n lies on the line q0-q1
             let hit = (p.0 + lam * n.0, p.1 + lam * n.1);
@@ -333,13 +328,14 @@ pub fn block_contacts(
                 let dup = out[before..]
                     .iter()
                     .any(|c| (c.point.0 - p.0).abs() + (c.point.1 - p.1).abs() < 1e-9 * scale);
-                if !dup && reach(p, lam) {
+                let gap = dot(nm, sub(p, q0));
+                if !dup && reach(p, gap) {
                     out.push(ContactPoint {
-                        a: Some(a),
-                        b,
+                        a: Some(b),
+                        b: a,
                         point: p,
-                        normal: n,
-                        gap: lam,
+                        normal: nm,
+                        gap,
                         feature: base + 2 + e as u16,
                     });
                 }
@@ -408,6 +404,70 @@ mod tests {
             assert!((c.point.0.abs() - 0.5).abs() < 1e-12, "{c:?}");
             assert!((c.gap - 1e-3).abs() < 1e-12);
         }
+        each_is_a_vertex_on_a_face(&out, &[Placed::new(&lower, &pl), Placed::new(&upper, &pu)]);
+    }
+
+    /// Every point is a vertex of block `b` on a face of block `a`: its normal is that face's
+    /// outward normal and its gap the vertex's distance from the face line.
+    fn each_is_a_vertex_on_a_face(out: &[ContactPoint], placed: &[Placed]) {
+        for c in out {
+            let (a, b) = (&placed[c.a.unwrap()], &placed[c.b]);
+            let at = |p: (f64, f64), q: (f64, f64)| (p.0 - q.0).abs() + (p.1 - q.1).abs() < 1e-12;
+            assert!(b.vertices.iter().any(|&v| at(v, c.point)), "{c:?}");
+            let k = (0..4)
+                .find(|&k| at(a.normals()[k], c.normal))
+                .unwrap_or_else(|| panic!("not a face normal of a: {c:?}"));
+            let gap = dot(c.normal, sub(c.point, a.vertices[k]));
+            assert!((c.gap - gap).abs() < 1e-15, "{c:?}: {gap:e}");
+        }
+    }
+
+    /// A block turned 0.014 rad, overhanging the left end of the block below, whose top-left
+    /// corner touches its bottom face; its own bottom-right corner is 1.3 mm over the lower
+    /// block's top face. The reference face is the upper block's (the lower block's would have
+    /// the overhanging corner below its line), and its right end is a vertex of the upper block
+    /// over the lower block's face: it is made one, with that face's normal and the distance
+    /// from its line (as the end of the upper block's face it was measured along the upper
+    /// block's normal, and the impact stepper held the wrong distance as the corner slid).
+    #[test]
+    fn an_overlap_end_of_the_reference_face_is_a_vertex_on_the_other_face() {
+        let lower = Rect { b: 0.0875, h: 0.24 };
+        let upper = Rect {
+            b: 0.0565,
+            h: 0.131,
+        };
+        let alpha: f64 = 0.014;
+        let (s, c) = alpha.sin_cos();
+        // The upper block's bottom face passes the lower block's top-left corner (-0.0875,
+        // 0.48), its bottom-left corner 0.02 m further left.
+        let corner = (-0.1075, 0.48 - 0.02 * s / c);
+        let (x, z) = (
+            corner.0 + c * upper.b - s * upper.h,
+            corner.1 + s * upper.b + c * upper.h,
+        );
+        let placed = [
+            Placed::new(
+                &lower,
+                &Pose {
+                    x: 0.0,
+                    z: 0.24,
+                    phi: 0.0,
+                },
+            ),
+            Placed::new(&upper, &Pose { x, z, phi: alpha }),
+        ];
+        let mut out = Vec::new();
+        block_contacts((0, &placed[0]), (1, &placed[1]), &|_, g| g < 0.1, &mut out);
+        assert_eq!(out.len(), 2, "{out:?}");
+        each_is_a_vertex_on_a_face(&out, &placed);
+        let right = out
+            .iter()
+            .find(|c| c.b == 1)
+            .expect("the upper block's corner");
+        let over = corner.1 + 2.0 * upper.b * s - 0.48;
+        assert!(over > 1e-3, "{over:e}");
+        assert!((right.gap - over).abs() < 1e-15, "{right:?}: {over:e}");
+        assert_eq!(right.normal, (0.0, 1.0));
     }
 
     #[test]

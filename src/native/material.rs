@@ -10,14 +10,10 @@
 //! g_n(q) = g0 + n(q)·d(q)        g_t(q) = t(q)·d(q)
 //! ```
 //!
-//! For a vertex of B on a face of A, `g_n` is the exact distance of the vertex from the face
-//! line whatever the motion. The ends of a face-to-face overlap that are A's vertices under B's
-//! face (`ContactPoint::is_a_vertex_of_the_face_owner`) have their normal turn with B instead,
-//! `n(q) = R(phi_B - phi_B0) n0`: `g_n` is then the distance of A's vertex from B's face line
-//! (exact while the faces are parallel at `q0`, as they are where such points arise). Turning
-//! with A, it missed by about the slip times the relative rotation. Either way the gradients at
-//! `q0` are the rows of `assembly::contact_rows` (`d(q0) = 0`, so the normal's turn does not
-//! enter them).
+//! Every point detection makes is a vertex of B on a face of A (`geometry::block_contacts`
+//! makes the ends of a face-to-face overlap so, whichever block they belong to), and `g_n` is
+//! the exact distance of the vertex from the face line whatever the motion; at `q0` the
+//! gradients are the rows of `assembly::contact_rows`.
 //! The impact-consistent stepper takes its rows as a *discrete gradient* of these functions
 //! between the ends of the step (Gonzalez's midpoint discrete gradient in the mass metric):
 //!
@@ -158,10 +154,6 @@ pub struct MaterialContact {
     b: Carrier,
     n0: (f64, f64),
     g0: f64,
-    /// The normal turns with B, not with the face owner A: the point is a vertex of A under
-    /// B's face (`ContactPoint::is_a_vertex_of_the_face_owner`), whose gap is its distance
-    /// from B's face line.
-    turns_with_b: bool,
 }
 
 impl MaterialContact {
@@ -171,13 +163,11 @@ impl MaterialContact {
             b: Carrier::new(c.b, &poses[c.b], c.point),
             n0: c.normal,
             g0: c.gap,
-            turns_with_b: c.is_a_vertex_of_the_face_owner(),
         }
     }
 
     fn normal(&self, dq: Incr) -> (f64, f64) {
         match &self.a {
-            _ if self.turns_with_b => rotate(self.n0, dq.turn(self.b.body)),
             Some(a) => rotate(self.n0, dq.turn(a.body)),
             None => self.n0,
         }
@@ -247,15 +237,10 @@ impl MaterialContact {
         let d = separation();
         gn[3] = (ia, -n.0);
         gn[4] = (ia + 1, -n.1);
-        gn[5] = (ia + 2, -dot(n, ra));
+        gn[5] = (ia + 2, -dot(n, ra) + dot(perp(n), d));
         gt[3] = (ia, -t.0);
         gt[4] = (ia + 1, -t.1);
-        gt[5] = (ia + 2, -dot(t, ra));
-        // The turn of the normal (and tangent) with the body that carries the face.
-        let (turn_n, turn_t) = (dot(perp(n), d), dot(perp(t), d));
-        let k = if self.turns_with_b { 2 } else { 5 };
-        gn[k].1 += turn_n;
-        gt[k].1 += turn_t;
+        gt[5] = (ia + 2, -dot(t, ra) + dot(perp(t), d));
         (gn, gt, 6)
     }
 
@@ -314,9 +299,7 @@ mod tests {
     use crate::geometry::ContactPoint;
     use crate::native::assembly::{contact_rows, poses};
 
-    /// A point between blocks 0 (A, the face owner) and 1 (B); `feature` 0: a vertex of B on
-    /// A's face, 3: a vertex of A under B's face (`block_contacts`' feature ids).
-    fn point(offset: f64, feature: u16) -> (MaterialContact, Vec<f64>, ContactPoint) {
+    fn sample(offset: f64) -> (MaterialContact, Vec<f64>, ContactPoint) {
         let q0 = vec![0.1 + offset, 0.5, 0.2, -0.3 + offset, 1.4, -0.15];
         let c = ContactPoint {
             a: Some(0),
@@ -324,14 +307,9 @@ mod tests {
             point: (0.05 + offset, 0.93),
             normal: (-(0.2f64.sin()), 0.2f64.cos()),
             gap: 1e-4,
-            feature,
+            feature: 3,
         };
         (MaterialContact::new(&c, &poses(&q0)), q0, c)
-    }
-
-    /// Both kinds of point.
-    fn samples(offset: f64) -> [(MaterialContact, Vec<f64>, ContactPoint); 2] {
-        [point(offset, 0), point(offset, 3)]
     }
 
     fn along(g: &SparseRow, dq: &[f64]) -> f64 {
@@ -340,85 +318,69 @@ mod tests {
 
     #[test]
     fn gradients_at_the_start_are_the_assembly_rows() {
-        for (m, q0, c) in samples(0.0) {
-            let r = contact_rows(&c, &poses(&q0), 0.0, (0.0, 0.0));
-            let (gn, gt, len) = m.gradients(&Increment::new(&[0.0; 6], 1.0));
-            assert_eq!(len, 6);
-            for (a, b) in gn.iter().zip(&r.nrow).chain(gt.iter().zip(&r.trow)) {
-                assert_eq!(a.0, b.0);
-                assert!((a.1 - b.1).abs() < 1e-15, "{a:?} {b:?}");
-            }
-            assert_eq!(m.gaps(&Increment::new(&[0.0; 6], 1.0)), (1e-4, 0.0));
+        let (m, q0, c) = sample(0.0);
+        let r = contact_rows(&c, &poses(&q0), 0.0, (0.0, 0.0));
+        let (gn, gt, len) = m.gradients(&Increment::new(&[0.0; 6], 1.0));
+        assert_eq!(len, 6);
+        for (a, b) in gn.iter().zip(&r.nrow).chain(gt.iter().zip(&r.trow)) {
+            assert_eq!(a.0, b.0);
+            assert!((a.1 - b.1).abs() < 1e-15, "{a:?} {b:?}");
         }
+        assert_eq!(m.gaps(&Increment::new(&[0.0; 6], 1.0)), (1e-4, 0.0));
     }
 
-    /// Over a large motion (slip and both bodies turned), a point's normal gap is the distance
-    /// of its vertex from the face line it is on, whichever body carries the vertex: a vertex
-    /// of B from A's face line, a vertex of A from B's. (Were the normal of a vertex of A to
-    /// turn with A, it would miss by about the slip times the relative rotation.)
+    /// Over a large motion (slip and both bodies turned), the normal gap is the distance of B's
+    /// vertex from A's face line (`geometry::block_contacts` makes every point a vertex on a
+    /// face, so this holds for all of them).
     #[test]
-    fn the_normal_gap_is_the_vertex_distance_from_its_face_line() {
+    fn the_normal_gap_is_the_vertex_distance_from_the_face_line() {
         let turned = |v: (f64, f64), a: f64| rotate(v, (a.sin(), a.cos(), 0.0));
-        for (m, q0, c) in samples(0.0) {
-            let dq = [0.03, -0.01, 0.2, -0.05, 0.02, -0.3];
-            let (gn, _) = m.gaps(&Increment::new(&dq, 1.0));
-            let n0 = c.normal;
-            // Where a material point of body `i` at `p` (at q0) is at q0 + dq.
-            let moved = |i: usize, p: (f64, f64)| {
-                let arm = turned((p.0 - q0[3 * i], p.1 - q0[3 * i + 1]), dq[3 * i + 2]);
-                (
-                    q0[3 * i] + dq[3 * i] + arm.0,
-                    q0[3 * i + 1] + dq[3 * i + 1] + arm.1,
-                )
-            };
-            let beyond = (c.point.0 + c.gap * n0.0, c.point.1 + c.gap * n0.1);
-            let below = (c.point.0 - c.gap * n0.0, c.point.1 - c.gap * n0.1);
-            let exact = if c.is_a_vertex_of_the_face_owner() {
-                // B's face line passes through `beyond` at q0; n turns with B.
-                let (v, f, n) = (moved(0, c.point), moved(1, beyond), turned(n0, dq[5]));
-                dot(n, (f.0 - v.0, f.1 - v.1))
-            } else {
-                let (v, f, n) = (moved(1, c.point), moved(0, below), turned(n0, dq[2]));
-                dot(n, (v.0 - f.0, v.1 - f.1))
-            };
-            assert!(
-                (gn - exact).abs() < 1e-15,
-                "feature {}: {gn:e} against {exact:e}",
-                c.feature
-            );
-        }
+        let (m, q0, c) = sample(0.0);
+        let dq = [0.03, -0.01, 0.2, -0.05, 0.02, -0.3];
+        let (gn, _) = m.gaps(&Increment::new(&dq, 1.0));
+        // Where a material point of body `i` at `p` (at q0) is at q0 + dq.
+        let moved = |i: usize, p: (f64, f64)| {
+            let arm = turned((p.0 - q0[3 * i], p.1 - q0[3 * i + 1]), dq[3 * i + 2]);
+            (
+                q0[3 * i] + dq[3 * i] + arm.0,
+                q0[3 * i + 1] + dq[3 * i + 1] + arm.1,
+            )
+        };
+        let n0 = c.normal;
+        // A's face line passes `gap` below the vertex at q0, and turns with A.
+        let on_face = (c.point.0 - c.gap * n0.0, c.point.1 - c.gap * n0.1);
+        let (v, f, n) = (moved(1, c.point), moved(0, on_face), turned(n0, dq[2]));
+        let exact = dot(n, (v.0 - f.0, v.1 - f.1));
+        assert!((gn - exact).abs() < 1e-15, "{gn:e} against {exact:e}");
     }
 
     #[test]
     fn gradients_match_finite_differences() {
-        for (m, _, c) in samples(0.0) {
-            let dq = [0.07; 6];
-            let (gn, gt, _) = m.gradients(&Increment::new(&dq, 1.0));
-            for k in 0..6 {
-                let h = 1e-6;
-                let (mut qp, mut qm) = (dq, dq);
-                qp[gn[k].0] += h;
-                qm[gn[k].0] -= h;
-                let (np, tp) = m.gaps(&Increment::new(&qp, 1.0));
-                let (nm, tm) = m.gaps(&Increment::new(&qm, 1.0));
-                let f = c.feature;
-                assert!(((np - nm) / (2.0 * h) - gn[k].1).abs() < 1e-8, "{f}: n {k}");
-                assert!(((tp - tm) / (2.0 * h) - gt[k].1).abs() < 1e-8, "{f}: t {k}");
-            }
+        let (m, _, _) = sample(0.0);
+        let dq = [0.07; 6];
+        let (gn, gt, _) = m.gradients(&Increment::new(&dq, 1.0));
+        for k in 0..6 {
+            let h = 1e-6;
+            let (mut qp, mut qm) = (dq, dq);
+            qp[gn[k].0] += h;
+            qm[gn[k].0] -= h;
+            let (np, tp) = m.gaps(&Increment::new(&qp, 1.0));
+            let (nm, tm) = m.gaps(&Increment::new(&qm, 1.0));
+            assert!(((np - nm) / (2.0 * h) - gn[k].1).abs() < 1e-8, "n {k}");
+            assert!(((tp - tm) / (2.0 * h) - gt[k].1).abs() < 1e-8, "t {k}");
         }
     }
 
     #[test]
     fn the_discrete_gradient_is_exact_over_the_step() {
-        for (m, _, _) in samples(0.0) {
-            let dq: Vec<f64> = (0..6).map(|i| 0.03 * (i as f64 - 2.5)).collect();
-            let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
-            let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
-            let (gn, gt) = m.discrete_gradients(&whole, &half, &mass);
-            let (n1, t1) = m.gaps(&whole);
-            assert!((1e-4 + along(&gn, &dq) - n1).abs() < 1e-15);
-            assert!((along(&gt, &dq) - t1).abs() < 1e-15);
-        }
+        let (m, _, _) = sample(0.0);
+        let dq: Vec<f64> = (0..6).map(|i| 0.03 * (i as f64 - 2.5)).collect();
+        let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
+        let (whole, half) = (Increment::new(&dq, 1.0), Increment::new(&dq, 0.5));
+        let (gn, gt) = m.discrete_gradients(&whole, &half, &mass);
+        let (n1, t1) = m.gaps(&whole);
+        assert!((1e-4 + along(&gn, &dq) - n1).abs() < 1e-15);
+        assert!((along(&gt, &dq) - t1).abs() < 1e-15);
     }
 
     /// Tiny increments of bodies far from the origin: the discrete gradient stays within
@@ -426,11 +388,9 @@ mod tests {
     /// from absolute positions would divide their round-off by `dq' M dq`.
     #[test]
     fn the_discrete_gradient_of_a_tiny_increment_is_the_midpoint_gradient() {
+        let (m, _, _) = sample(1000.0);
         let mass = [2.0, 2.0, 0.3, 5.0, 5.0, 0.9];
-        for ((m, _, _), scale) in samples(1000.0)
-            .into_iter()
-            .flat_map(|s| [1e-6, 1e-9, 1e-12].map(|scale| (s.clone(), scale)))
-        {
+        for scale in [1e-6, 1e-9, 1e-12] {
             let dq: Vec<f64> = (0..6).map(|i| scale * (i as f64 - 2.5)).collect();
             let halved: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
             let (mn, mt, len) = m.gradients(&Increment::new(&halved, 1.0));
