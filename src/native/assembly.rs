@@ -155,7 +155,15 @@ pub fn ground_offsets(c: &ContactPoint, ground_step: (f64, f64)) -> (f64, f64) {
     )
 }
 
-/// A contact point's identity, stable between steps: its bodies and feature.
+/// A contact point's identity, stable between steps: its pair of bodies, in index order
+/// (`0 << 40 | b << 16` for the ground), and its feature (which, for a pair of blocks, names the
+/// face owner). The bits from 16 up name the pair's higher-indexed block. Detection makes a
+/// pair's points together, so a step's keys come nearly sorted, and the sets of keys it sorts
+/// are cheap to sort.
 pub fn contact_key(c: &ContactPoint) -> u64 {
-    ((c.a.map_or(0, |a| a + 1) as u64) << 40) | ((c.b as u64) << 16) | c.feature as u64
+    let (low, high) = match c.a {
+        None => (0, c.b),
+        Some(a) => (a.min(c.b) + 1, a.max(c.b)),
+    };
+    ((low as u64) << 40) | ((high as u64) << 16) | c.feature as u64
 }

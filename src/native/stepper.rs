@@ -1472,7 +1472,7 @@ impl Stepper {
                 .collect();
             self.settle_kept(s, contacts, end, &keeping, ordinary.problem, &mut sol)?;
         }
-        // A point's key holds its upper block (`assembly::contact_rows`), which is in the
+        // A point's key holds one of its blocks (`assembly::contact_key`), which is in the
         // point's island.
         let block_of_key = |key: u64| ((key >> 16) & 0xFF_FFFF) as usize;
         let mut loaded: Vec<u64> = closed_keys(ordinary.problem, ordinary.closed)
