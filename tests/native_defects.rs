@@ -265,27 +265,31 @@ fn a_heavy_block_landing_on_a_light_plank_stays_out_of_it() {
 }
 
 /// The native engine's run of `tests/scenes/<file>` keeps every block out of the ground and of
-/// the others to 1e-4 of the smallest dimension.
-fn stays_out_of_its_faces(file: &str) {
+/// the others to `limit(scene)` m; the run is returned for further checks.
+fn penetrates_at_most(
+    file: &str,
+    limit: impl Fn(&rockbench::scene::Scene) -> f64,
+) -> (rockbench::scene::Scene, rockbench::engines::RunOutput) {
     let (scene, out) = native_run_of(file);
     let (ground, pair, where_) = rockbench::invariants::max_penetration(&scene, &out.trajectory);
-    let limit = 1e-4 * rockbench::invariants::smallest_dimension(&scene);
+    let limit = limit(&scene);
     assert!(
         ground <= limit && pair <= limit,
         "penetration {ground:.3e} / {pair:.3e} m ({where_}), limit {limit:.3e} m"
     );
+    (scene, out)
 }
 
-/// No corner of the run's blocks is ever further inside a face than the impact stepper's
-/// penetration tolerance (1e-9 m).
+/// [`penetrates_at_most`] 1e-4 of the smallest dimension (the invariant's limit).
+fn stays_out_of_its_faces(file: &str) -> (rockbench::scene::Scene, rockbench::engines::RunOutput) {
+    penetrates_at_most(file, |scene| {
+        1e-4 * rockbench::invariants::smallest_dimension(scene)
+    })
+}
+
+/// [`penetrates_at_most`] the impact stepper's penetration tolerance (1e-9 m).
 fn stays_within_the_penetration_tolerance(file: &str) {
-    let (scene, out) = native_run_of(file);
-    let (ground, pair, where_) = rockbench::invariants::max_penetration(&scene, &out.trajectory);
-    let limit = rockbench::native::stepper::PENETRATION_TOLERANCE;
-    assert!(
-        ground <= limit && pair <= limit,
-        "penetration {ground:.3e} / {pair:.3e} m ({where_}), limit {limit:.0e} m"
-    );
+    penetrates_at_most(file, |_| rockbench::native::stepper::PENETRATION_TOLERANCE);
 }
 
 /// The ends of a face-to-face overlap that are the lower block's corners, under a plank that
@@ -394,8 +398,6 @@ fn the_sparse_back_end_adds_no_energy_to_a_swaying_colonnade() {
 /// energy, with no excitation, must not grow either, and the post must still spin out.
 #[test]
 fn a_light_post_squeezed_from_under_a_stack_stays_out_of_the_ground() {
-    let file = "light-post-squeezed-from-under-a-stack.toml";
-    stays_out_of_its_faces(file);
-    let (scene, out) = native_run_of(file);
+    let (scene, out) = stays_out_of_its_faces("light-post-squeezed-from-under-a-stack.toml");
     gains_no_energy_while_turning(&scene, &out, 0, 1.0);
 }
