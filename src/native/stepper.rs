@@ -2097,7 +2097,11 @@ impl Stepper {
 
     /// The velocity-level law leaves a penetration of up to `(1 - theta) dt |v_n|` at an
     /// impact. When a point penetrates deeper than `PENETRATION_TOLERANCE`, the positions
-    /// are projected back onto the admissible set, velocities untouched (no energy is added):
+    /// are projected back onto the admissible set, velocities untouched. The kinetic energy is
+    /// kept, but pushing a block out lifts it: the projection adds the weight times the lift
+    /// (measured on random walls set moving, `tests/proptest_assemblies.rs`: up to 2.3e-7 of
+    /// `sum m g H` a projection, penetrations of 1e-8 to 4e-5 m), an error of the first order
+    /// in `dt` like the instants of impacts at step ends:
     /// `min 1/2 dq' M dq  s.t.  g + (nrow ± mu trow) dq >= 0`, which is the step problem with
     /// theta = dt = 1, no force and no velocity.
     fn project_out_penetration(&mut self, s: &mut NativeState) -> Result<(), SolveFailure> {
