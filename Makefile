@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery \
-	stress proptest fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
+	stress proptest proptest-assemblies fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
 
@@ -214,6 +214,12 @@ stress: build
 PROPTEST_CASES ?= 10000
 proptest:
 	PROPTEST_CASES=$(PROPTEST_CASES) $(CARGO) test --release --test proptest_scenes
+
+# Random large assemblies (walls and colonnades of 30-400 blocks set moving) on the native
+# engine's wide path: ASSEMBLY_CASES (default 600, about 10 min on one core) cases.
+ASSEMBLY_CASES ?= 600
+proptest-assemblies:
+	PROPTEST_CASES=$(ASSEMBLY_CASES) $(CARGO) test --release --test proptest_assemblies -- --nocapture
 
 # Fuzz the scene parser and the record readers, FUZZ_SECONDS (default 600) per target.
 # Installs cargo-fuzz if missing; runs on stable Rust (RUSTC_BOOTSTRAP=1, see fuzz/run.sh).

@@ -302,6 +302,14 @@ fn a_post_under_a_sliding_turning_plank_stays_out_of_it() {
     stays_within_the_penetration_tolerance("plank-sliding-and-turning-on-a-post.toml");
 }
 
+/// A running-bond wall rocking with the corners at its course ends flush to round-off: where
+/// they were 1.6e-10 to 3.2e-10 m apart, neither corner was a contact point (the windows of the
+/// two faces left a gap), and the block above sank 2.07e-6 m into the half block below.
+#[test]
+fn a_rocking_wall_keeps_its_flush_course_ends_apart() {
+    stays_within_the_penetration_tolerance("wall-course-ends-flush-to-round-off.toml");
+}
+
 /// A block landing flat with one end overhanging the edge of the block below: its other
 /// corner, an end of its own face (the pair's reference face) over the lower block's face, was
 /// measured along its own normal, 0.014 rad off the lower face's, and as it slid 2 mm in a
