@@ -506,3 +506,43 @@ fn velocity_problems_after_motion_start_cold() {
     }
     assert!(general.factorisations - before > new_back_end.factorisations);
 }
+
+/// tests/scenes/cycling-working-set-step.json is a displacement problem of a running-bond wall of
+/// 3 courses of 4 blocks pushed at its top (39 DOFs, 60 points, 120 rows; impacts located), on
+/// which the dense back-end's working-set search cycles among the nearly dependent rows of its
+/// flat interfaces, under both of its rules. It went on to each rule's move limit (`3 rows +
+/// 10`, then `20 rows + 50`), refactorising the working set at every move: 55 such problems
+/// cost 2.3 s of the wall's 3.7 s over 10 steps, before `auto` gave them to the sparse
+/// back-end. A working set met again now ends the search: the same failure, found at once.
+#[test]
+fn a_cycling_working_set_search_fails_at_its_first_repeat() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text =
+        std::fs::read_to_string(root.join("tests/scenes/cycling-working-set-step.json")).unwrap();
+    let pr: StepProblem = serde_json::from_str(&text).unwrap();
+    let rows = 2 * pr.contacts.len();
+    let err = ActiveSetSolver::new().solve(&pr).unwrap_err().to_string();
+    let moves: usize = err
+        .strip_prefix("active-set: the working set search cycles after ")
+        .and_then(|rest| rest.strip_suffix(" moves"))
+        .unwrap_or_else(|| panic!("not a cycle found: {err}"))
+        .parse()
+        .unwrap();
+    assert!(moves < 3 * rows + 10, "{moves} moves for {rows} rows");
+    // The problem itself is sound: the sparse back-end (where `auto` sends it) and Clarabel
+    // agree on it.
+    let sparse = SparseSolver::new().solve(&pr).unwrap();
+    let clarabel = ClarabelSolver::new(&NativeSettings::default())
+        .solve(&pr)
+        .unwrap();
+    let largest = clarabel.dq.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    let worst = sparse
+        .dq
+        .iter()
+        .zip(&clarabel.dq)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        largest > 1e-6 && worst < 1e-9,
+        "sparse against Clarabel: {worst:e} m (largest dq {largest:e} m)"
+    );
+}

@@ -15,8 +15,10 @@
 //! step (matched by contact key), so a step whose active set does not change costs one
 //! factorisation of a matrix of the size of W.
 //!
-//! A problem it cannot settle within its move limit, or whose working set turns out
-//! inconsistent, is reported as a failure; the `auto` back-end then falls back to Clarabel.
+//! A problem it cannot settle within its move limit, on which its search meets a working set
+//! again (the search is deterministic, so it cycles and would only reach the limit), or whose
+//! working set turns out inconsistent, is reported as a failure; the `auto` back-end then gives
+//! it to the sparse back-end.
 
 use super::rows::{EdgeRow, edge_rows, step_solution_into};
 use super::{ContactSolver, SolveFailure};
@@ -24,6 +26,9 @@ use crate::native::problem::{StepProblem, StepSolution};
 
 #[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct ActiveSetSolver {
+    /// The working sets of the current search (see `solve_scaled`).
+    #[serde(skip)]
+    visited: std::collections::HashSet<Vec<usize>>,
     /// Keys of the rows active at the previous solution, sorted.
     previous: Vec<u64>,
     rows: Vec<EdgeRow>,
@@ -209,6 +214,9 @@ impl ActiveSetSolver {
             Rule::Bland => 20 * nrows + 50,
         };
         let mut moves = 0;
+        // Every working set this search has solved, in order: the search is deterministic, so
+        // meeting one again means it cycles and would reach `max_moves` without an answer.
+        self.visited.clear();
         loop {
             if !self.solve_working_set(q) {
                 self.previous.clear();
@@ -247,6 +255,12 @@ impl ActiveSetSolver {
                     self.previous.clear();
                     return Err(Self::fail(format!(
                         "no optimal working set after {moves} moves"
+                    )));
+                }
+                Some(_) if !self.visited.insert(self.work.clone()) => {
+                    self.previous.clear();
+                    return Err(Self::fail(format!(
+                        "the working set search cycles after {moves} moves"
                     )));
                 }
                 Some((true, i)) => self.work.push(i),
