@@ -546,3 +546,37 @@ fn a_cycling_working_set_search_fails_at_its_first_repeat() {
         "sparse against Clarabel: {worst:e} m (largest dq {largest:e} m)"
     );
 }
+
+/// `auto` gives the dense back-end problems of at most `AUTO_DENSE_MAX_DOFS` DOFs and
+/// `AUTO_DENSE_MAX_POINTS` points. tests/scenes/wall-step-of-60-points.json, a displacement
+/// problem of the 13-block wall above (39 DOFs, 60 points), is one the dense back-end solves,
+/// at a dense factorisation of its working set a move; it goes to the sparse back-end, which
+/// factorises its envelope. The same problem cut to its first 28 points goes to the dense one,
+/// which does not.
+#[test]
+fn auto_gives_the_dense_back_end_few_points() {
+    use rockbench::native::solver::{AUTO_DENSE_MAX_DOFS, AUTO_DENSE_MAX_POINTS, whole_solver_for};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text =
+        std::fs::read_to_string(root.join("tests/scenes/wall-step-of-60-points.json")).unwrap();
+    let wall: StepProblem = serde_json::from_str(&text).unwrap();
+    assert!(wall.n_dof() <= AUTO_DENSE_MAX_DOFS && wall.contacts.len() > AUTO_DENSE_MAX_POINTS);
+    let mut few = wall.clone();
+    few.contacts.truncate(AUTO_DENSE_MAX_POINTS);
+    for pr in [&wall, &few] {
+        ActiveSetSolver::new()
+            .solve(pr)
+            .expect("the dense back-end solves it");
+    }
+    for (pr, sparse) in [(&wall, true), (&few, false)] {
+        let mut auto = whole_solver_for(&NativeSettings::default());
+        auto.solve(pr).unwrap();
+        assert_eq!(
+            auto.factorisations() > 0,
+            sparse,
+            "{} points: {} factorisations",
+            pr.contacts.len(),
+            auto.factorisations()
+        );
+    }
+}

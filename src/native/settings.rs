@@ -62,8 +62,9 @@ pub enum SolverKind {
     /// kept while the active rows do not change (large assemblies), falling back to Clarabel
     /// on a step it cannot solve.
     Sparse,
-    /// The active-set solver for problems up to 42 DOFs (14 blocks), the sparse one above (the
-    /// default: on the two-block case it gives the same impacts as Clarabel, ~50x faster).
+    /// The active-set solver for problems up to 42 DOFs (14 blocks) and 28 contact points, the
+    /// sparse one above (the default: on the two-block case it gives the same impacts as
+    /// Clarabel, ~50x faster).
     #[default]
     Auto,
 }

@@ -173,6 +173,16 @@ impl ContactSolver for WithFallback {
 /// / 71 us; they cross between 14 and 15 blocks.
 pub const AUTO_DENSE_MAX_DOFS: usize = 42;
 
+/// Most contact points (two rows each) of a problem the dense back-end takes under `auto`: a
+/// move of its working-set search refactorises the working set, so its cost grows with the
+/// rows, which a column has few of (two points an interface: 28 at the crossover of
+/// `AUTO_DENSE_MAX_DOFS`) and a wall many (a block touches the blocks beside, above and below
+/// it). Measured on walls of 0.6 x 0.25 m blocks under a one-sine pulse of 0.8 g for 0.3 s
+/// (0.5 s, impacts located, 2026-11-29), with the DOF limit alone -> with this too: 2x3 / 3x3 /
+/// 2x4 / 2x6 / 3x4 / 4x3 courses x blocks (7 to 14 blocks, 22 to 60 points) 0.036 / 0.166 /
+/// 0.122 / 0.343 / 0.470 / 0.624 s -> 0.038 / 0.047 / 0.029 / 0.055 / 0.068 / 0.094 s.
+pub const AUTO_DENSE_MAX_POINTS: usize = 28;
+
 /// `auto`: the dense active-set back-end for small problems, the sparse one for large
 /// assemblies and for the small problems the dense one cannot solve (its working-set search
 /// can cycle on the nearly dependent rows of flat interfaces: measured, 172 problems of the
@@ -185,14 +195,17 @@ pub struct Auto {
 
 impl ContactSolver for Auto {
     fn name(&self) -> &'static str {
-        "auto (active-set up to 42 DOFs, sparse above)"
+        "auto (active-set up to 42 DOFs and 28 points, sparse above)"
     }
     fn solve_into(
         &mut self,
         problem: &StepProblem,
         out: &mut StepSolution,
     ) -> Result<(), SolveFailure> {
-        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS && self.dense.solve_into(problem, out).is_ok() {
+        if problem.n_dof() <= AUTO_DENSE_MAX_DOFS
+            && problem.contacts.len() <= AUTO_DENSE_MAX_POINTS
+            && self.dense.solve_into(problem, out).is_ok()
+        {
             return Ok(());
         }
         self.sparse.solve_into(problem, out)
