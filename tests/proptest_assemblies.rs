@@ -12,6 +12,8 @@
 //! proptest-assemblies` runs 600 with a new seed, or PROPTEST_RNG_SEED). A failing case prints its
 //! scene's text; shrinking is off (a large scene shrinks for hours).
 
+mod common;
+
 use proptest::prelude::*;
 use rockbench::engines::engine_by_name;
 use rockbench::engines::registry::check_scene_str;
@@ -305,20 +307,6 @@ impl Assembly {
     }
 }
 
-/// `make test` (no PROPTEST_CASES) runs a fixed seed, so CI is reproducible; `make
-/// proptest-assemblies` draws a new seed each run unless PROPTEST_RNG_SEED is set.
-fn seed() -> proptest::test_runner::RngSeed {
-    use proptest::test_runner::RngSeed;
-    match std::env::var("PROPTEST_RNG_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-    {
-        Some(s) => RngSeed::Fixed(s),
-        None if std::env::var("PROPTEST_CASES").is_err() => RngSeed::Fixed(20_261_129),
-        None => RngSeed::Random,
-    }
-}
-
 /// The largest assembly: 150 blocks in `make test` (450 DOFs, past the sparse back-end's
 /// `LARGE_PROBLEM`, so its wide path is taken; a 236-block wall under a 0.87 g pulse with its
 /// impacts located costs 31 s a run), 430 in `make proptest-assemblies`.
@@ -330,19 +318,12 @@ fn max_blocks() -> usize {
     }
 }
 
-fn cases() -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(32)
-}
-
 proptest! {
     #![proptest_config(ProptestConfig {
-        cases: cases(),
+        cases: common::proptest_cases(32),
         max_shrink_iters: 0,
         failure_persistence: None,
-        rng_seed: seed(),
+        rng_seed: common::proptest_seed(20_261_129),
         ..ProptestConfig::default()
     })]
 

@@ -9,6 +9,8 @@
 //! `make proptest` runs 10,000 with a new seed, or PROPTEST_RNG_SEED). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
 //! milliseconds.
 
+mod common;
+
 use proptest::prelude::*;
 use rockbench::engines::registry::check_scene_str;
 use rockbench::engines::{EngineError, engine_by_name, registry};
@@ -341,33 +343,12 @@ fn excused(
     Some(KNOWN_DEFECTS[k].reason)
 }
 
-/// `make test` (no PROPTEST_CASES) runs a fixed seed, so CI is reproducible; `make proptest`
-/// draws a new seed each run unless PROPTEST_RNG_SEED is set.
-fn seed() -> proptest::test_runner::RngSeed {
-    use proptest::test_runner::RngSeed;
-    match std::env::var("PROPTEST_RNG_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-    {
-        Some(s) => RngSeed::Fixed(s),
-        None if std::env::var("PROPTEST_CASES").is_err() => RngSeed::Fixed(20_261_121),
-        None => RngSeed::Random,
-    }
-}
-
-fn cases() -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(200)
-}
-
 proptest! {
     #![proptest_config(ProptestConfig {
-        cases: cases(),
+        cases: common::proptest_cases(200),
         max_shrink_iters: 200,
         failure_persistence: None,
-        rng_seed: seed(),
+        rng_seed: common::proptest_seed(20_261_121),
         ..ProptestConfig::default()
     })]
 

@@ -273,6 +273,14 @@ fn sparse_solves_the_steps_of_a_sliding_wall_at_least_as_well_as_clarabel() {
     );
 }
 
+/// A step problem stored as data, `tests/scenes/<file>`.
+fn stored_problem(file: &str) -> StepProblem {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/scenes")
+        .join(file);
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
 /// Clarabel's `AlmostSolved` is accepted only when the active-set polish verifies the solution
 /// (every row satisfied, non-negative multipliers: the KKT conditions of the step's convex QP).
 /// tests/scenes/almost-solved-step.json is a step on which Clarabel stops with `AlmostSolved`:
@@ -283,9 +291,7 @@ fn sparse_solves_the_steps_of_a_sliding_wall_at_least_as_well_as_clarabel() {
 /// conditions. The stack itself runs to its end with no block inside another or the ground.
 #[test]
 fn an_almost_solved_step_is_accepted_when_its_polish_verifies_it() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(root.join("tests/scenes/almost-solved-step.json")).unwrap();
-    let pr: StepProblem = serde_json::from_str(&text).unwrap();
+    let pr = stored_problem("almost-solved-step.json");
     let mut strict = NativeSettings {
         formulation: rockbench::native::Formulation::Dual,
         polish: false,
@@ -339,7 +345,7 @@ fn an_almost_solved_step_is_accepted_when_its_polish_verifies_it() {
         worst < 1e-7 * scale,
         "stationarity residual {worst:e} against terms of {scale:e}"
     );
-    let p = root.join("tests/scenes/almost-solved-stack.toml");
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/almost-solved-stack.toml");
     let dense = "native.solver=\"active-set\"".to_string();
     let s = load_scene_with_overrides(&p, std::slice::from_ref(&dense)).unwrap();
     let (out, _) = run_timed(engine_by_name("native").unwrap().as_ref(), &s).unwrap();
@@ -516,10 +522,7 @@ fn velocity_problems_after_motion_start_cold() {
 /// back-end. A working set met again now ends the search: the same failure, found at once.
 #[test]
 fn a_cycling_working_set_search_fails_at_its_first_repeat() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text =
-        std::fs::read_to_string(root.join("tests/scenes/cycling-working-set-step.json")).unwrap();
-    let pr: StepProblem = serde_json::from_str(&text).unwrap();
+    let pr = stored_problem("cycling-working-set-step.json");
     let rows = 2 * pr.contacts.len();
     let err = ActiveSetSolver::new().solve(&pr).unwrap_err().to_string();
     let moves: usize = err
@@ -556,10 +559,7 @@ fn a_cycling_working_set_search_fails_at_its_first_repeat() {
 #[test]
 fn auto_gives_the_dense_back_end_few_points() {
     use rockbench::native::solver::{AUTO_DENSE_MAX_DOFS, AUTO_DENSE_MAX_POINTS, whole_solver_for};
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text =
-        std::fs::read_to_string(root.join("tests/scenes/wall-step-of-60-points.json")).unwrap();
-    let wall: StepProblem = serde_json::from_str(&text).unwrap();
+    let wall = stored_problem("wall-step-of-60-points.json");
     assert!(wall.n_dof() <= AUTO_DENSE_MAX_DOFS && wall.contacts.len() > AUTO_DENSE_MAX_POINTS);
     let mut few = wall.clone();
     few.contacts.truncate(AUTO_DENSE_MAX_POINTS);

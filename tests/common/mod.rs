@@ -152,3 +152,26 @@ pub fn two_block_events(set: &[String], crossings: usize) -> Vec<f64> {
     events.extend(&summary.blocks[1].impacts[..crossings]);
     events
 }
+
+/// The seed of a property test: `make test` (no PROPTEST_CASES) runs `fixed`, so CI is
+/// reproducible; a make target that sets PROPTEST_CASES draws a new seed each run unless
+/// PROPTEST_RNG_SEED is set.
+pub fn proptest_seed(fixed: u64) -> proptest::test_runner::RngSeed {
+    use proptest::test_runner::RngSeed;
+    match std::env::var("PROPTEST_RNG_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        Some(s) => RngSeed::Fixed(s),
+        None if std::env::var("PROPTEST_CASES").is_err() => RngSeed::Fixed(fixed),
+        None => RngSeed::Random,
+    }
+}
+
+/// The number of cases of a property test: PROPTEST_CASES, or `default` (`make test`).
+pub fn proptest_cases(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
