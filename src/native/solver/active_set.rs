@@ -26,9 +26,9 @@ use crate::native::problem::{StepProblem, StepSolution};
 
 #[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct ActiveSetSolver {
-    /// The working sets of the current search (see `solve_scaled`).
+    /// The working sets of the current search (see `solve_scaled`), one after the other.
     #[serde(skip)]
-    visited: std::collections::HashSet<Vec<usize>>,
+    visited: VisitedSets,
     /// Keys of the rows active at the previous solution, sorted.
     previous: Vec<u64>,
     rows: Vec<EdgeRow>,
@@ -177,6 +177,41 @@ impl ContactSolver for ActiveSetSolver {
     }
 }
 
+/// Working sets (ordered lists of rows) met by a search, kept in reused buffers: a set's hash,
+/// and its rows in one arena.
+#[derive(Default)]
+struct VisitedSets {
+    hashes: Vec<u64>,
+    starts: Vec<usize>,
+    rows: Vec<usize>,
+}
+
+impl VisitedSets {
+    fn clear(&mut self) {
+        self.hashes.clear();
+        self.starts.clear();
+        self.rows.clear();
+    }
+
+    /// Record `set`; false if it was met before.
+    fn insert(&mut self, set: &[usize]) -> bool {
+        // FNV-1a over the rows.
+        let hash = set.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &r| {
+            (h ^ r as u64).wrapping_mul(0x0100_0000_01b3)
+        });
+        let met = (0..self.hashes.len()).any(|k| {
+            let end = self.starts.get(k + 1).copied().unwrap_or(self.rows.len());
+            self.hashes[k] == hash && self.rows[self.starts[k]..end] == *set
+        });
+        if !met {
+            self.hashes.push(hash);
+            self.starts.push(self.rows.len());
+            self.rows.extend_from_slice(set);
+        }
+        !met
+    }
+}
+
 /// Which row enters or leaves the working set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Rule {
@@ -257,7 +292,7 @@ impl ActiveSetSolver {
                         "no optimal working set after {moves} moves"
                     )));
                 }
-                Some(_) if !self.visited.insert(self.work.clone()) => {
+                Some(_) if !self.visited.insert(&self.work) => {
                     self.previous.clear();
                     return Err(Self::fail(format!(
                         "the working set search cycles after {moves} moves"
