@@ -2,6 +2,7 @@
 
 use rockbench::engines::{RunOutput, engine_by_name, run_timed};
 use rockbench::native::problem::ContactRows;
+use rockbench::native::solver::polish::{Unpolished, polish};
 use rockbench::native::solver::{ActiveSetSolver, ClarabelSolver, ContactSolver, SparseSolver};
 use rockbench::native::{NativeSettings, StepProblem, StepSolution};
 use rockbench::scene::load_scene_with_overrides;
@@ -548,6 +549,36 @@ fn a_cycling_working_set_search_fails_at_its_first_repeat() {
         largest > 1e-6 && worst < 1e-9,
         "sparse against Clarabel: {worst:e} m (largest dq {largest:e} m)"
     );
+}
+
+/// The inputs of Clarabel's active-set polish (the scaled QP, its rows, the interior-point
+/// solution and multipliers), stored as data.
+#[derive(serde::Deserialize)]
+struct PolishInputs {
+    p: Vec<f64>,
+    q: Vec<f64>,
+    rows: Vec<Vec<(usize, f64)>>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    dt: f64,
+    u: Vec<f64>,
+}
+
+/// tests/scenes/cycling-polish.json holds the polish's inputs for a problem of 8 blocks (36
+/// rows) from a running-bond wall of 8 courses of 8 blocks pushed at its top, solved with
+/// `solver = "clarabel"`. The polish's moves cycle there. It used to run on to its move limit
+/// (twice the rows and four) with a dense SVD of the working set a move: up to 2.5 s a problem
+/// on the wall's 720-row problems, which made that wall take 45 s a step. A working set met
+/// again now ends the polish with the same outcome (the interior-point solution stands).
+#[test]
+fn a_cycling_polish_ends_at_its_first_repeat() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/cycling-polish.json");
+    let d: PolishInputs = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let limit = 2 * d.rows.len() + 4;
+    match polish(&d.p, &d.q, &d.rows, &d.r, &d.z, d.dt, &d.u) {
+        Err(Unpolished::Cycles(moves)) => assert!(moves < limit, "{moves} of {limit} moves"),
+        other => panic!("not a cycle found: {other:?}"),
+    }
 }
 
 /// `auto` gives the dense back-end problems of at most `AUTO_DENSE_MAX_DOFS` DOFs and

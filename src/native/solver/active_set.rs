@@ -21,6 +21,7 @@
 //! it to the sparse back-end.
 
 use super::rows::{EdgeRow, edge_rows, step_solution_into};
+use super::visited::VisitedSets;
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
 
@@ -174,41 +175,6 @@ impl ContactSolver for ActiveSetSolver {
         }
         (self.p, self.q) = (p, q);
         result
-    }
-}
-
-/// Working sets (ordered lists of rows) met by a search, kept in reused buffers: a set's hash,
-/// and its rows in one arena.
-#[derive(Default)]
-struct VisitedSets {
-    hashes: Vec<u64>,
-    starts: Vec<usize>,
-    rows: Vec<usize>,
-}
-
-impl VisitedSets {
-    fn clear(&mut self) {
-        self.hashes.clear();
-        self.starts.clear();
-        self.rows.clear();
-    }
-
-    /// Record `set`; false if it was met before.
-    fn insert(&mut self, set: &[usize]) -> bool {
-        // FNV-1a over the rows.
-        let hash = set.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &r| {
-            (h ^ r as u64).wrapping_mul(0x0100_0000_01b3)
-        });
-        let met = (0..self.hashes.len()).any(|k| {
-            let end = self.starts.get(k + 1).copied().unwrap_or(self.rows.len());
-            self.hashes[k] == hash && self.rows[self.starts[k]..end] == *set
-        });
-        if !met {
-            self.hashes.push(hash);
-            self.starts.push(self.rows.len());
-            self.rows.extend_from_slice(set);
-        }
-        !met
     }
 }
 

@@ -28,6 +28,9 @@ use clarabel::solver::{
 };
 use std::collections::BTreeMap;
 
+/// The polish's outcome: done, or why not (`None`: the polish is off).
+type Polish = Result<(), Option<polish::Unpolished>>;
+
 pub struct ClarabelSolver {
     formulation: Formulation,
     settings: DefaultSettings<f64>,
@@ -106,14 +109,21 @@ impl ClarabelSolver {
         }
     }
 
-    /// The error of a solution that needed the polish's check and did not pass it.
-    fn unverified(polished: bool, verify: Option<SolverStatus>) -> Result<(), SolveFailure> {
-        match verify {
-            Some(status) if !polished => Err(SolveFailure {
+    /// Whether the solution was polished; the error of a solution that needed the polish's
+    /// check and did not pass it.
+    fn unverified(polish: Polish, verify: Option<SolverStatus>) -> Result<bool, SolveFailure> {
+        match (polish, verify) {
+            (Ok(()), _) => Ok(true),
+            (Err(_), None) => Ok(false),
+            (Err(why), Some(status)) => Err(SolveFailure {
                 solver: "clarabel",
-                status: format!("{status:?} (its active-set polish did not verify the solution)"),
+                status: match why {
+                    Some(why) => format!(
+                        "{status:?} (its active-set polish did not verify the solution: {why})"
+                    ),
+                    None => format!("{status:?} (unverified: the polish is off)"),
+                },
             }),
-            _ => Ok(()),
         }
     }
 }
@@ -155,18 +165,13 @@ fn edge_rows(pr: &StepProblem) -> (Vec<Vec<(usize, f64)>>, Vec<f64>) {
 
 impl ClarabelSolver {
     /// Replace `u` by its polished value when polishing succeeds; `z` are the edge multipliers.
-    fn polish(&self, pr: &StepProblem, sc: &Scaled, u: &mut Vec<f64>, z: &[f64]) -> bool {
+    fn polish(&self, pr: &StepProblem, sc: &Scaled, u: &mut Vec<f64>, z: &[f64]) -> Polish {
         if !self.polish {
-            return false;
+            return Err(None);
         }
         let (rows, r) = edge_rows(pr);
-        match polish::polish(&sc.p, &sc.q, &rows, &r, z, pr.dt, u) {
-            Some(p) => {
-                *u = p;
-                true
-            }
-            None => false,
-        }
+        *u = polish::polish(&sc.p, &sc.q, &rows, &r, z, pr.dt, u).map_err(Some)?;
+        Ok(())
     }
 
     fn solve_primal(&self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
@@ -194,8 +199,7 @@ impl ClarabelSolver {
         let a = csc(m, n, &ae);
         let (solver, verify) = self.run(&p, &sc.q, &a, &b, m)?;
         let mut u = solver.solution.x.clone();
-        let polished = self.polish(pr, &sc, &mut u, &solver.solution.z);
-        Self::unverified(polished, verify)?;
+        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &solver.solution.z), verify)?;
         let dq: Vec<f64> = u.iter().map(|u| u * pr.dt).collect();
         let zscale = sc.s / pr.dt;
         let (mut normal, mut tangential) = (Vec::new(), Vec::new());
@@ -289,8 +293,7 @@ impl ClarabelSolver {
                 [0.5 * (nn + t_mu), 0.5 * (nn - t_mu)]
             })
             .collect();
-        let polished = self.polish(pr, &sc, &mut u, &z);
-        Self::unverified(polished, verify)?;
+        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &z), verify)?;
         let dq = u.iter().map(|ui| ui * pr.dt).collect();
         let fscale = sc.s / pr.dt;
         Ok(StepSolution {

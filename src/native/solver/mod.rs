@@ -8,6 +8,7 @@ pub mod lemke;
 pub mod polish;
 mod rows;
 mod sparse;
+mod visited;
 
 pub use active_set::ActiveSetSolver;
 pub use clarabel_qp::ClarabelSolver;

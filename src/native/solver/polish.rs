@@ -10,11 +10,13 @@
 //! (pseudo-inverse: the rows of a flat interface can be dependent). W starts from the rows the
 //! interior-point solution has closed (slack below multiplier, or a predicted gap below
 //! 1e-10 m) and is corrected by active-set moves: add the most violated row, drop the row with
-//! the most negative multiplier, until the KKT conditions hold (at most 2 m + 4 moves). The
+//! the most negative multiplier, until the KKT conditions hold (at most 2 m + 4 moves, and
+//! never a working set met before: the moves cycle there, see [`super::visited`]). The
 //! polished `u` is used only if it satisfies every row, has non-negative multipliers and stays
 //! close to the interior-point solution; otherwise the interior-point solution stands. This
 //! takes the step from the solver tolerance (~1e-9 m on near-degenerate steps) to round-off.
 
+use super::visited::VisitedSets;
 use nalgebra::{DMatrix, DVector};
 
 /// Largest working set polished (larger problems keep the interior-point solution).
@@ -55,6 +57,21 @@ fn solve_eqp(
     Some((u, lambda.iter().copied().collect()))
 }
 
+/// Why a solution was not polished (the interior-point solution stands).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Unpolished {
+    #[error("its working set has {0} rows, more than {MAX_POLISHED_ROWS}")]
+    TooManyRows(usize),
+    #[error("the equality problem on its working set has no solution")]
+    Breakdown,
+    #[error("its working set search cycles after {0} moves")]
+    Cycles(usize),
+    #[error("its working set search found no optimal set in {0} moves")]
+    MoveLimit(usize),
+    #[error("the polished solution is not finite or not close to the interior point's")]
+    Far,
+}
+
 /// `rows[i] u + r[i] >= 0` are the constraints; `z` the interior-point multipliers.
 pub fn polish(
     p: &[f64],
@@ -64,7 +81,7 @@ pub fn polish(
     z: &[f64],
     dt: f64,
     u_ipm: &[f64],
-) -> Option<Vec<f64>> {
+) -> Result<Vec<f64>, Unpolished> {
     let mut w: Vec<usize> = (0..rows.len())
         .filter(|&i| {
             let slack = row_value(&rows[i], u_ipm) + r[i];
@@ -72,11 +89,16 @@ pub fn polish(
         })
         .collect();
     let zmax = z.iter().fold(0.0f64, |a, &b| a.max(b));
-    for _ in 0..(2 * rows.len() + 4) {
+    let mut visited = VisitedSets::default();
+    let limit = 2 * rows.len() + 4;
+    for moves in 0..limit {
         if w.len() > MAX_POLISHED_ROWS {
-            return None;
+            return Err(Unpolished::TooManyRows(w.len()));
         }
-        let (u, lambda) = solve_eqp(p, q, rows, r, &w)?;
+        if !visited.insert(&w) {
+            return Err(Unpolished::Cycles(moves));
+        }
+        let (u, lambda) = solve_eqp(p, q, rows, r, &w).ok_or(Unpolished::Breakdown)?;
         // Most violated row outside W.
         let viol = (0..rows.len())
             .filter(|i| !w.contains(i))
@@ -102,7 +124,11 @@ pub fn polish(
             .iter()
             .zip(u_ipm)
             .all(|(a, b)| (a - b).abs() <= 1e-5 * scale);
-        return (close && u.iter().all(|x| x.is_finite())).then_some(u);
+        return if close && u.iter().all(|x| x.is_finite()) {
+            Ok(u)
+        } else {
+            Err(Unpolished::Far)
+        };
     }
-    None
+    Err(Unpolished::MoveLimit(limit))
 }
