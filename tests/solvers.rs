@@ -282,6 +282,22 @@ fn stored_problem(file: &str) -> StepProblem {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// Clarabel's solution of `pr` in the dual formulation, which stops with `status`: without the
+/// polish that is the step's error; with it the polished solution is accepted.
+fn polished_dual_solution(pr: &StepProblem, status: &str) -> StepSolution {
+    let mut dual = NativeSettings {
+        formulation: rockbench::native::Formulation::Dual,
+        polish: false,
+        ..NativeSettings::default()
+    };
+    let err = ClarabelSolver::new(&dual).solve(pr).unwrap_err();
+    assert!(err.to_string().contains(status), "{err}");
+    dual.polish = true;
+    let sol = ClarabelSolver::new(&dual).solve(pr).unwrap();
+    assert!(sol.polished, "the accepted solution is the polished one");
+    sol
+}
+
 /// Clarabel's `AlmostSolved` is accepted only when the active-set polish verifies the solution
 /// (every row satisfied, non-negative multipliers: the KKT conditions of the step's convex QP).
 /// tests/scenes/almost-solved-step.json is a step on which Clarabel stops with `AlmostSolved`:
@@ -293,16 +309,7 @@ fn stored_problem(file: &str) -> StepProblem {
 #[test]
 fn an_almost_solved_step_is_accepted_when_its_polish_verifies_it() {
     let pr = stored_problem("almost-solved-step.json");
-    let mut strict = NativeSettings {
-        formulation: rockbench::native::Formulation::Dual,
-        polish: false,
-        ..NativeSettings::default()
-    };
-    let err = ClarabelSolver::new(&strict).solve(&pr).unwrap_err();
-    assert!(err.to_string().contains("AlmostSolved"), "{err}");
-    strict.polish = true;
-    let sol = ClarabelSolver::new(&strict).solve(&pr).unwrap();
-    assert!(sol.polished, "the accepted solution is the polished one");
+    let sol = polished_dual_solution(&pr, "AlmostSolved");
     // Rows, signs and the cone of the forces, and stationarity `Mbar dq = fbar0 + H'c`.
     let mbar: Vec<f64> = pr
         .mass
@@ -595,16 +602,7 @@ fn a_cycling_polish_ends_at_its_first_repeat() {
 #[test]
 fn a_stalled_interior_point_is_polished_to_the_minimiser() {
     let pr = stored_problem("insufficient-progress-dual-step.json");
-    let mut dual = NativeSettings {
-        formulation: rockbench::native::Formulation::Dual,
-        polish: false,
-        ..NativeSettings::default()
-    };
-    let err = ClarabelSolver::new(&dual).solve(&pr).unwrap_err();
-    assert!(err.to_string().contains("InsufficientProgress"), "{err}");
-    dual.polish = true;
-    let polished = ClarabelSolver::new(&dual).solve(&pr).unwrap();
-    assert!(polished.polished);
+    let polished = polished_dual_solution(&pr, "InsufficientProgress");
     let primal = ClarabelSolver::new(&NativeSettings::default())
         .solve(&pr)
         .unwrap();
