@@ -2,7 +2,7 @@
 
 use rockbench::engines::{RunOutput, engine_by_name, run_timed};
 use rockbench::native::problem::ContactRows;
-use rockbench::native::solver::polish::{InteriorPoint, Unpolished, polish};
+use rockbench::native::solver::polish::{Unpolished, polish};
 use rockbench::native::solver::{ActiveSetSolver, ClarabelSolver, ContactSolver, SparseSolver};
 use rockbench::native::{NativeSettings, StepProblem, StepSolution};
 use rockbench::scene::load_scene_with_overrides;
@@ -582,39 +582,9 @@ fn a_cycling_polish_ends_at_its_first_repeat() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/cycling-polish.json");
     let d: PolishInputs = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let limit = 2 * d.rows.len() + 4;
-    let ip = InteriorPoint {
-        u: &d.u,
-        z: &d.z,
-        converged: true,
-    };
-    match polish(&d.p, &d.q, &d.rows, &d.r, d.dt, &ip) {
+    match polish(&d.p, &d.q, &d.rows, &d.r, &d.z, d.dt, &d.u) {
         Err(Unpolished::Cycles(moves)) => assert!(moves < limit, "{moves} of {limit} moves"),
         other => panic!("not a cycle found: {other:?}"),
-    }
-}
-
-/// tests/scenes/insufficient-progress-dual-step.json is step 1985 of the two-block case
-/// (validation/scenes/two-block-free-rocking.toml) solved with `solver = "clarabel"` and
-/// `formulation = "dual"`, on which Clarabel stops with `InsufficientProgress`, its solution
-/// 2.7e-5 m off the minimiser. The polish finds the minimiser and its KKT conditions hold; it
-/// used to be refused for lying far from that solution, which made the step an error. The
-/// polished step must be the other back-ends' to round-off.
-#[test]
-fn a_stalled_interior_point_is_polished_to_the_minimiser() {
-    let pr = stored_problem("insufficient-progress-dual-step.json");
-    let polished = polished_dual_solution(&pr, "InsufficientProgress");
-    let primal = ClarabelSolver::new(&NativeSettings::default())
-        .solve(&pr)
-        .unwrap();
-    let sparse = SparseSolver::new().solve(&pr).unwrap();
-    let dense = ActiveSetSolver::new().solve(&pr).unwrap();
-    for (name, other) in [("primal", &primal), ("sparse", &sparse), ("dense", &dense)] {
-        let worst = polished
-            .dq
-            .iter()
-            .zip(&other.dq)
-            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        assert!(worst < 1e-15, "{name}: {worst:e} m");
     }
 }
 

@@ -164,27 +164,13 @@ fn edge_rows(pr: &StepProblem) -> (Vec<Vec<(usize, f64)>>, Vec<f64>) {
 }
 
 impl ClarabelSolver {
-    /// Replace `u` by its polished value when polishing succeeds; `z` are the edge multipliers,
-    /// `verify` the status that needs the polish's check (the interior point stopped short of
-    /// its tolerances), if any.
-    fn polish(
-        &self,
-        pr: &StepProblem,
-        sc: &Scaled,
-        u: &mut Vec<f64>,
-        z: &[f64],
-        verify: Option<SolverStatus>,
-    ) -> Polish {
+    /// Replace `u` by its polished value when polishing succeeds; `z` are the edge multipliers.
+    fn polish(&self, pr: &StepProblem, sc: &Scaled, u: &mut Vec<f64>, z: &[f64]) -> Polish {
         if !self.polish {
             return Err(None);
         }
         let (rows, r) = edge_rows(pr);
-        let ip = polish::InteriorPoint {
-            u,
-            z,
-            converged: verify.is_none(),
-        };
-        *u = polish::polish(&sc.p, &sc.q, &rows, &r, pr.dt, &ip).map_err(Some)?;
+        *u = polish::polish(&sc.p, &sc.q, &rows, &r, z, pr.dt, u).map_err(Some)?;
         Ok(())
     }
 
@@ -213,10 +199,7 @@ impl ClarabelSolver {
         let a = csc(m, n, &ae);
         let (solver, verify) = self.run(&p, &sc.q, &a, &b, m)?;
         let mut u = solver.solution.x.clone();
-        let polished = Self::unverified(
-            self.polish(pr, &sc, &mut u, &solver.solution.z, verify),
-            verify,
-        )?;
+        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &solver.solution.z), verify)?;
         let dq: Vec<f64> = u.iter().map(|u| u * pr.dt).collect();
         let zscale = sc.s / pr.dt;
         let (mut normal, mut tangential) = (Vec::new(), Vec::new());
@@ -310,7 +293,7 @@ impl ClarabelSolver {
                 [0.5 * (nn + t_mu), 0.5 * (nn - t_mu)]
             })
             .collect();
-        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &z, verify), verify)?;
+        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &z), verify)?;
         let dq = u.iter().map(|ui| ui * pr.dt).collect();
         let fscale = sc.s / pr.dt;
         Ok(StepSolution {

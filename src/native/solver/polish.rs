@@ -12,9 +12,8 @@
 //! 1e-10 m) and is corrected by active-set moves: add the most violated row, drop the row with
 //! the most negative multiplier, until the KKT conditions hold (at most 2 m + 4 moves, and
 //! never a working set met before: the moves cycle there, see [`super::visited`]). The
-//! polished `u` is used only if it satisfies every row, has non-negative multipliers and (where
-//! the interior point met its tolerances) stays close to the interior-point solution; otherwise
-//! the interior-point solution stands. This
+//! polished `u` is used only if it satisfies every row, has non-negative multipliers and stays
+//! close to the interior-point solution; otherwise the interior-point solution stands. This
 //! takes the step from the solver tolerance (~1e-9 m on near-degenerate steps) to round-off.
 
 use super::visited::VisitedSets;
@@ -69,32 +68,20 @@ pub enum Unpolished {
     Cycles(usize),
     #[error("its working set search found no optimal set in {0} moves")]
     MoveLimit(usize),
-    #[error("the polished solution is not finite, or not close to the interior point's")]
+    #[error("the polished solution is not finite or not close to the interior point's")]
     Far,
 }
 
-/// The interior-point solution a polish starts from.
-pub struct InteriorPoint<'a> {
-    /// The solution.
-    pub u: &'a [f64],
-    /// The multipliers of the rows.
-    pub z: &'a [f64],
-    /// Whether it met its tolerances. Then the polished solution must also lie within
-    /// `1e-5 (1 + max |u|)` of it, a guard. Where it stopped short of them its solution is no
-    /// guide (measured 2 % off), and the KKT check alone decides.
-    pub converged: bool,
-}
-
-/// `rows[i] u + r[i] >= 0` are the constraints.
+/// `rows[i] u + r[i] >= 0` are the constraints; `z` the interior-point multipliers.
 pub fn polish(
     p: &[f64],
     q: &[f64],
     rows: &[Vec<(usize, f64)>],
     r: &[f64],
+    z: &[f64],
     dt: f64,
-    ip: &InteriorPoint,
+    u_ipm: &[f64],
 ) -> Result<Vec<f64>, Unpolished> {
-    let (u_ipm, z) = (ip.u, ip.z);
     let mut w: Vec<usize> = (0..rows.len())
         .filter(|&i| {
             let slack = row_value(&rows[i], u_ipm) + r[i];
@@ -133,10 +120,10 @@ pub fn polish(
             continue;
         }
         let scale = 1.0 + u_ipm.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let close = !ip.converged
-            || u.iter()
-                .zip(u_ipm)
-                .all(|(a, b)| (a - b).abs() <= 1e-5 * scale);
+        let close = u
+            .iter()
+            .zip(u_ipm)
+            .all(|(a, b)| (a - b).abs() <= 1e-5 * scale);
         return if close && u.iter().all(|x| x.is_finite()) {
             Ok(u)
         } else {
