@@ -274,12 +274,21 @@ fn sparse_solves_the_steps_of_a_sliding_wall_at_least_as_well_as_clarabel() {
     );
 }
 
+/// `tests/scenes/<file>`.
+fn test_scene(file: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/scenes")
+        .join(file)
+}
+
+/// Data stored as JSON in `tests/scenes/<file>`: a step problem, or a polish's inputs.
+fn stored<T: serde::de::DeserializeOwned>(file: &str) -> T {
+    serde_json::from_str(&std::fs::read_to_string(test_scene(file)).unwrap()).unwrap()
+}
+
 /// A step problem stored as data, `tests/scenes/<file>`.
 fn stored_problem(file: &str) -> StepProblem {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/scenes")
-        .join(file);
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    stored(file)
 }
 
 /// Clarabel's solution of `pr` in the dual formulation, which stops with `status`: without the
@@ -353,7 +362,7 @@ fn an_almost_solved_step_is_accepted_when_its_polish_verifies_it() {
         worst < 1e-7 * scale,
         "stationarity residual {worst:e} against terms of {scale:e}"
     );
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/almost-solved-stack.toml");
+    let p = test_scene("almost-solved-stack.toml");
     let dense = "native.solver=\"active-set\"".to_string();
     let s = load_scene_with_overrides(&p, std::slice::from_ref(&dense)).unwrap();
     let (out, _) = run_timed(engine_by_name("native").unwrap().as_ref(), &s).unwrap();
@@ -571,16 +580,15 @@ struct PolishInputs {
     u: Vec<f64>,
 }
 
-/// tests/scenes/cycling-polish.json holds the polish's inputs for a problem of 8 blocks (36
-/// rows) from a running-bond wall of 8 courses of 8 blocks pushed at its top, solved with
+/// tests/scenes/cycling-polish.json holds the polish's inputs for a problem of 13 blocks (39
+/// DOFs, 36 rows) from a running-bond wall of 8 courses of 8 blocks pushed at its top, solved with
 /// `solver = "clarabel"`. The polish's moves cycle there. It used to run on to its move limit
 /// (twice the rows and four) with a dense SVD of the working set a move: up to 2.5 s a problem
 /// on the wall's 720-row problems, which made that wall take 45 s a step. A working set met
 /// again now ends the polish with the same outcome (the interior-point solution stands).
 #[test]
 fn a_cycling_polish_ends_at_its_first_repeat() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/cycling-polish.json");
-    let d: PolishInputs = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let d: PolishInputs = stored("cycling-polish.json");
     let limit = 2 * d.rows.len() + 4;
     match polish(&d.p, &d.q, &d.rows, &d.r, &d.z, d.dt, &d.u) {
         Err(Unpolished::Cycles(moves)) => assert!(moves < limit, "{moves} of {limit} moves"),

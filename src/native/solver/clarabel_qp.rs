@@ -111,7 +111,10 @@ impl ClarabelSolver {
 
     /// Whether the solution was polished; the error of a solution that needed the polish's
     /// check and did not pass it.
-    fn unverified(polish: Polish, verify: Option<SolverStatus>) -> Result<bool, SolveFailure> {
+    fn polished_or_error(
+        polish: Polish,
+        verify: Option<SolverStatus>,
+    ) -> Result<bool, SolveFailure> {
         match (polish, verify) {
             (Ok(()), _) => Ok(true),
             (Err(_), None) => Ok(false),
@@ -199,7 +202,8 @@ impl ClarabelSolver {
         let a = csc(m, n, &ae);
         let (solver, verify) = self.run(&p, &sc.q, &a, &b, m)?;
         let mut u = solver.solution.x.clone();
-        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &solver.solution.z), verify)?;
+        let polished =
+            Self::polished_or_error(self.polish(pr, &sc, &mut u, &solver.solution.z), verify)?;
         let dq: Vec<f64> = u.iter().map(|u| u * pr.dt).collect();
         let zscale = sc.s / pr.dt;
         let (mut normal, mut tangential) = (Vec::new(), Vec::new());
@@ -293,7 +297,7 @@ impl ClarabelSolver {
                 [0.5 * (nn + t_mu), 0.5 * (nn - t_mu)]
             })
             .collect();
-        let polished = Self::unverified(self.polish(pr, &sc, &mut u, &z), verify)?;
+        let polished = Self::polished_or_error(self.polish(pr, &sc, &mut u, &z), verify)?;
         let dq = u.iter().map(|ui| ui * pr.dt).collect();
         let fscale = sc.s / pr.dt;
         Ok(StepSolution {
