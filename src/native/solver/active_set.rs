@@ -7,9 +7,9 @@
 //! ```
 //!
 //! by keeping a working set W of rows held as equalities. For a given W the step is
-//! `u = P^-1 (D_W' l - q)` with `(D_W P^-1 D_W') l = D_W P^-1 q - r_W`, solved by a Cholesky
-//! factorisation with diagonal pivoting that stops at the numerical rank: the rows of a flat
-//! interface are dependent, and the dependent ones get no multiplier. Then the most violated
+//! `u = P^-1 (D_W' l - q)` with `(D_W P^-1 D_W') l = D_W P^-1 q - r_W`, solved on the
+//! independent rows of W (see [`super::semidefinite`]): the rows of a flat interface are
+//! dependent, and the dependent ones get no multiplier. Then the most violated
 //! row outside W is added, or else the row with the most negative multiplier is dropped,
 //! until the KKT conditions hold. W starts from the rows that were active in the previous
 //! step (matched by contact key), so a step whose active set does not change costs one
@@ -21,7 +21,8 @@
 //! it to the sparse back-end.
 
 use super::rows::{EdgeRow, edge_rows, step_solution_into};
-use super::visited::VisitedSets;
+use super::semidefinite::PivotedCholesky;
+use super::visited::{Rule, VisitedSets};
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
 
@@ -38,10 +39,10 @@ pub struct ActiveSetSolver {
     s: Vec<f64>,
     rhs: Vec<f64>,
     lambda: Vec<f64>,
-    perm: Vec<usize>,
+    #[serde(skip)]
+    cholesky: PivotedCholesky,
     u: Vec<f64>,
     pinv: Vec<f64>,
-    y: Vec<f64>,
     z: Vec<f64>,
     p: Vec<f64>,
     q: Vec<f64>,
@@ -73,63 +74,9 @@ impl ActiveSetSolver {
                 self.s[b * m + a] = v;
             }
         }
-        // Cholesky with diagonal pivoting, stopping at the numerical rank.
-        self.perm.clear();
-        self.perm.extend(0..m);
-        let dmax0 = (0..m).map(|i| self.s[i * m + i]).fold(0.0f64, f64::max);
-        let mut rank = 0;
-        for k in 0..m {
-            let (piv, dmax) = (k..m)
-                .map(|i| (i, self.s[self.perm[i] * m + self.perm[i]]))
-                .fold((k, f64::NEG_INFINITY), |b, x| if x.1 > b.1 { x } else { b });
-            if dmax <= 1e-12 * dmax0 || dmax <= 0.0 {
-                break;
-            }
-            self.perm.swap(k, piv);
-            let pk = self.perm[k];
-            let l_kk = dmax.sqrt();
-            self.s[pk * m + pk] = l_kk;
-            for i in k + 1..m {
-                let pi = self.perm[i];
-                self.s[pi * m + pk] /= l_kk;
-            }
-            for i in k + 1..m {
-                let pi = self.perm[i];
-                let lik = self.s[pi * m + pk];
-                for j in k + 1..=i {
-                    let pj = self.perm[j];
-                    let v = self.s[pi * m + pj] - lik * self.s[pj * m + pk];
-                    self.s[pi * m + pj] = v;
-                    if i != j {
-                        self.s[pj * m + pi] = v;
-                    }
-                }
-            }
-            rank = k + 1;
-        }
-        // Forward and back substitution on the leading `rank` pivots; dependent rows get 0.
-        self.lambda.clear();
-        self.lambda.resize(m, 0.0);
-        let y = &mut self.y;
-        y.clear();
-        y.resize(rank, 0.0);
-        for k in 0..rank {
-            let pk = self.perm[k];
-            let mut v = self.rhs[pk];
-            for (j, yj) in y.iter().enumerate().take(k) {
-                v -= self.s[pk * m + self.perm[j]] * yj;
-            }
-            y[k] = v / self.s[pk * m + pk];
-        }
-        for k in (0..rank).rev() {
-            let pk = self.perm[k];
-            let mut v = y[k];
-            for j in k + 1..rank {
-                let pj = self.perm[j];
-                v -= self.s[pj * m + pk] * self.lambda[pj];
-            }
-            self.lambda[pk] = v / self.s[pk * m + pk];
-        }
+        // Cholesky with diagonal pivoting, stopping at the numerical rank: dependent rows get 0.
+        self.cholesky.factor(&mut self.s, m);
+        self.cholesky.solve(&self.s, m, &self.rhs, &mut self.lambda);
         self.u.clear();
         self.u.extend((0..n).map(|j| -q[j] * self.pinv[j]));
         for a in 0..m {
@@ -176,16 +123,6 @@ impl ContactSolver for ActiveSetSolver {
         (self.p, self.q) = (p, q);
         result
     }
-}
-
-/// Which row enters or leaves the working set.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Rule {
-    /// The most violated row enters; else the most negative multiplier leaves.
-    MostViolated,
-    /// The first violated row (in row order) enters; else the first negative multiplier
-    /// leaves: Bland's rule, which cannot cycle; slower, so only after the other fails.
-    Bland,
 }
 
 impl ActiveSetSolver {

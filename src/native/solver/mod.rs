@@ -7,6 +7,7 @@ mod interior;
 pub mod lemke;
 pub mod polish;
 mod rows;
+pub mod semidefinite;
 mod sparse;
 mod visited;
 

@@ -3,7 +3,17 @@
 //! An active-set search (the dense back-end's, the Clarabel polish's) is deterministic: the
 //! next move depends only on the working set, an ordered list of rows. A working set met again
 //! means the search cycles and would run to its move limit, so it can end there with the
-//! answer it would have given at the limit.
+//! answer it would have given at the limit, or go on under Bland's rule, which cannot cycle.
+
+/// Which row enters or leaves the working set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Rule {
+    /// The most violated row enters; else the most negative multiplier leaves.
+    MostViolated,
+    /// The first violated row (in row order) enters; else the first negative multiplier
+    /// leaves: Bland's rule, which cannot cycle; slower, so only after the other fails.
+    Bland,
+}
 
 /// Working sets (ordered lists of rows) met by a search, kept in reused buffers: a set's hash,
 /// and its rows in one arena.
