@@ -50,7 +50,7 @@ pub enum Unpolished {
     TooManyRows(usize),
     #[error("the equality problem on its working set has no finite solution")]
     Breakdown,
-    #[error("the dependent rows of its working set do not hold")]
+    #[error("a violated row dependent on its working set can take no row's place")]
     Inconsistent,
     #[error("its working set search cycles after {0} moves")]
     Cycles(usize),
