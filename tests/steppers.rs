@@ -690,3 +690,85 @@ fn an_impact_at_the_end_of_its_step_is_taken_there() {
     );
     assert!(state.q.iter().chain(&state.v).all(|x| x.is_finite()));
 }
+
+/// A back-end whose solutions turn every block by `TURN` more than its rows allow, one way and
+/// then the other on the next solve: an iteration of solves never settles.
+struct Wobbling {
+    inner: Box<dyn rockbench::native::solver::ContactSolver>,
+    solves: u64,
+}
+
+const TURN: f64 = 1e-3;
+
+impl rockbench::native::solver::ContactSolver for Wobbling {
+    fn name(&self) -> &'static str {
+        "wobbling"
+    }
+    fn solve_into(
+        &mut self,
+        problem: &rockbench::native::StepProblem,
+        out: &mut rockbench::native::StepSolution,
+    ) -> Result<(), rockbench::native::solver::SolveFailure> {
+        self.inner.solve_into(problem, out)?;
+        self.solves += 1;
+        let turn = if self.solves.is_multiple_of(2) { TURN } else { -TURN };
+        for dphi in out.dq.iter_mut().skip(2).step_by(3) {
+            *dphi += turn;
+        }
+        Ok(())
+    }
+    fn save(&self) -> Vec<u8> {
+        self.inner.save()
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        self.inner.restore(state)
+    }
+}
+
+/// A step whose discrete-gradient rows never converge is halved `HALVINGS` times and then
+/// fails: its error names the step, its time, the length of the last part and how far the
+/// points miss their faces, and the state is left at the step's start. A block standing on
+/// the ground, solved by a back-end that turns it by `TURN` one way and then the other whatever
+/// the step's length, so that no part of the step can converge.
+#[test]
+fn a_step_whose_rows_never_converge_fails_after_its_halvings() {
+    use rockbench::native::stepper::{CONVERGED_DRIFT, HALVINGS};
+    use rockbench::native::{StepError, settings_of, solver::solver_for, stepper_with};
+    let scene = rockbench::scene::parse_scene_str(
+        "name = \"standing\"\nduration = 0.1\n\
+         [[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1.0\n",
+        false,
+        "standing",
+        &[],
+    )
+    .unwrap();
+    let settings = settings_of(&scene).unwrap();
+    let wobbling = Box::new(Wobbling {
+        inner: solver_for(&settings),
+        solves: 0,
+    });
+    let (mut stepper, mut state) = stepper_with(&scene, wobbling).unwrap();
+    let start = state.clone();
+    let err = stepper.step(&mut state).map(|_| ()).unwrap_err();
+    let message = err.to_string();
+    assert!(
+        message.starts_with(
+            "step 1 (t = 0.000000 s): the impact stepper's discrete-gradient rows did not converge"
+        ),
+        "{message}"
+    );
+    match err {
+        StepError::Unconverged { step, t, h, drift } => {
+            assert_eq!((step, t), (1, 0.0));
+            assert_eq!(h, settings.dt / f64::from(1u32 << HALVINGS));
+            assert!(drift > CONVERGED_DRIFT, "drift {drift:e}");
+        }
+        other => panic!("not the unconverged step's error: {other}"),
+    }
+    assert_eq!(stepper.halved_steps, u64::from(HALVINGS));
+    assert_eq!((state.q, state.v, state.t), (start.q, start.v, start.t));
+    // Solved as it should be, the same block stands.
+    let (mut stepper, mut state) = rockbench::native::stepper_for(&scene).unwrap();
+    stepper.step(&mut state).unwrap();
+    assert_eq!(stepper.halved_steps, 0);
+}

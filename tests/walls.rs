@@ -186,10 +186,11 @@ fn the_wall_in_motion_matches_the_clarabel_reference_over_200_steps() {
     let moved = largest_difference(&sa.q, &start);
     assert!(moved > 1e-3, "the wall did not move ({moved:.3e} m)");
     let d = largest_difference(&sa.q, &sb.q);
-    // Measured: 1.05e-8 m for 3.2e-2 m of motion (3.3e-7 of it): the back-ends' tolerances
-    // (rows to 1e-11, Clarabel polished) grown by the rocking.
+    // Measured: 6.6e-11 m for 6.0e-2 m of motion (1.1e-9 of it): the back-ends' tolerances
+    // (rows to 1e-11, Clarabel polished) grown by the rocking. The bound was 1e-6 of the motion
+    // while some of Clarabel's solutions could not be polished (see `tests/solvers.rs`).
     assert!(
-        d < 1e-6 * moved,
+        d < 1e-8 * moved,
         "200 steps in motion: largest position difference {d:.3e} m (moved {moved:.3e} m)"
     );
 }

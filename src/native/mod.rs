@@ -33,6 +33,15 @@ pub fn settings_of(scene: &Scene) -> Result<NativeSettings, SceneError> {
 
 /// A stepper and its initial state for a scene.
 pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> {
+    stepper_with(scene, solver::solver_for(&settings_of(scene)?))
+}
+
+/// A stepper for a scene that solves its problems with `solver` instead of the back-end its
+/// settings name (a back-end wrapped for a test or a probe), and its initial state.
+pub fn stepper_with(
+    scene: &Scene,
+    solver: Box<dyn solver::ContactSolver>,
+) -> Result<(Stepper, NativeState), SceneError> {
     let settings = settings_of(scene)?;
     let motion = GroundMotion::from_scene(scene)?;
     let applied_as = scene
@@ -41,7 +50,6 @@ pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> 
         .map(|e| e.applied_as)
         .unwrap_or_default();
     let bodies = assembly::Bodies::of(scene);
-    let solver = solver::solver_for(&settings);
     let layout = scene.layout();
     let q = layout
         .blocks
