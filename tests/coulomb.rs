@@ -6,7 +6,7 @@ use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::native::coulomb::{
     Coulomb, CoulombMethod, LEMKE_MAX_UNKNOWNS, lemke_pivot_budget, lemke_step,
 };
-use rockbench::native::solver::{ActiveSetSolver, ContactSolver, SolveFailure, SparseSolver};
+use rockbench::native::solver::{ActiveSetSolver, SparseSolver};
 use rockbench::native::stepper_for;
 use rockbench::native::{StepProblem, StepSolution};
 use rockbench::scene::{Scene, load_scene_with_overrides, parse_scene_str};
@@ -612,35 +612,6 @@ fn the_two_block_case_converges_with_coulomb_friction_under_the_impact_stepper()
     }
 }
 
-/// A back-end whose solutions carry round-off: every displacement moved by `eps`, the sign
-/// alternating from solve to solve (as the sparse back-end's do on a large wall, by a few
-/// 1e-13 m).
-struct WithRoundoff {
-    inner: SparseSolver,
-    eps: f64,
-    sign: f64,
-}
-
-impl ContactSolver for WithRoundoff {
-    fn name(&self) -> &'static str {
-        "sparse with round-off"
-    }
-    fn solve_into(&mut self, p: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
-        self.inner.solve_into(p, out)?;
-        self.sign = -self.sign;
-        for d in &mut out.dq {
-            *d += self.sign * self.eps;
-        }
-        Ok(())
-    }
-    fn save(&self) -> Vec<u8> {
-        self.inner.save()
-    }
-    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        self.inner.restore(state)
-    }
-}
-
 /// The first step of a 215-block wall sliding whole (10 courses of 21, joints at 0.7 on a
 /// ground at 0.5, a pulse of 0.8 g; 1208 points, an LCP of 4832 unknowns, beyond Lemke's dense
 /// method), solved by a back-end whose displacements carry alternating round-off: at 1e-12 m
@@ -658,11 +629,7 @@ fn offsets_that_round_off_keeps_from_settling_are_accepted_at_the_row_tolerance(
     let dot = |r: &[(usize, f64)], x: &[f64]| r.iter().map(|&(i, c)| c * x[i]).sum::<f64>();
     for (eps, settles) in [(1e-12, true), (1e-9, false)] {
         let mut fp = Coulomb::default();
-        let mut noisy = WithRoundoff {
-            inner: SparseSolver::new(),
-            eps,
-            sign: 1.0,
-        };
+        let mut noisy = common::AlternatingError::new(Box::new(SparseSolver::new()), eps);
         match fp.solve(&mut noisy, &pr) {
             Ok(sol) => {
                 assert!(settles, "round-off {eps}: accepted");

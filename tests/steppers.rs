@@ -691,45 +691,11 @@ fn an_impact_at_the_end_of_its_step_is_taken_there() {
     assert!(state.q.iter().chain(&state.v).all(|x| x.is_finite()));
 }
 
-/// A back-end whose solutions turn every block by `TURN` more than its rows allow, one way and
-/// then the other on the next solve: an iteration of solves never settles.
-struct Wobbling {
-    inner: Box<dyn rockbench::native::solver::ContactSolver>,
-    solves: u64,
-}
-
-const TURN: f64 = 1e-3;
-
-impl rockbench::native::solver::ContactSolver for Wobbling {
-    fn name(&self) -> &'static str {
-        "wobbling"
-    }
-    fn solve_into(
-        &mut self,
-        problem: &rockbench::native::StepProblem,
-        out: &mut rockbench::native::StepSolution,
-    ) -> Result<(), rockbench::native::solver::SolveFailure> {
-        self.inner.solve_into(problem, out)?;
-        self.solves += 1;
-        let turn = if self.solves.is_multiple_of(2) { TURN } else { -TURN };
-        for dphi in out.dq.iter_mut().skip(2).step_by(3) {
-            *dphi += turn;
-        }
-        Ok(())
-    }
-    fn save(&self) -> Vec<u8> {
-        self.inner.save()
-    }
-    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        self.inner.restore(state)
-    }
-}
-
 /// A step whose discrete-gradient rows never converge is halved `HALVINGS` times and then
 /// fails: its error names the step, its time, the length of the last part and how far the
 /// points miss their faces, and the state is left at the step's start. A block standing on
-/// the ground, solved by a back-end that turns it by `TURN` one way and then the other whatever
-/// the step's length, so that no part of the step can converge.
+/// the ground, solved by a back-end that moves it by 1e-3 (m and rad) one way and then the other
+/// on alternate solves whatever the step's length, so that no part of the step can converge.
 #[test]
 fn a_step_whose_rows_never_converge_fails_after_its_halvings() {
     use rockbench::native::stepper::{CONVERGED_DRIFT, HALVINGS};
@@ -743,11 +709,8 @@ fn a_step_whose_rows_never_converge_fails_after_its_halvings() {
     )
     .unwrap();
     let settings = settings_of(&scene).unwrap();
-    let wobbling = Box::new(Wobbling {
-        inner: solver_for(&settings),
-        solves: 0,
-    });
-    let (mut stepper, mut state) = stepper_with(&scene, wobbling).unwrap();
+    let wobbling = common::AlternatingError::new(solver_for(&settings), 1e-3);
+    let (mut stepper, mut state) = stepper_with(&scene, Box::new(wobbling)).unwrap();
     let start = state.clone();
     let err = stepper.step(&mut state).map(|_| ()).unwrap_err();
     let message = err.to_string();

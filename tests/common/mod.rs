@@ -175,3 +175,46 @@ pub fn proptest_cases(default: u32) -> u32 {
         .and_then(|s| s.parse().ok())
         .unwrap_or(default)
 }
+
+/// A back-end whose solutions carry an error: every displacement moved by `eps`, the sign
+/// alternating from solve to solve (as the sparse back-end's round-off does on a large wall, by
+/// a few 1e-13 m), so that an iteration of solves cannot settle below it.
+pub struct AlternatingError {
+    inner: Box<dyn rockbench::native::solver::ContactSolver>,
+    eps: f64,
+    sign: f64,
+}
+
+impl AlternatingError {
+    pub fn new(inner: Box<dyn rockbench::native::solver::ContactSolver>, eps: f64) -> Self {
+        AlternatingError {
+            inner,
+            eps,
+            sign: 1.0,
+        }
+    }
+}
+
+impl rockbench::native::solver::ContactSolver for AlternatingError {
+    fn name(&self) -> &'static str {
+        "a back-end with an alternating error"
+    }
+    fn solve_into(
+        &mut self,
+        p: &rockbench::native::StepProblem,
+        out: &mut rockbench::native::StepSolution,
+    ) -> Result<(), rockbench::native::solver::SolveFailure> {
+        self.inner.solve_into(p, out)?;
+        self.sign = -self.sign;
+        for d in &mut out.dq {
+            *d += self.sign * self.eps;
+        }
+        Ok(())
+    }
+    fn save(&self) -> Vec<u8> {
+        self.inner.save()
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        self.inner.restore(state)
+    }
+}
