@@ -1,9 +1,12 @@
 //! Random scenes: every one is either refused with a one-line scene error, or run by every
 //! engine to a trajectory that passes the invariants (finite, penetration, energy, standing,
 //! mirror, rerun), or ends in a typed engine error. Never a panic. The native engine runs on
-//! the default back-end (`auto`: dense for these stacks of 1-4 blocks) or, in a third of the
-//! scenes, on the sparse one; a third of the scenes (drawn independently) use non-associative
-//! Coulomb friction (`native.friction_law = "coulomb"`) instead of the paper's law.
+//! the default back-end (`auto`: dense for these stacks of 1-4 blocks), or on the sparse one in
+//! two scenes of seven, or on Clarabel (the reference, polished) in one of seven; a third of the
+//! scenes (drawn independently) use non-associative Coulomb friction (`native.friction_law =
+//! "coulomb"`) instead of the paper's law. (With the same seed, 10,000 cases, the polish of
+//! least-squares working sets before 2026-12-01 gave seven Clarabel errors, its polish not
+//! verifying, and then a stack that moved 3.8e-8 m where it should stand; now none.)
 //!
 //! `PROPTEST_CASES` sets the number of cases (default 200 in `make test`, with a fixed seed;
 //! `make proptest` runs 10,000 with a new seed, or PROPTEST_RNG_SEED). Runs are kept short (at most 0.25 s and 400 steps) so a case costs
@@ -54,7 +57,7 @@ struct RScene {
     gravity: f64,
     moving_ground: bool,
     dual: bool,
-    /// The contact back-end: `auto` (dense for these small stacks) or `sparse`.
+    /// The contact back-end: `auto` (dense for these small stacks), `sparse` or `clarabel`.
     solver: &'static str,
     /// Non-associative (Coulomb) friction instead of the paper's associative law.
     coulomb: bool,
@@ -119,7 +122,7 @@ fn scene() -> impl Strategy<Value = RScene> {
         prop_oneof![4 => Just(9.81), 1 => 0.5..30.0f64],
         any::<bool>(),
         any::<bool>(),
-        prop_oneof![2 => Just("auto"), 1 => Just("sparse")],
+        prop_oneof![4 => Just("auto"), 2 => Just("sparse"), 1 => Just("clarabel")],
         excitation(),
         prop_oneof![2 => Just(false), 1 => Just(true)],
     )
