@@ -205,7 +205,7 @@ impl Problem<'_> {
                     consistent.push(i);
                     continue;
                 }
-                match self.exchanged(&w, i, eqp) {
+                match self.exchanged(&w, eqp) {
                     Some(a) => break Some((i, Some(a))),
                     None => return Err(Unpolished::Inconsistent),
                 }
@@ -270,12 +270,11 @@ impl Problem<'_> {
         eqp.cholesky.dependent(&eqp.s, w.len(), &eqp.column, c)
     }
 
-    /// For row i dependent on W's independent rows, `d_i = sum_a alpha_a d_{w_a}`: the place
-    /// `a` it takes, where the multipliers `l_a - t alpha_a` (and `t` on row i) stay
-    /// non-negative longest (the ratio test), or None if no `alpha_a` is positive (the rows
-    /// cannot all hold).
-    fn exchanged(&self, w: &[usize], i: usize, eqp: &mut Equalities) -> Option<usize> {
-        self.column(w, i, eqp);
+    /// For a row dependent on W's independent rows, `d_i = sum_a alpha_a d_{w_a}` (from the
+    /// column [`Problem::dependent`] left in `eqp`): the place `a` it takes, where the
+    /// multipliers `l_a - t alpha_a` (and `t` on row i) stay non-negative longest (the ratio
+    /// test), or None if no `alpha_a` is positive (the rows cannot all hold).
+    fn exchanged(&self, w: &[usize], eqp: &mut Equalities) -> Option<usize> {
         let Equalities {
             cholesky,
             s,
