@@ -616,20 +616,29 @@ record_wheel_sha256 = \"{}\"\nreference = \"native engine at the scene's setting
         );
     }
 
-    // 9. Walls in motion: no closed form; which blocks overturn, engine against engine.
-    for (case, what, trust) in [
+    // 9. Walls and colonnades in motion: no closed form; which blocks overturn, engine against
+    // engine.
+    for (case, scene_file, what, trust) in [
         (
             "wall-in-motion",
+            "wall-in-motion-pulse.toml",
             "no reference history: the 42-block running-bond wall of validation/scenes/wall-in-motion-pulse.toml under a rectangular pulse of 0.5 g for 0.5 s, above its static collapse acceleration (0.3387 g), is compared engine against engine on which blocks overturn (`overturned_count`, `overturning_disagreements`; reference: the native engine)",
             "a toppling wall has no closed-form response; independent engines (native, rapier, MuJoCo, PyBullet) overturning the same blocks is the evidence, and which blocks fall is sensitive to the contact law's details, so the gates allow a stated number of disagreements",
         ),
         (
             "wall-corner",
+            "wall-corner-pulse.toml",
             "no reference history: the 10-block corner of a running-bond wall (validation/scenes/wall-corner-pulse.toml) under a rectangular pulse of 0.35 g for 0.5 s, between the static collapse acceleration of its end pieces with free separation (0.238 g) and that of the associative law (0.4232 g), compared engine against engine on which blocks overturn (reference: the native engine)",
             "the two accelerations are closed forms of the geometry (docs/method.md, \"Sleeping islands\"); the Coulomb engines (rapier, MuJoCo, PyBullet) overturning exactly the two end pieces and the associative native engine none is the law's difference, stated as a known failure",
         ),
+        (
+            "colonnade-elcentro",
+            "colonnade-elcentro.toml",
+            "no reference history: five columns (0.5 x 4 m) under four architraves meeting end to end (validation/scenes/colonnade-elcentro.toml) under the El Centro 1940 record scaled by 2, which collapses the colonnade, compared engine against engine on which blocks overturn and leave their place and when the end column falls (reference: the native engine)",
+            "a collapsing colonnade has no closed-form response; independent engines (native, rapier, MuJoCo, PyBullet) starting the collapse at the same instant and ending with the same blocks overturned and displaced is the evidence",
+        ),
     ] {
-        let scene = load(&format!("{}-pulse.toml", case))?;
+        let scene = load(scene_file)?;
         let mut r = header(&format!(
             "{case}: no closed form; engines are compared with the native engine"
         ));
