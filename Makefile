@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
 	stress proptest proptest-assemblies fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -300,6 +300,14 @@ bench-walls-sensitivity:
 bench-gallery: records
 	$(CARGO) run --release --example bench_dynamic -- --gallery 1,4,16,64 --duration 15 --out out/bench-gallery/on
 	$(CARGO) run --release --example bench_dynamic -- --gallery 1,4,16,64 --duration 15 --engines native --island-impacts false --out out/bench-gallery/off
+
+# The colonnade series: 5, 10, 20 and 40 columns under architraves meeting end to end
+# (rockbench::colonnade) under El Centro 1940 x 2 for 10 s, which collapses them; native and
+# rapier, then the native engine with its impacts at the end of their step;
+# out/bench-colonnades/{located,step-ends}. About four minutes.
+bench-colonnades: records
+	$(CARGO) run --release --example bench_dynamic -- --colonnade 5,10,20,40 --duration 10 --scale 2 --out out/bench-colonnades/located
+	$(CARGO) run --release --example bench_dynamic -- --colonnade 5,10,20,40 --duration 10 --scale 2 --engines native --locate-impacts false --out out/bench-colonnades/step-ends
 
 # The work-precision benchmark of the slender block (every engine, step sizes, native variants).
 bench: build .venv

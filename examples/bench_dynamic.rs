@@ -19,6 +19,11 @@
 //! independent objects, whose cost grows with the number of objects times the problems each
 //! step solves. Its CSV's second column is the number of pairs.
 //!
+//! `--colonnade 5,10,20,40` runs colonnades instead (`rockbench::colonnade`: that many stone
+//! columns of 0.5 x 4 m, 2 m apart, under architraves meeting end to end, one island): the
+//! series of a frame in motion, which El Centro x2 collapses (docs/method.md, "A colonnade in
+//! motion"). Its CSV's second column is the number of columns.
+//!
 //! `--pulse G` puts the walls in motion from the first step instead: a rectangular pulse of `G`
 //! g (above the friction coefficient, 0.7, the walls slide) for the whole run, in place of the
 //! record; with a short `--duration` (0.01 s: ten steps) the per-step figures are those of a
@@ -47,6 +52,7 @@ mod flags;
 
 use anyhow::{Context, bail};
 use flags::{arg, check_flags};
+use rockbench::colonnade::ColonnadeSpec;
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::gallery::GallerySpec;
 use rockbench::native::collapse::{CollapseOnset, collapse_onset};
@@ -59,15 +65,16 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const USAGE: &str = "cargo run --release --example bench_dynamic -- \
-[--courses 2,5,10,20,40 | --gallery N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
+[--courses 2,5,10,20,40 | --gallery N,... | --colonnade N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
 [--ground-friction 0.5] [--engines native,rapier] [--sleep false] [--island-impacts true] \
 [--locate-impacts true] [--locate-speed 0] [--native-dt 1e-3] [--budget 600] \
 [--out out/bench-dynamic]";
 
 /// The flags of `USAGE`, each followed by its value.
-const FLAGS: [&str; 14] = [
+const FLAGS: [&str; 15] = [
     "--courses",
     "--gallery",
+    "--colonnade",
     "--duration",
     "--scale",
     "--pulse",
@@ -248,12 +255,24 @@ fn benchmark() -> anyhow::Result<()> {
         .any(|a| a == "--gallery")
         .then(|| list("--gallery", ""))
         .transpose()?;
+    let colonnade = args
+        .iter()
+        .any(|a| a == "--colonnade")
+        .then(|| list("--colonnade", ""))
+        .transpose()?;
+    if gallery.is_some() && colonnade.is_some() {
+        bail!("--gallery and --colonnade: one series at a time");
+    }
+    // Walls: the static collapse acceleration of each, and the pulse and ground options.
+    let walls = gallery.is_none() && colonnade.is_none();
     let duration = number(&args, "--duration", 5.0)?;
     let scale = number(&args, "--scale", 2.0)?;
     let pulse = optional_number(&args, "--pulse")?;
     let ground_friction = optional_number(&args, "--ground-friction")?;
-    if gallery.is_some() && (pulse.is_some() || ground_friction.is_some()) {
-        bail!("--pulse and --ground-friction are for walls only (not with --gallery)");
+    if !walls && (pulse.is_some() || ground_friction.is_some()) {
+        bail!(
+            "--pulse and --ground-friction are for walls only (not with --gallery or --colonnade)"
+        );
     }
     if let Some(f) = ground_friction.filter(|f| !(f.is_finite() && *f >= 0.0)) {
         bail!("--ground-friction: must be a friction coefficient, 0 or more (got {f})");
@@ -288,6 +307,8 @@ fn benchmark() -> anyhow::Result<()> {
     })?;
     let (unit, what) = if gallery.is_some() {
         ("pairs", "Galleries")
+    } else if colonnade.is_some() {
+        ("columns", "Colonnades")
     } else {
         ("courses", "Walls in motion")
     };
@@ -311,8 +332,17 @@ fn benchmark() -> anyhow::Result<()> {
     let mut statics = format!("blocks,{unit},rest_low_g,rest_high_g,loading_peak_g,leaves_at_s\n");
     let mut statics_md = "\n## Static collapse acceleration\n\n| blocks | rest interval (g) | loading's peak (g) | the loading leaves the interval at (s) |\n|---|---|---|---|\n".to_string();
     // (blocks, courses or pairs, scene file name, scene text)
-    let series: Vec<(usize, usize, String, String)> = match &gallery {
-        Some(sizes) => sizes
+    let series: Vec<(usize, usize, String, String)> = match (&gallery, &colonnade) {
+        (_, Some(sizes)) => sizes
+            .iter()
+            .map(|&n| {
+                let mut c = ColonnadeSpec::row(n);
+                c.duration = duration;
+                c.record = record_as_written.clone();
+                (c.n_blocks(), n, format!("colonnade-{n}.toml"), c.to_toml())
+            })
+            .collect(),
+        (Some(sizes), None) => sizes
             .iter()
             .map(|&n| {
                 let mut g = GallerySpec::row(n);
@@ -321,7 +351,7 @@ fn benchmark() -> anyhow::Result<()> {
                 (g.n_blocks(), n, format!("gallery-{n}.toml"), g.to_toml())
             })
             .collect(),
-        None => courses
+        (None, None) => courses
             .iter()
             .map(|&c| {
                 let mut w = WallSpec::running_bond(c, 21);
@@ -372,7 +402,7 @@ fn benchmark() -> anyhow::Result<()> {
         }
         std::fs::write(&path, text)?;
         let scene = load_scene(&path)?;
-        if gallery.is_none() {
+        if walls {
             let CollapseOnset {
                 interval,
                 peak,
@@ -454,11 +484,7 @@ fn benchmark() -> anyhow::Result<()> {
                 }
             }
             std::fs::write(out.join("dynamic.csv"), &csv)?;
-            let tail = if gallery.is_none() {
-                &statics_md[..]
-            } else {
-                ""
-            };
+            let tail = if walls { &statics_md[..] } else { "" };
             let (growth_md, growth_csv) = growth(&engines, &measured);
             std::fs::write(out.join("growth.csv"), growth_csv)?;
             std::fs::write(out.join("dynamic.md"), format!("{md}{growth_md}{tail}"))?;

@@ -31,6 +31,7 @@
 pub mod allocator;
 pub mod bench;
 pub mod cli;
+pub mod colonnade;
 pub mod compare;
 pub mod contract;
 pub mod converge;

@@ -479,3 +479,32 @@ fn gate_include_and_target() {
     let e = rockbench::gates::load_gates(&dir.join("c.toml")).unwrap_err();
     assert!(e.to_string().contains("include[0]"), "{e}");
 }
+
+/// The colonnade of the validation suite is `rockbench::colonnade`'s of five columns (the one
+/// the benchmark's series grows): the same blocks in the same places, friction and duration,
+/// under El Centro x2.
+#[test]
+fn the_validation_colonnade_is_the_generated_one() {
+    let file = root().join("validation/scenes/colonnade-elcentro.toml");
+    let scene = rockbench::scene::load_scene(&file).unwrap();
+    let spec = rockbench::colonnade::ColonnadeSpec::row(5);
+    let generated =
+        rockbench::scene::parse_scene_str(&spec.to_toml(), false, "colonnade", &[]).unwrap();
+    assert_eq!(scene.blocks.len(), generated.blocks.len());
+    let (a, b) = (scene.layout(), generated.layout());
+    for (i, (s, g)) in scene.blocks.iter().zip(&generated.blocks).enumerate() {
+        assert_eq!(s.name, g.name);
+        assert_eq!(
+            (s.width, s.height, s.density),
+            (g.width, g.height, g.density)
+        );
+        assert_eq!(
+            (a.blocks[i].x, a.blocks[i].z),
+            (b.blocks[i].x, b.blocks[i].z)
+        );
+    }
+    assert_eq!(scene.contact.friction, generated.contact.friction);
+    assert_eq!(scene.duration, spec.duration);
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(text.contains("file = \"../records/elcentro-1940.AT2\"\nscale = 2.0\n"));
+}
