@@ -379,9 +379,14 @@ pub struct Stepper {
     motion: GroundMotion,
     applied_as: AppliedAs,
     solver: Box<dyn ContactSolver>,
-    /// The back-end of the velocity problems (impacts, settled end velocities) and position
-    /// projections: its own instance, so that each kind of problem keeps its own warm start.
+    /// The back-end of the velocity problems (impacts, settled end velocities): its own
+    /// instance, so that each kind of problem keeps its own warm start.
     velocity_solver: Box<dyn ContactSolver>,
+    /// The back-end of the projections of a penetration (`project_out_penetration`), of the
+    /// velocity problems' kind, apart from them for the same reason: a projection's warm start
+    /// is the last projection's, not the last settled end velocity's (and the next settled
+    /// velocity's is not a projection's). See docs/method.md, "Walls".
+    projection_solver: Box<dyn ContactSolver>,
     /// Contacts of the last step (for inspection and tests).
     pub last_contacts: Vec<ContactPoint>,
     /// The last step's solution (returned by [`Stepper::step`]).
@@ -468,6 +473,7 @@ struct Carried<'a> {
     sleep: &'a Option<Sleep>,
     solver: Blob,
     velocity_solver: Blob,
+    projection_solver: Blob,
 }
 
 /// [`Carried`], read back.
@@ -486,6 +492,9 @@ struct CarriedOwned {
     sleep: Option<Sleep>,
     solver: Blob,
     velocity_solver: Blob,
+    /// Absent from the checkpoints of builds that projected on the velocity back-end.
+    #[serde(default)]
+    projection_solver: Option<Blob>,
 }
 
 /// A step that could not be taken.
@@ -521,6 +530,7 @@ impl Stepper {
     ) -> Self {
         let n_blocks = bodies.len();
         let velocity_solver = super::solver::velocity_solver_for(&settings);
+        let projection_solver = super::solver::velocity_solver_for(&settings);
         let sleep = (settings.sleep
             && applied_as == AppliedAs::InertialForces
             && motion.vertical.is_none())
@@ -536,6 +546,7 @@ impl Stepper {
             applied_as,
             solver,
             velocity_solver,
+            projection_solver,
             last_contacts: Vec::new(),
             last_solution: StepSolution::default(),
             iterations: 0,
@@ -584,6 +595,7 @@ impl Stepper {
             sleep: &self.sleep,
             solver: Blob(self.solver.save()),
             velocity_solver: Blob(self.velocity_solver.save()),
+            projection_solver: Blob(self.projection_solver.save()),
         })
     }
 
@@ -600,6 +612,9 @@ impl Stepper {
         }
         self.solver.restore(&c.solver.0)?;
         self.velocity_solver.restore(&c.velocity_solver.0)?;
+        if let Some(projection) = &c.projection_solver {
+            self.projection_solver.restore(&projection.0)?;
+        }
         counters!(self) = c.counters;
         self.halved_steps = c.halved_steps;
         self.last_contacts = c.last_contacts;
@@ -614,28 +629,32 @@ impl Stepper {
 
     /// Steps the back-end handed to Clarabel.
     pub fn solver_fallbacks(&self) -> u64 {
-        self.solver.fallbacks() + self.velocity_solver.fallbacks()
+        self.solver.fallbacks()
+            + self.velocity_solver.fallbacks()
+            + self.projection_solver.fallbacks()
     }
 
     /// Newton-matrix factorisations of the back-end (sparse).
     pub fn solver_factorisations(&self) -> u64 {
-        self.solver.factorisations() + self.velocity_solver.factorisations()
+        self.solver.factorisations() + self.velocity_factorisations()
     }
 
     /// Of [`Stepper::solver_factorisations`], those of the velocity problems (settled end
-    /// velocities and plastic impacts).
+    /// velocities and plastic impacts) and of the projections of a penetration.
     pub fn velocity_factorisations(&self) -> u64 {
-        self.velocity_solver.factorisations()
+        self.velocity_solver.factorisations() + self.projection_solver.factorisations()
     }
 
     /// Rows the sparse back-end took into or out of its factors by rank-one updates.
     pub fn solver_factor_updates(&self) -> u64 {
-        self.solver.factor_updates() + self.velocity_solver.factor_updates()
+        self.solver.factor_updates()
+            + self.velocity_solver.factor_updates()
+            + self.projection_solver.factor_updates()
     }
 
     /// Problems the sparse back-end handed to its interior-point rescue.
     pub fn solver_rescues(&self) -> u64 {
-        self.solver.rescues() + self.velocity_solver.rescues()
+        self.solver.rescues() + self.velocity_solver.rescues() + self.projection_solver.rescues()
     }
 
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
@@ -2121,7 +2140,7 @@ impl Stepper {
                 .map(|c| contact_rows(c, &ps, self.bodies.friction(c), (0.0, 0.0)))
                 .collect(),
         };
-        let sol = self.velocity_solver.solve(&pr)?;
+        let sol = self.projection_solver.solve(&pr)?;
         for (q, d) in s.q.iter_mut().zip(&sol.dq) {
             *q += d;
         }
