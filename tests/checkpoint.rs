@@ -109,6 +109,19 @@ fn a_toppling_wall_resumed_mid_motion_is_the_uninterrupted_run() {
     assert!(!notes.contains(" 0 factorisations"), "{notes}");
 }
 
+/// The same wall with its impacts at the end of their step, stopped while its projections of a
+/// penetration go on (their back-end's warm start in the checkpoint).
+#[test]
+fn a_toppling_wall_at_step_ends_resumed_mid_motion_is_the_uninterrupted_run() {
+    let notes = resumed_is_uninterrupted(
+        "wall-in-motion-pulse",
+        &["duration=0.35", "native.locate_impacts=false"],
+        260,
+    );
+    assert!(notes.contains(" 0 split at a located impact"), "{notes}");
+    assert!(!notes.contains(" 0 position projections"), "{notes}");
+}
+
 /// The two-block statue under each stepper and law, on Clarabel, stopped while it comes to rest,
 /// and a column put to sleep.
 #[test]
