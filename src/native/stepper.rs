@@ -492,9 +492,7 @@ struct CarriedOwned {
     sleep: Option<Sleep>,
     solver: Blob,
     velocity_solver: Blob,
-    /// Absent from the checkpoints of builds that projected on the velocity back-end.
-    #[serde(default)]
-    projection_solver: Option<Blob>,
+    projection_solver: Blob,
 }
 
 /// A step that could not be taken.
@@ -612,9 +610,7 @@ impl Stepper {
         }
         self.solver.restore(&c.solver.0)?;
         self.velocity_solver.restore(&c.velocity_solver.0)?;
-        if let Some(projection) = &c.projection_solver {
-            self.projection_solver.restore(&projection.0)?;
-        }
+        self.projection_solver.restore(&c.projection_solver.0)?;
         counters!(self) = c.counters;
         self.halved_steps = c.halved_steps;
         self.last_contacts = c.last_contacts;
@@ -627,34 +623,42 @@ impl Stepper {
         Ok(())
     }
 
-    /// Steps the back-end handed to Clarabel.
-    pub fn solver_fallbacks(&self) -> u64 {
-        self.solver.fallbacks()
-            + self.velocity_solver.fallbacks()
-            + self.projection_solver.fallbacks()
+    /// The back-ends: the step problems', the velocity problems', the projections'.
+    fn back_ends(&self) -> [&dyn ContactSolver; 3] {
+        [
+            self.solver.as_ref(),
+            self.velocity_solver.as_ref(),
+            self.projection_solver.as_ref(),
+        ]
     }
 
-    /// Newton-matrix factorisations of the back-end (sparse).
+    /// Steps the back-ends handed to Clarabel.
+    pub fn solver_fallbacks(&self) -> u64 {
+        self.back_ends().iter().map(|b| b.fallbacks()).sum()
+    }
+
+    /// Newton-matrix factorisations of the back-ends (sparse).
     pub fn solver_factorisations(&self) -> u64 {
-        self.solver.factorisations() + self.velocity_factorisations()
+        self.back_ends().iter().map(|b| b.factorisations()).sum()
     }
 
     /// Of [`Stepper::solver_factorisations`], those of the velocity problems (settled end
     /// velocities and plastic impacts) and of the projections of a penetration.
     pub fn velocity_factorisations(&self) -> u64 {
-        self.velocity_solver.factorisations() + self.projection_solver.factorisations()
+        self.back_ends()[1..]
+            .iter()
+            .map(|b| b.factorisations())
+            .sum()
     }
 
-    /// Rows the sparse back-end took into or out of its factors by rank-one updates.
+    /// Rows the sparse back-ends took into or out of their factors by rank-one updates.
     pub fn solver_factor_updates(&self) -> u64 {
-        self.solver.factor_updates()
-            + self.velocity_solver.factor_updates()
-            + self.projection_solver.factor_updates()
+        self.back_ends().iter().map(|b| b.factor_updates()).sum()
     }
 
-    /// Problems the sparse back-end handed to its interior-point rescue.
+    /// Problems the sparse back-ends handed to their interior-point rescue.
     pub fn solver_rescues(&self) -> u64 {
-        self.solver.rescues() + self.velocity_solver.rescues() + self.projection_solver.rescues()
+        self.back_ends().iter().map(|b| b.rescues()).sum()
     }
 
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
