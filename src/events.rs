@@ -60,6 +60,7 @@ pub const DEFAULT_REST: f64 = 1e-4;
 /// at rest: it accelerates at about `p^2 (phi - alpha)`, so its rate exceeds the floor within
 /// the window unless it turns within some `2 RESTING_RATE / (p^2 RESTING_WINDOW)` of `alpha`.
 pub const RESTING_RATE: f64 = 1e-4;
+/// The end of a history over which a block's rate is read for rest (s; see [`RESTING_RATE`]).
 pub const RESTING_WINDOW: f64 = 0.1;
 
 /// Where a block's impact instants come from.
