@@ -211,10 +211,11 @@ impl NativeEngine {
             exact_impacts: None,
             notes: {
                 let mut notes = vec![format!(
-                    "{} steps, {} split at a located impact, {} position projections after impacts; {} solutions polished on their active set; {} steps fell back to Clarabel; {} factorisations; {} rows updated into or out of a factor; {} interior-point rescues",
+                    "{} steps, {} split at a located impact, {} position projections after impacts (gaining {:.3e} J/m of potential energy); {} solutions polished on their active set; {} steps fell back to Clarabel; {} factorisations; {} rows updated into or out of a factor; {} interior-point rescues",
                     computed,
                     stepper.split_steps,
                     stepper.projections,
+                    stepper.projected_energy,
                     stepper.polished_steps,
                     stepper.solver_fallbacks(),
                     stepper.solver_factorisations(),

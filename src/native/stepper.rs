@@ -398,6 +398,11 @@ pub struct Stepper {
     pub split_steps: u64,
     /// Position projections after an impact (impact stepper without impact location).
     pub projections: u64,
+    /// The potential energy those projections gained, J per metre of depth: the sum over the
+    /// projections of `sum m g dz` over their displacements, where positive. It bounds the
+    /// impact stepper's energy growth without excitation, which only the projections make
+    /// (docs/method.md, "The impact-consistent stepper").
+    pub projected_energy: f64,
     /// Impact stepper: solves for the discrete-gradient rows, all steps together.
     pub gradient_solves: u64,
     /// Impact stepper: end velocities made admissible on the loaded points (`settle_velocity`).
@@ -466,6 +471,7 @@ struct Carried<'a> {
     last_solution: &'a StepSolution,
     counters: [u64; 10],
     halved_steps: u64,
+    projected_energy: f64,
     accel: &'a [f64],
     loaded: &'a [u64],
     struck: &'a [u64],
@@ -485,6 +491,9 @@ struct CarriedOwned {
     /// Absent from the checkpoints of builds that did not halve steps.
     #[serde(default)]
     halved_steps: u64,
+    /// Absent from the checkpoints of builds that did not count it.
+    #[serde(default)]
+    projected_energy: f64,
     accel: Vec<f64>,
     loaded: Vec<u64>,
     struck: Vec<u64>,
@@ -551,6 +560,7 @@ impl Stepper {
             polished_steps: 0,
             split_steps: 0,
             projections: 0,
+            projected_energy: 0.0,
             gradient_solves: 0,
             start_impacts: 0,
             halved_instants: 0,
@@ -586,6 +596,7 @@ impl Stepper {
             last_solution: &self.last_solution,
             counters,
             halved_steps: self.halved_steps,
+            projected_energy: self.projected_energy,
             accel: &self.accel,
             loaded: &self.loaded,
             struck: &self.struck,
@@ -613,6 +624,7 @@ impl Stepper {
         self.projection_solver.restore(&c.projection_solver.0)?;
         counters!(self) = c.counters;
         self.halved_steps = c.halved_steps;
+        self.projected_energy = c.projected_energy;
         self.last_contacts = c.last_contacts;
         self.last_solution = c.last_solution;
         self.accel = c.accel;
@@ -2149,6 +2161,10 @@ impl Stepper {
             *q += d;
         }
         self.projections += 1;
+        let gained: f64 = (0..self.bodies.len())
+            .map(|i| self.bodies.mass[3 * i + 1] * self.gravity * sol.dq[3 * i + 1])
+            .sum();
+        self.projected_energy += gained.max(0.0);
         Ok(())
     }
 

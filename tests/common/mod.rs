@@ -168,6 +168,16 @@ pub fn proptest_seed(fixed: u64) -> proptest::test_runner::RngSeed {
     }
 }
 
+/// The potential energy a native run's projections of a penetration gained, J/m, as its notes
+/// give it (`Stepper::projected_energy`); `None` if no note gives it.
+pub fn projected_energy(notes: &[String]) -> Option<f64> {
+    const BEFORE: &str = "position projections after impacts (gaining ";
+    notes.iter().find_map(|n| {
+        let rest = &n[n.find(BEFORE)? + BEFORE.len()..];
+        rest[..rest.find(' ')?].parse().ok()
+    })
+}
+
 /// The number of cases of a property test: PROPTEST_CASES, or `default` (`make test`).
 pub fn proptest_cases(default: u32) -> u32 {
     std::env::var("PROPTEST_CASES")
