@@ -1,6 +1,7 @@
 //! Contact solver back-ends: each solves a [`StepProblem`] and reports its status.
 
 mod active_set;
+pub mod certificate;
 mod clarabel_qp;
 pub mod envelope;
 mod interior;

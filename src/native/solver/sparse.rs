@@ -306,6 +306,11 @@ pub struct SparseSolver {
     pub stalled_warm_starts: u64,
     /// Rows taken into or out of a factor by rank-one updates (see [`SparseSolver::update_factor`]).
     pub updates: u64,
+    /// Minimisations ended where their Newton steps stagnated (`STAGNATION_TOLERANCE`) on a
+    /// problem whose rows have offsets (not `homogeneous`): the multiplier loop's test of every
+    /// row then decides whether the point is a solution.
+    #[serde(default)]
+    pub stagnations_with_offsets: u64,
     /// Whether the interior-point rescue is used (on from [`SparseSolver::new`]; off only to
     /// compare it with the cold retries it precedes).
     pub rescue: bool,
@@ -698,6 +703,9 @@ impl SparseSolver {
                     trusted = false;
                     last_step = f64::INFINITY;
                     continue;
+                }
+                if !self.homogeneous {
+                    self.stagnations_with_offsets += 1;
                 }
                 return Ok(it);
             }
