@@ -228,3 +228,68 @@ impl rockbench::native::solver::ContactSolver for AlternatingError {
         self.inner.restore(state)
     }
 }
+
+/// The worst certificates of the solutions a [`Certifying`] back-end gave.
+#[derive(Debug, Default, Clone)]
+pub struct Certified {
+    /// Solutions certified.
+    pub solutions: u64,
+    /// The largest bound on a displacement's distance from its QP's minimiser, m.
+    pub worst: f64,
+    /// The largest violation of a row outside the closed ones (relative).
+    pub violation: f64,
+    /// Solutions whose bound exceeds `threshold`.
+    pub above: u64,
+    pub threshold: f64,
+    /// The largest displacement certified, m.
+    pub largest_dq: f64,
+}
+
+/// A back-end that certifies every solution of the one it wraps
+/// (`rockbench::native::solver::certificate::certify`).
+pub struct Certifying {
+    inner: Box<dyn rockbench::native::solver::ContactSolver>,
+    pub record: std::sync::Arc<std::sync::Mutex<Certified>>,
+}
+
+impl Certifying {
+    pub fn new(inner: Box<dyn rockbench::native::solver::ContactSolver>, threshold: f64) -> Self {
+        let record = Certified {
+            threshold,
+            ..Default::default()
+        };
+        Certifying {
+            inner,
+            record: std::sync::Arc::new(std::sync::Mutex::new(record)),
+        }
+    }
+}
+
+impl rockbench::native::solver::ContactSolver for Certifying {
+    fn name(&self) -> &'static str {
+        "a certified back-end"
+    }
+    fn solve_into(
+        &mut self,
+        p: &rockbench::native::StepProblem,
+        out: &mut rockbench::native::StepSolution,
+    ) -> Result<(), rockbench::native::solver::SolveFailure> {
+        self.inner.solve_into(p, out)?;
+        let c = rockbench::native::solver::certificate::certify(p, out);
+        let mut r = self.record.lock().unwrap();
+        r.solutions += 1;
+        r.worst = r.worst.max(c.dq_bound);
+        r.violation = r.violation.max(c.violation);
+        if c.dq_bound > r.threshold {
+            r.above += 1;
+        }
+        r.largest_dq = out.dq.iter().fold(r.largest_dq, |m, d| m.max(d.abs()));
+        Ok(())
+    }
+    fn save(&self) -> Vec<u8> {
+        self.inner.save()
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        self.inner.restore(state)
+    }
+}
