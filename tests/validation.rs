@@ -511,14 +511,15 @@ fn the_validation_colonnade_is_the_generated_one() {
 
 /// Every contact problem of the single-object validation scenes (2 s of each, default
 /// settings, and the two-block case under Coulomb's law), as its back-end solved it, is its
-/// QP's minimiser within 1e-12 m: certified by its duality gap
-/// (`rockbench::native::solver::certificate`), independently of the back-end, with no row
-/// violated. Measured: 4006 / 4503 / 2000 / 3927 / 1027 / 2000 problems, the largest bound
-/// 9.1e-16 m (the sliding block; 5.6e-19 m on the two-block case under either law), for
-/// displacements of up to 1.6e-3 m a step.
+/// QP's minimiser within 1e-12 m: certified by its duality gap (`native.certify`,
+/// `rockbench::native::solver::certificate`), independently of the back-end, with no row
+/// violated; and the certified run is the same run to the bit. Measured: 4006 / 4503 / 2000 /
+/// 3927 / 1027 / 2000 problems, the largest bound 9.1e-16 m (the sliding block; 5.6e-19 m on
+/// the two-block case under either law), for displacements of up to 1.6e-3 m a step. A run of
+/// the engine reports its certificates in its notes, and its settings record the setting.
 #[test]
 fn every_problem_of_the_single_object_scenes_is_certified() {
-    use rockbench::native::{settings_of, solver::solver_for, stepper_with};
+    use rockbench::native::stepper_for;
     let runs: [(&str, &[&str]); 6] = [
         ("two-block-free-rocking", &[]),
         (
@@ -532,19 +533,48 @@ fn every_problem_of_the_single_object_scenes_is_certified() {
     ];
     for (name, set) in runs {
         let path = common::root().join(format!("validation/scenes/{name}.toml"));
-        let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-        let scene = rockbench::scene::load_scene_with_overrides(&path, &set).unwrap();
-        let settings = settings_of(&scene).unwrap();
-        let certifying = common::Certifying::new(solver_for(&settings), 1e-12);
-        let record = certifying.record.clone();
-        let (mut stepper, mut state) = stepper_with(&scene, Box::new(certifying)).unwrap();
-        let steps = (scene.duration.min(2.0) / settings.dt).round() as usize;
+        let plain: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+        let mut certified = plain.clone();
+        certified.push("native.certify=true".into());
+        let load =
+            |set: &[String]| rockbench::scene::load_scene_with_overrides(&path, set).unwrap();
+        let (mut a, mut sa) = stepper_for(&load(&plain)).unwrap();
+        let (mut b, mut sb) = stepper_for(&load(&certified)).unwrap();
+        let steps = (2.0f64.min(load(&plain).duration) / a.settings.dt).round() as usize;
         for _ in 0..steps {
-            stepper.step(&mut state).unwrap();
+            a.step(&mut sa).unwrap();
+            b.step(&mut sb).unwrap();
         }
-        let r = record.lock().unwrap();
+        assert_eq!(
+            (&sa.q, &sa.v),
+            (&sb.q, &sb.v),
+            "{name} {set:?}: not the same run"
+        );
+        assert!(a.certified().is_none());
+        let r = b.certified().unwrap();
         assert!(r.solutions >= steps as u64, "{name} {set:?}: {r:?}");
-        assert_eq!(r.violation, 0.0, "{name} {set:?}: {r:?}");
-        assert_eq!(r.above, 0, "{name} {set:?}: {r:?}");
+        assert_eq!(r.violated, 0, "{name} {set:?}: {r:?}");
+        assert!(r.worst <= 1e-12, "{name} {set:?}: {r:?}");
     }
+    let path = common::root().join("validation/scenes/two-block-free-rocking.toml");
+    let scene = rockbench::scene::load_scene_with_overrides(
+        &path,
+        &[
+            "native.certify=true".to_string(),
+            "duration = 0.5".to_string(),
+        ],
+    )
+    .unwrap();
+    let engine = rockbench::engines::engine_by_name("native").unwrap();
+    let (out, _) = rockbench::engines::run_timed(engine.as_ref(), &scene).unwrap();
+    assert_eq!(out.settings["certify"], serde_json::json!(true));
+    let note = out
+        .notes
+        .iter()
+        .find(|n| n.starts_with("certificates: "))
+        .expect("a note of the certificates");
+    assert!(
+        note.contains(" step problems solved, each displacement within "),
+        "{note}"
+    );
 }

@@ -235,6 +235,17 @@ impl NativeEngine {
                         stepper.halved_steps
                     ));
                 }
+                if let Some(c) = stepper.certified() {
+                    notes.push(format!(
+                        "certificates: {} step problems solved, each displacement within {:.3e} m of its QP's minimiser by the duality gap ({} bounded only above {:.0e} m, {} with a row violated; displacements up to {:.3e} m a step)",
+                        c.solutions,
+                        c.worst,
+                        c.above,
+                        crate::native::solver::certificate::REPORTED_BOUND,
+                        c.violated,
+                        c.largest_dq
+                    ));
+                }
                 if stepper.coulomb.problems > 0 {
                     notes.push(format!(
                         "Coulomb friction: {} contact problems, {} back-end solves ({:.3} a problem), {} settled to the back-ends' row tolerance, {} solved by Lemke's method ({} pivots)",

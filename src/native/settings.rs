@@ -158,6 +158,12 @@ pub struct NativeSettings {
     /// (the remaining samples hold the resting state) (default false).
     #[serde(default)]
     pub stop_at_rest: bool,
+    /// Certify every contact problem's solution by its duality gap (a bound on each
+    /// displacement's distance from the QP's minimiser, `native::solver::certificate`) and
+    /// report the largest in the run's notes (default false). The answer is the same; the run
+    /// costs more (a few conjugate-gradient passes over the rows a problem).
+    #[serde(default)]
+    pub certify: bool,
     /// Speed below which a block counts as still, m/s (rotation: omega times the block's larger
     /// dimension) (default 1e-9).
     #[serde(default = "d_rest_velocity")]
@@ -216,6 +222,7 @@ impl Default for NativeSettings {
             islands: true,
             sleep: false,
             stop_at_rest: false,
+            certify: false,
             rest_velocity: d_rest_velocity(),
         }
     }

@@ -673,6 +673,12 @@ impl Stepper {
         self.back_ends().iter().map(|b| b.rescues()).sum()
     }
 
+    /// The certificates of the step problems' solutions, where they are certified
+    /// (`native.certify`).
+    pub fn certified(&self) -> Option<super::solver::certificate::Certified> {
+        self.solver.certified()
+    }
+
     /// The weight of the end-of-step velocity in the displacement, `dq = dt ((1 - w) v0 + w v)`:
     /// theta, or 1/2 with midpoint kinematics.
     fn kinematic_weight(&self) -> f64 {

@@ -21,6 +21,7 @@
 //! forces alone.
 
 use super::rows::{EdgeRow, edge_rows};
+use super::{Blob, ContactSolver, SolveFailure, from_bytes, to_bytes};
 use crate::native::problem::{StepProblem, StepSolution};
 
 /// Rows within this of zero, relative to `1 + |r_r|`, are taken as closed. The back-ends hold
@@ -200,6 +201,92 @@ fn refit(p: &[f64], q: &[f64], u: &[f64], rows: &[EdgeRow], closed: &[usize], z:
     }
     let (_, trial) = clipped_gap(z, &best_x);
     z.copy_from_slice(&trial);
+}
+
+/// A bound reported as loose by [`Certified::above`], m.
+pub const REPORTED_BOUND: f64 = 1e-9;
+
+/// The certificates of the solutions a [`Certifying`] back-end gave.
+#[derive(Debug, Default, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Certified {
+    /// Solutions certified.
+    pub solutions: u64,
+    /// The largest bound on a displacement's distance from its QP's minimiser, m.
+    pub worst: f64,
+    /// Solutions bounded only above [`REPORTED_BOUND`].
+    pub above: u64,
+    /// Solutions with a row violated outside the closed ones (their bound does not hold).
+    pub violated: u64,
+    /// The largest displacement of a step certified, m.
+    pub largest_dq: f64,
+}
+
+impl Certified {
+    fn add(&mut self, c: &Certificate, solution: &StepSolution) {
+        self.solutions += 1;
+        self.worst = self.worst.max(c.dq_bound);
+        self.above += u64::from(c.dq_bound > REPORTED_BOUND);
+        self.violated += u64::from(c.violation > 0.0);
+        self.largest_dq = solution
+            .dq
+            .iter()
+            .fold(self.largest_dq, |m, d| m.max(d.abs()));
+    }
+}
+
+/// A back-end that certifies every solution of the one it wraps (`native.certify`); its
+/// solutions are the wrapped back-end's, unchanged.
+pub struct Certifying {
+    inner: Box<dyn ContactSolver>,
+    record: Certified,
+}
+
+impl Certifying {
+    pub fn new(inner: Box<dyn ContactSolver>) -> Self {
+        Certifying {
+            inner,
+            record: Certified::default(),
+        }
+    }
+}
+
+impl ContactSolver for Certifying {
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+    fn solve_into(
+        &mut self,
+        problem: &StepProblem,
+        out: &mut StepSolution,
+    ) -> Result<(), SolveFailure> {
+        self.inner.solve_into(problem, out)?;
+        self.record.add(&certify(problem, out), out);
+        Ok(())
+    }
+    fn fallbacks(&self) -> u64 {
+        self.inner.fallbacks()
+    }
+    fn factorisations(&self) -> u64 {
+        self.inner.factorisations()
+    }
+    fn rescues(&self) -> u64 {
+        self.inner.rescues()
+    }
+    fn factor_updates(&self) -> u64 {
+        self.inner.factor_updates()
+    }
+    fn certified(&self) -> Option<Certified> {
+        Some(self.record)
+    }
+    fn save(&self) -> Vec<u8> {
+        to_bytes(&(Blob(self.inner.save()), self.record))
+    }
+    fn restore(&mut self, state: &[u8]) -> Result<(), String> {
+        let (inner, record): (Blob, Certified) = from_bytes(state, "the certified back-end")?;
+        self.inner.restore(&inner.0)?;
+        self.record = record;
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -63,6 +63,10 @@ pub trait ContactSolver: Send {
     fn factor_updates(&self) -> u64 {
         0
     }
+    /// The certificates of its solutions, where it certifies them (`native.certify`).
+    fn certified(&self) -> Option<certificate::Certified> {
+        None
+    }
     /// The back-end's state between problems (warm starts, kept factors, counters), for a
     /// checkpoint ([`crate::native::checkpoint`]).
     fn save(&self) -> Vec<u8>;
@@ -238,7 +242,21 @@ impl ContactSolver for Auto {
 /// The back-end a scene's settings ask for: with `native.islands` (the default), each island
 /// of touching blocks gets its own (see [`crate::native::islands`]).
 pub fn solver_for(s: &NativeSettings) -> Box<dyn ContactSolver> {
-    built_for(s, SparseSolver::new)
+    certified_if_asked(s, built_for(s, SparseSolver::new))
+}
+
+/// `solver`, certifying its solutions if the settings ask (`native.certify`: the step
+/// problems' displacements; the velocity problems and projections are posed with a step of 1,
+/// their bounds in other units, and are not certified in a run).
+fn certified_if_asked(
+    s: &NativeSettings,
+    solver: Box<dyn ContactSolver>,
+) -> Box<dyn ContactSolver> {
+    if s.certify {
+        Box::new(certificate::Certifying::new(solver))
+    } else {
+        solver
+    }
 }
 
 /// The back-end of the impact stepper's velocity problems (settled end velocities and plastic
