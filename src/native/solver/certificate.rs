@@ -34,7 +34,7 @@ const FIT_STEPS: usize = 20000;
 /// The refit's clipped gap is evaluated every `FIT_CHECK` steps, and it stops after
 /// `FIT_PATIENCE` evaluations without a better one.
 const FIT_CHECK: usize = 10;
-const FIT_PATIENCE: usize = 100;
+const FIT_PATIENCE: usize = 20;
 /// Rounds of the refit, each without the rows the last one clipped.
 const FIT_ROUNDS: usize = 10;
 
