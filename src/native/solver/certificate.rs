@@ -131,10 +131,10 @@ fn refit(p: &[f64], q: &[f64], u: &[f64], rows: &[EdgeRow], closed: &[usize], z:
         }
         (half_norm(&residual(p, q, u, rows, &trial), p), trial)
     };
-    let (mut best, _) = clipped_gap(z, &vec![0.0; m]);
     if m == 0 {
         return;
     }
+    let (mut best, _) = clipped_gap(z, &vec![0.0; m]);
     let w: Vec<f64> = p.iter().map(|p| 1.0 / p).collect();
     let wg: Vec<f64> = residual(p, q, u, rows, z)
         .iter()
@@ -318,74 +318,52 @@ mod tests {
 
     /// The minimiser of the sliding block's step (push above `mu m g`, below the rocking
     /// threshold `m g`): both corners on their cone's trailing edge (rows 1 and 3), solved
-    /// from the equality problem `P u + q = D_C' z`, `D_C u + r_C = 0`, a 5 x 5 system.
-    #[allow(clippy::needless_range_loop)]
+    /// from the equality problem `P u + q = D_C' z`, `D_C u + r_C = 0`, a 5 x 5 system; and a
+    /// move that keeps both rows closed (the null space of `D_C`: 3 DOFs, 2 rows).
     fn sliding(pr: &StepProblem) -> (StepSolution, [f64; 3]) {
+        use nalgebra::{DMatrix, DVector, Vector3};
         let sc = pr.scaled();
         let (mut rows, mut r) = (Vec::new(), Vec::new());
         edge_rows(pr, &mut rows, &mut r);
-        let c = [1, 3];
         let dense = |i: usize| {
-            let mut d = [0.0; 3];
-            for j in 0..rows[i].len {
-                d[rows[i].idx[j]] += rows[i].coef[j];
+            let mut d = Vector3::<f64>::zeros();
+            for (&j, &c) in rows[i].idx.iter().zip(&rows[i].coef).take(rows[i].len) {
+                d[j] += c;
             }
             d
         };
-        let mut a = [[0.0f64; 6]; 5];
+        let (d1, d3) = (dense(1), dense(3));
+        let mut a = DMatrix::<f64>::zeros(5, 5);
+        let mut b = DVector::<f64>::zeros(5);
         for j in 0..3 {
-            a[j][j] = sc.p[j];
-            a[j][5] = -sc.q[j];
-        }
-        for (k, &i) in c.iter().enumerate() {
-            let d = dense(i);
-            for j in 0..3 {
-                a[j][3 + k] = -d[j];
-                a[3 + k][j] = d[j];
-            }
-            a[3 + k][5] = -r[i];
-        }
-        // Gaussian elimination with partial pivoting.
-        for col in 0..5 {
-            let piv = (col..5)
-                .max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))
-                .unwrap();
-            a.swap(col, piv);
-            for row in 0..5 {
-                if row != col {
-                    let f = a[row][col] / a[col][col];
-                    for k in col..6 {
-                        a[row][k] -= f * a[col][k];
-                    }
-                }
+            a[(j, j)] = sc.p[j];
+            b[j] = -sc.q[j];
+            for (k, d) in [d1, d3].iter().enumerate() {
+                a[(j, 3 + k)] = -d[j];
+                a[(3 + k, j)] = d[j];
             }
         }
-        let x: Vec<f64> = (0..5).map(|k| a[k][5] / a[k][k]).collect();
+        b[3] = -r[1];
+        b[4] = -r[3];
+        let x = a.lu().solve(&b).expect("a regular equality problem");
         let zscale = sc.s / pr.dt;
         let (z1, z3) = (x[3], x[4]);
         assert!(z1 > 0.0 && z3 > 0.0, "the trailing edges carry the block");
         let solution = StepSolution {
-            dq: x[..3].iter().map(|u| u * pr.dt).collect(),
+            dq: (0..3).map(|j| x[j] * pr.dt).collect(),
             normal: vec![z1 * zscale, z3 * zscale],
             tangential: vec![-0.5 * z1 * zscale, -0.5 * z3 * zscale],
             iterations: 0,
             polished: false,
         };
-        // A move that keeps both closed rows closed: the null space of D_C (3 DOFs, 2 rows).
-        let (d1, d3) = (dense(1), dense(3));
-        let n = [
-            d1[1] * d3[2] - d1[2] * d3[1],
-            d1[2] * d3[0] - d1[0] * d3[2],
-            d1[0] * d3[1] - d1[1] * d3[0],
-        ];
-        (solution, n)
+        let null = d1.cross(&d3).normalize();
+        (solution, [null[0], null[1], null[2]])
     }
 
     /// The minimiser's bound is at round-off; its displacements with forces off equilibrium are
     /// certified as well (the forces are refitted); moved by `e` along its closed rows, the
     /// bound covers `e` within the mass ratio.
     #[test]
-    #[allow(clippy::needless_range_loop)]
     fn the_minimiser_is_certified_and_a_moved_solution_is_bounded() {
         let pr = block_on_the_ground(0.6 * 9.81);
         let (exact, null) = sliding(&pr);
@@ -401,17 +379,14 @@ mod tests {
         let c = certify(&pr, &off);
         assert!(c.forces_gap > 1e6 * c.gap, "{c:?}");
         assert!(c.dq_bound < 1e-13, "{c:?}");
-        let size = null.iter().map(|x| x * x).sum::<f64>().sqrt();
         for e in [1e-10, 1e-7] {
             let mut moved = exact.clone();
-            for j in 0..3 {
-                moved.dq[j] += e * null[j] / size;
+            for (dq, n) in moved.dq.iter_mut().zip(null) {
+                *dq += e * n;
             }
             let c = certify(&pr, &moved);
             assert!(c.offsets_moved < 1e-14, "{c:?}");
-            let largest = (0..3)
-                .map(|j| (e * null[j] / size).abs())
-                .fold(0.0, f64::max);
+            let largest = null.iter().map(|n| (e * n).abs()).fold(0.0, f64::max);
             assert!(c.dq_bound >= largest, "moved by {largest:e}: {c:?}");
             assert!(c.dq_bound < 10.0 * largest, "moved by {largest:e}: {c:?}");
         }
