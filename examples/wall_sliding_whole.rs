@@ -9,6 +9,12 @@
 //! wall's work-precision figure (largest error against the wall time for the 0.5 s, one curve
 //! per configuration through its step sizes) to `OUT/work_precision_BLOCKS.svg`
 //! (docs/method.md, "A wall that slides whole, against its closed form").
+//!
+//! A sliding wall's path is decided at round-off, and so is its cost: `--paths K` runs every
+//! configuration on K paths, the pulse's amplitude times `1 + k 1e-12` (k = 0 .. K-1), as the
+//! walls' sensitivity study does. The CSV has a row a run; the table, the slopes and the
+//! figures take the median cost a step over the paths (the table gives its range too) and
+//! the largest error over them.
 
 #[path = "common/flags.rs"]
 mod flags;
@@ -21,14 +27,21 @@ use rockbench::loglog;
 use rockbench::scene::parse_scene_str;
 use rockbench::sensitivity::parse_configs;
 use rockbench::sliding::Slide;
+use rockbench::summary::Summary;
+use rockbench::trajectory::Trajectory;
 use rockbench::walls::{SLIDING_GROUND_FRICTION, SLIDING_PULSE, WallSpec};
 use std::fmt::Write as _;
 use std::path::Path;
 
 const USAGE: &str = "cargo run --release --example wall_sliding_whole -- \
-[--courses 3,10,20] [--per-course 21] [--configs ENGINE[:KEY=VALUE[;KEY=VALUE]],...] [--out out/bench-walls-sliding-whole]";
+[--courses 3,10,20] [--per-course 21] [--configs ENGINE[:KEY=VALUE[;KEY=VALUE]],...] [--paths 1] \
+[--out out/bench-walls-sliding-whole]";
 
-const FLAGS: [&str; 4] = ["--courses", "--per-course", "--configs", "--out"];
+const FLAGS: [&str; 5] = ["--courses", "--per-course", "--configs", "--paths", "--out"];
+
+/// The relative step between two paths' pulse amplitudes: a perturbation at round-off level
+/// (the walls' sensitivity study's `--epsilon`).
+const PATH_EPSILON: f64 = 1e-12;
 
 /// The native engine's default (impacts located) and at two finer steps, its impacts at step
 /// ends, its Coulomb law; rapier at its defaults and three finer steps, and with more
@@ -74,86 +87,124 @@ fn benchmark() -> anyhow::Result<()> {
         _ => bail!("--per-course: not a whole number of blocks, 2 or more"),
     };
     let configs = parse_configs(arg(&args, "--configs", DEFAULT_CONFIGS))?;
+    let paths = match arg(&args, "--paths", "1").trim().parse::<usize>() {
+        Ok(k) if k >= 1 => k,
+        _ => bail!("--paths: not a whole number of round-off paths, 1 or more"),
+    };
+    let (amplitude, t1) = SLIDING_PULSE;
+    let path_amplitude = |k: usize| amplitude * (1.0 + k as f64 * PATH_EPSILON);
     let out = Path::new(arg(&args, "--out", "out/bench-walls-sliding-whole"));
-    // Every scene and override checked before anything runs.
+    // Every scene and override checked before anything runs: per wall and configuration, one
+    // scene a path.
     let mut runs = Vec::new();
     for &c in &courses {
         let w = WallSpec::sliding_whole(c, per_course);
         let (text, blocks) = (w.to_toml(), w.n_blocks());
         for config in &configs {
-            let scene = parse_scene_str(&text, false, "wall", &config.sets)
-                .with_context(|| format!("{} on {c} courses", config.label))?;
-            runs.push((c, blocks, config, scene));
+            let scenes = (0..paths)
+                .map(|k| {
+                    let mut sets = config.sets.clone();
+                    if k > 0 {
+                        sets.push(format!(
+                            "excitation.horizontal.amplitude={:?}",
+                            path_amplitude(k)
+                        ));
+                    }
+                    parse_scene_str(&text, false, "wall", &sets)
+                        .with_context(|| format!("{} on {c} courses, path {k}", config.label))
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            runs.push((c, blocks, config, scenes));
         }
     }
-    let g = runs.first().map_or(9.81, |r| r.3.gravity);
-    let (a, t1) = SLIDING_PULSE;
-    let slide = Slide::under_pulse(a, t1, SLIDING_GROUND_FRICTION, g).distance();
+    let g = runs.first().map_or(9.81, |r| r.3[0].gravity);
+    let slide =
+        |k: usize| Slide::under_pulse(path_amplitude(k), t1, SLIDING_GROUND_FRICTION, g).distance();
     let mut csv = String::from(
-        "courses,per_course,blocks,config,wall_time_s,steps,ms_per_step,max_abs_error_m,rms_error_m,bottom_course_min_error_m,bottom_course_max_error_m\n",
+        "courses,per_course,blocks,config,path,pulse_amplitude,wall_time_s,steps,ms_per_step,max_abs_error_m,rms_error_m,bottom_course_min_error_m,bottom_course_max_error_m\n",
     );
+    let over_paths = if paths > 1 {
+        format!(
+            " Each configuration on {paths} round-off paths (the pulse's amplitude times 1 + k {PATH_EPSILON:e}): \
+             the median cost a step, its range, and the largest errors over the paths."
+        )
+    } else {
+        String::new()
+    };
     let mut table = format!(
-        "Closed form: every block {:.6} m back relative to the ground.\n\n\
-         | blocks | configuration | s for the 0.5 s | ms a step | largest error, m | rms error, m | bottom course's errors, m |\n|---|---|---|---|---|---|---|\n",
-        -slide
+        "Closed form: every block {:.6} m back relative to the ground.{over_paths}\n\n\
+         | blocks | configuration | s for the 0.5 s | ms a step | ms a step, range over the paths | largest error, m | rms error, m | bottom course's errors, m |\n|---|---|---|---|---|---|---|---|\n",
+        -slide(0)
     );
     // Per configuration, (blocks, ms a step) of the runs that finished; per wall, the runs'
     // (configuration, wall time, largest error) for its work-precision figure.
     let mut costs: Vec<Vec<(f64, f64)>> = vec![Vec::new(); configs.len()];
     let mut accuracy: Vec<(usize, ConfigPoint)> = Vec::new();
-    for (i, (c, blocks, config, scene)) in runs.iter().enumerate() {
-        eprintln!("{} blocks, {} ...", blocks, config.label);
-        let engine = engine_by_name(&config.engine)?;
-        let row = match run_timed(engine.as_ref(), scene) {
-            Ok((output, summary)) => {
-                let tr = &output.trajectory;
-                let last = tr.t.len() - 1;
-                let errors: Vec<f64> = tr
-                    .blocks
+    for (i, (c, blocks, config, scenes)) in runs.iter().enumerate() {
+        let mut done: Vec<PathRun> = Vec::new();
+        let mut failure = None;
+        for (k, scene) in scenes.iter().enumerate() {
+            eprintln!("{} blocks, {}, path {k} ...", blocks, config.label);
+            let engine = engine_by_name(&config.engine)?;
+            let label = config.label.replace('"', "\"\"");
+            match run_timed(engine.as_ref(), scene) {
+                Ok((output, summary)) => {
+                    let r = PathRun::of(&output.trajectory, &summary, slide(k));
+                    let _ = writeln!(
+                        csv,
+                        "{c},{per_course},{blocks},\"{label}\",{k},{:?},{},{},{},{:e},{:e},{:e},{:e}",
+                        path_amplitude(k),
+                        r.wall_time_s,
+                        summary.steps,
+                        r.ms_per_step,
+                        r.max_error,
+                        r.rms_error,
+                        r.bottom.0,
+                        r.bottom.1
+                    );
+                    done.push(r);
+                }
+                // A run that fails is reported as such (e.g. Coulomb friction beyond its solvers).
+                Err(e) => {
+                    let _ = writeln!(
+                        csv,
+                        "{c},{per_course},{blocks},\"{label}\",{k},{:?},,,,,,,",
+                        path_amplitude(k)
+                    );
+                    failure.get_or_insert(format!("path {k}: {e}"));
+                }
+            }
+        }
+        let row = match failure {
+            Some(e) => format!(
+                "failed: {e} ({} of {paths} paths failed) | - | - | - | - | -",
+                paths - done.len()
+            ),
+            None => {
+                let wall = median(done.iter().map(|r| r.wall_time_s).collect());
+                let ms = median(done.iter().map(|r| r.ms_per_step).collect());
+                let (lo, hi) = done.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+                    (lo.min(r.ms_per_step), hi.max(r.ms_per_step))
+                });
+                let max = done.iter().fold(0.0f64, |m, r| m.max(r.max_error));
+                let rms = done.iter().fold(0.0f64, |m, r| m.max(r.rms_error));
+                let (bottom_min, bottom_max) = done
                     .iter()
-                    .map(|b| (b.x[last] - b.x[0]) - slide)
-                    .collect();
-                let max = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
-                let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
-                // The bottom course (`c0b*`): the blocks on the sliding ground.
-                let (bottom_min, bottom_max) = tr
-                    .blocks
-                    .iter()
-                    .zip(&errors)
-                    .filter(|(b, _)| b.name.starts_with("c0b"))
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, &e)| {
-                        (lo.min(e), hi.max(e))
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
+                        (a.min(r.bottom.0), b.max(r.bottom.1))
                     });
-                let ms = 1e3 * summary.wall_time_s / summary.steps.max(1) as f64;
                 costs[i % configs.len()].push((*blocks as f64, ms));
                 accuracy.push((
                     *blocks,
                     ConfigPoint {
                         config,
-                        cost: summary.wall_time_s,
+                        cost: wall,
                         error: max,
                     },
                 ));
-                let _ = writeln!(
-                    csv,
-                    "{c},{per_course},{blocks},\"{}\",{},{},{ms},{max:e},{rms:e},{bottom_min:e},{bottom_max:e}",
-                    config.label.replace('"', "\"\""),
-                    summary.wall_time_s,
-                    summary.steps
-                );
                 format!(
-                    "{:.2} | {ms:.3} | {max:.3e} | {rms:.3e} | {bottom_min:.3e} to {bottom_max:.3e}",
-                    summary.wall_time_s
+                    "{wall:.2} | {ms:.3} | {lo:.3} to {hi:.3} | {max:.3e} | {rms:.3e} | {bottom_min:.3e} to {bottom_max:.3e}"
                 )
-            }
-            // A run that fails is reported as such (e.g. Coulomb friction beyond its solvers).
-            Err(e) => {
-                let _ = writeln!(
-                    csv,
-                    "{c},{per_course},{blocks},\"{}\",,,,,,,",
-                    config.label.replace('"', "\"\"")
-                );
-                format!("failed: {e} | - | - | - | -")
             }
         };
         let _ = writeln!(table, "| {blocks} | `{}` | {row} |", config.label);
@@ -200,4 +251,53 @@ fn benchmark() -> anyhow::Result<()> {
     print!("{table}");
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+/// One run's cost and its errors against the closed form.
+struct PathRun {
+    wall_time_s: f64,
+    ms_per_step: f64,
+    /// The largest and the rms error of a block's final displacement.
+    max_error: f64,
+    rms_error: f64,
+    /// The least and the largest error of the bottom course (`c0b*`), the blocks on the
+    /// sliding ground.
+    bottom: (f64, f64),
+}
+
+impl PathRun {
+    fn of(tr: &Trajectory, summary: &Summary, slide: f64) -> Self {
+        let last = tr.t.len() - 1;
+        let errors: Vec<f64> = tr
+            .blocks
+            .iter()
+            .map(|b| (b.x[last] - b.x[0]) - slide)
+            .collect();
+        let bottom = tr
+            .blocks
+            .iter()
+            .zip(&errors)
+            .filter(|(b, _)| b.name.starts_with("c0b"))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, &e)| {
+                (lo.min(e), hi.max(e))
+            });
+        PathRun {
+            wall_time_s: summary.wall_time_s,
+            ms_per_step: 1e3 * summary.wall_time_s / summary.steps.max(1) as f64,
+            max_error: errors.iter().fold(0.0f64, |m, e| m.max(e.abs())),
+            rms_error: (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt(),
+            bottom,
+        }
+    }
+}
+
+/// The median of a non-empty list.
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
