@@ -280,8 +280,8 @@ bench-walls-in-motion:
 # Walls that slide whole (64 / 215 / 430 blocks, bed joints at 0.7 on a ground at 0.5, a 0.8 g
 # pulse for 0.2 s, 0.5 s) against the sliding block's closed form: cost a step and the largest
 # error of a block's final displacement, the native engine's settings and laws and rapier's, each
-# at several steps, each on three round-off paths (a path can cost a third less than its
-# neighbours); out/bench-walls-sliding-whole (results.csv, a work-precision figure per wall).
+# at several steps, each on three round-off paths (one path of the 64-block wall cost a quarter
+# less than four others); out/bench-walls-sliding-whole (results.csv, a work-precision figure per wall).
 # About 10 minutes (docs/method.md, "A wall that slides whole").
 bench-walls-sliding-whole:
 	$(CARGO) run --release --example wall_sliding_whole -- --courses 3,10,20 --paths 3 --out out/bench-walls-sliding-whole

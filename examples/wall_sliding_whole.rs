@@ -21,7 +21,7 @@ mod flags;
 
 use anyhow::{Context, bail};
 use flags::{arg, check_flags};
-use rockbench::bench::{ConfigPoint, configs_plot};
+use rockbench::bench::{ConfigPoint, configs_plot, median};
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::loglog;
 use rockbench::scene::parse_scene_str;
@@ -143,10 +143,10 @@ fn benchmark() -> anyhow::Result<()> {
     for (i, (c, blocks, config, scenes)) in runs.iter().enumerate() {
         let mut done: Vec<PathRun> = Vec::new();
         let mut failure = None;
+        let engine = engine_by_name(&config.engine)?;
+        let label = config.label.replace('"', "\"\"");
         for (k, scene) in scenes.iter().enumerate() {
             eprintln!("{} blocks, {}, path {k} ...", blocks, config.label);
-            let engine = engine_by_name(&config.engine)?;
-            let label = config.label.replace('"', "\"\"");
             match run_timed(engine.as_ref(), scene) {
                 Ok((output, summary)) => {
                     let r = PathRun::of(&output.trajectory, &summary, slide(k));
@@ -288,16 +288,5 @@ impl PathRun {
             rms_error: (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt(),
             bottom,
         }
-    }
-}
-
-/// The median of a non-empty list.
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }

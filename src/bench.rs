@@ -96,7 +96,7 @@ pub fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
 }
 
 /// The median of `v` (NaN for none): the wall time of repeated runs.
-pub(crate) fn median(mut v: Vec<f64>) -> f64 {
+pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     let n = v.len();
     if n == 0 {
