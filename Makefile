@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg bench bench-steps bench-dynamic bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
 	stress proptest proptest-assemblies fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -60,12 +60,12 @@ test: test-no-default-features test-rust test-python wheel-test
 # The validation tests load the earthquake case, whose record `make records` downloads; the
 # MuJoCo and PyBullet tests run the worker of the `.venv`; the fragility tests write `--paper`
 # figures (rsvg-convert).
-test-no-default-features: chromium ffmpeg records paper-tools siconos .venv
+test-no-default-features: chromium ffmpeg valgrind records paper-tools siconos .venv
 	$(CARGO) test --release --no-default-features
 
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
 # 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
-test-rust: chromium ffmpeg records paper-tools siconos .venv
+test-rust: chromium ffmpeg valgrind records paper-tools siconos .venv
 	$(CARGO) test --release
 	$(MAKE) gates
 	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
@@ -136,6 +136,11 @@ siconos-sweep: build .venv siconos
 # ffmpeg (Debian's package) for `--video` and the animation test (ffprobe).
 ffmpeg:
 	command -v ffmpeg >/dev/null || (apt-get update && apt-get install -y ffmpeg)
+
+# callgrind counts the instructions of an engine's steps (tests/instructions.rs,
+# bench-walls-instructions).
+valgrind:
+	command -v valgrind >/dev/null || (apt-get update && apt-get install -y --no-install-recommends valgrind)
 
 # Accuracy gates (validation/gates.toml: native, housner and rapier on every case, MuJoCo,
 # PyBullet and Siconos on a few key ones); runs are cached in .cache/rockbench/.
@@ -262,6 +267,18 @@ bench-steps:
 BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)
+
+# The three figures of the walls (docs/method.md, "Walls") in instructions a step, counted by
+# callgrind in each engine's steps (bench_dynamic --instructions; native and rapier): the
+# 215-block wall under El Centro x2 for 5 s, the walls at rest over the first second (43 to 860
+# blocks) and the sliding walls' ten pulse steps at step ends (215 to 860 blocks); the growth and
+# the cost over rapier's in instructions, which do not depend on the machine's load;
+# out/bench-walls-instructions/{standing,at-rest,sliding}. About 25 minutes (callgrind runs a
+# program some 50 times slower).
+bench-walls-instructions: records valgrind
+	$(CARGO) run --release --example bench_dynamic -- --courses 10 --instructions true --budget 36000 --out out/bench-walls-instructions/standing
+	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10,20,40 --duration 1 --instructions true --budget 36000 --out out/bench-walls-instructions/at-rest
+	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --instructions true --budget 36000 --out out/bench-walls-instructions/sliding
 
 # The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
 # and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the

@@ -46,6 +46,14 @@
 //! sets `native.locate_speed`, below which new contacts are not located). `--native-dt`
 //! sets `native.dt` (rapier keeps its own step): the per-step figures of a finer step, whose
 //! cost per simulated second is theirs times `1e-3 / dt`.
+//!
+//! `--instructions true` runs each engine's child process under callgrind
+//! (`rockbench::instructions`; valgrind) and counts the instructions its steps execute: the
+//! tables then give millions of instructions a step, and the growth and the cost over the last
+//! engine's are in instructions, which do not depend on the machine's load. The wall times are
+//! then callgrind's (some 50 times the run's), so `--budget` must allow for it. Counted for the
+//! engines whose steps run in this process (native, rapier); the counts files are kept in
+//! `OUT/callgrind/`.
 
 #[path = "common/flags.rs"]
 mod flags;
@@ -55,6 +63,7 @@ use flags::{arg, check_flags};
 use rockbench::colonnade::ColonnadeSpec;
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::gallery::GallerySpec;
+use rockbench::instructions;
 use rockbench::native::collapse::{CollapseOnset, collapse_onset};
 use rockbench::scene::load_scene;
 use rockbench::walls::WallSpec;
@@ -68,10 +77,10 @@ const USAGE: &str = "cargo run --release --example bench_dynamic -- \
 [--courses 2,5,10,20,40 | --gallery N,... | --colonnade N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
 [--ground-friction 0.5] [--engines native,rapier] [--sleep false] [--island-impacts true] \
 [--locate-impacts true] [--locate-speed 0] [--native-dt 1e-3] [--budget 600] \
-[--out out/bench-dynamic]";
+[--instructions false] [--out out/bench-dynamic]";
 
 /// The flags of `USAGE`, each followed by its value.
-const FLAGS: [&str; 15] = [
+const FLAGS: [&str; 16] = [
     "--courses",
     "--gallery",
     "--colonnade",
@@ -86,6 +95,7 @@ const FLAGS: [&str; 15] = [
     "--locate-speed",
     "--native-dt",
     "--budget",
+    "--instructions",
     "--out",
 ];
 
@@ -132,6 +142,10 @@ struct Measured {
     rescues: Option<u64>,
     /// Steps split at a located impact (a step splits once per impact located in it).
     split_steps: Option<u64>,
+    /// Instructions executed in the engine's steps (`--instructions`: counted by the parent
+    /// from callgrind's counts, not by the run itself).
+    #[serde(default)]
+    instructions: Option<u64>,
 }
 
 /// Run `engine` on the scene at `path` (in the child process).
@@ -160,13 +174,27 @@ fn measure(path: &Path, engine: &str) -> anyhow::Result<Measured> {
         fallbacks: count_before(&o.notes, " steps fell back to Clarabel"),
         rescues: count_before(&o.notes, " interior-point rescues"),
         split_steps: count_before(&o.notes, " split at a located impact"),
+        instructions: None,
     })
 }
 
-/// Run `engine` on the scene at `path` in a child process, ended after `budget`.
-/// `Ok(None)`: not finished within the budget.
-fn measure_apart(path: &Path, engine: &str, budget: Duration) -> anyhow::Result<Option<Measured>> {
-    let mut child = Command::new(std::env::current_exe()?)
+/// Run `engine` on the scene at `path` in a child process, ended after `budget`; with
+/// `counts` (a callgrind counts file), under callgrind, counting the instructions of the
+/// engine's steps. `Ok(None)`: not finished within the budget.
+fn measure_apart(
+    path: &Path,
+    engine: &str,
+    budget: Duration,
+    counts: Option<&Path>,
+) -> anyhow::Result<Option<Measured>> {
+    let exe = std::env::current_exe()?;
+    let step = instructions::step_function(engine);
+    let mut command = match (counts, step) {
+        (Some(counts), Some(function)) => instructions::under_callgrind(&exe, function, counts),
+        (Some(_), None) => bail!("no step function to count instructions in for {engine}"),
+        (None, _) => Command::new(&exe),
+    };
+    let mut child = command
         .arg("--run-one")
         .arg(path)
         .arg(engine)
@@ -204,9 +232,12 @@ fn measure_apart(path: &Path, engine: &str, budget: Duration) -> anyhow::Result<
             .unwrap_or("the run's process failed");
         bail!("{}", reason.replace(',', ";"));
     }
-    Ok(Some(
-        serde_json::from_str(out.trim()).context("the run's result")?,
-    ))
+    let mut measured: Measured = serde_json::from_str(out.trim()).context("the run's result")?;
+    if let (Some(counts), Some(function)) = (counts, step) {
+        measured.instructions =
+            Some(instructions::collected(counts, function).map_err(anyhow::Error::msg)?);
+    }
+    Ok(Some(measured))
 }
 
 fn main() {
@@ -301,6 +332,26 @@ fn benchmark() -> anyhow::Result<()> {
         bail!("--budget: must be a positive number of seconds (got {budget})");
     }
     let budget = Duration::from_secs_f64(budget);
+    let count_instructions = flag(&args, "--instructions", false)?;
+    if count_instructions {
+        if let Some(e) = engines
+            .iter()
+            .find(|e| instructions::step_function(e).is_none())
+        {
+            bail!(
+                "--instructions: counts the steps of the native engine and rapier only (not {e})"
+            );
+        }
+        let found = Command::new("valgrind")
+            .arg("--version")
+            .stdout(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if !found {
+            bail!("--instructions: valgrind not found (Debian's package valgrind)");
+        }
+        std::fs::create_dir_all(out.join("callgrind"))?;
+    }
     std::fs::create_dir_all(out.join("scenes"))?;
     let record = std::fs::canonicalize("validation/records/elcentro-1940.AT2").map_err(|e| {
         anyhow::anyhow!("validation/records/elcentro-1940.AT2: {e} (run `make records`)")
@@ -313,7 +364,7 @@ fn benchmark() -> anyhow::Result<()> {
         ("courses", "Walls in motion")
     };
     let mut csv = format!(
-        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,factor_updates_per_step,fallbacks,rescues,splits_per_step\n",
+        "blocks,{unit},engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,iterations_per_step,factorisations_per_step,factor_updates_per_step,fallbacks,rescues,splits_per_step,instructions_per_step\n",
     );
     let mut loading = match pulse {
         Some(g) => format!("a rectangular pulse of {g} g from 0 s"),
@@ -322,8 +373,13 @@ fn benchmark() -> anyhow::Result<()> {
     if let Some(f) = ground_friction {
         let _ = write!(loading, ", ground friction {f}");
     }
+    let counted = if count_instructions {
+        "; instructions counted by callgrind, so the wall times are callgrind's"
+    } else {
+        ""
+    };
     let mut md = format!(
-        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, native.locate_speed {}, budget {} s a run\n\n| blocks | engine | in motion | overturned | wall s | ms/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues | located impacts/step |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, native.locate_speed {}, budget {} s a run{counted}\n\n| blocks | engine | in motion | overturned | wall s | ms/step | M instructions/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues | located impacts/step |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         native_dt.map_or("1e-3".to_string(), |dt| dt.to_string()),
         locate_speed.unwrap_or(0.0),
         budget.as_secs_f64()
@@ -426,24 +482,33 @@ fn benchmark() -> anyhow::Result<()> {
             std::fs::write(out.join("static.csv"), &statics)?;
         }
         for e in &engines {
-            match measure_apart(&path, e, budget) {
+            let counts = count_instructions.then(|| {
+                let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+                out.join("callgrind").join(format!("{stem}-{e}.out"))
+            });
+            match measure_apart(&path, e, budget, counts.as_deref()) {
                 Ok(Some(m)) => {
                     let steps = m.steps.max(1) as f64;
                     let per = |x: Option<u64>| {
                         x.map_or("-".to_string(), |x| format!("{:.2}", x as f64 / steps))
                     };
                     let ms = 1e3 * m.wall_s / steps;
+                    let instructions = m.instructions.map(|i| i as f64 / steps);
                     measured.push(Finished {
                         engine: e.clone(),
                         blocks: n,
                         moving: m.moving,
-                        ms,
+                        cost: instructions.unwrap_or(ms),
                     });
+                    let instructions_csv =
+                        instructions.map_or(String::new(), |i| format!("{i:.0}"));
+                    let instructions_md =
+                        instructions.map_or("-".to_string(), |i| format!("{:.3}", i / 1e6));
                     let fallbacks = m.fallbacks.map_or("-".to_string(), |f| f.to_string());
                     let rescues = m.rescues.map_or("-".to_string(), |f| f.to_string());
                     let _ = writeln!(
                         csv,
-                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{},{fallbacks},{rescues},{}",
+                        "{n},{c},{e},{},{},{},{},{ms:.4},{},{},{},{fallbacks},{rescues},{},{instructions_csv}",
                         m.moving,
                         m.overturned,
                         m.wall_s,
@@ -455,7 +520,7 @@ fn benchmark() -> anyhow::Result<()> {
                     );
                     let _ = writeln!(
                         md,
-                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {} | {} | {} | {fallbacks} | {rescues} | {} |",
+                        "| {n} | {e} | {} | {} | {:.2} | {ms:.3} | {instructions_md} | {} | {} | {} | {fallbacks} | {rescues} | {} |",
                         m.moving,
                         m.overturned,
                         m.wall_s,
@@ -471,26 +536,26 @@ fn benchmark() -> anyhow::Result<()> {
                 }
                 Ok(None) => {
                     let s = budget.as_secs_f64();
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,,not finished in {s} s");
-                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s ||||||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,,,not finished in {s} s");
+                    let _ = writeln!(md, "| {n} | {e} | not finished in {s} s |||||||||||");
                     println!("{n} blocks, {e}: not finished in {s} s");
                 }
                 Err(err) => {
                     // A failed run stays in the table with its reason.
                     let reason = format!("{err:#}").replace(',', ";");
-                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,failed: {reason}");
-                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} |||||||||");
+                    let _ = writeln!(csv, "{n},{c},{e},,,,,,,,,,,,failed: {reason}");
+                    let _ = writeln!(md, "| {n} | {e} | failed: {err:#} |||||||||||");
                     println!("{n} blocks, {e}: failed: {err:#}");
                 }
             }
             std::fs::write(out.join("dynamic.csv"), &csv)?;
             let tail = if walls { &statics_md[..] } else { "" };
-            let (growth_md, growth_csv) = growth(&engines, &measured);
+            let (growth_md, growth_csv) = growth(&engines, &measured, count_instructions);
             std::fs::write(out.join("growth.csv"), growth_csv)?;
             std::fs::write(out.join("dynamic.md"), format!("{md}{growth_md}{tail}"))?;
         }
     }
-    let (growth_md, _) = growth(&engines, &measured);
+    let (growth_md, _) = growth(&engines, &measured, count_instructions);
     print!("{growth_md}");
     println!("wrote {}", out.display());
     Ok(())
@@ -502,23 +567,30 @@ struct Finished {
     blocks: usize,
     /// Blocks set in motion.
     moving: usize,
-    /// Wall time a step, ms.
-    ms: f64,
+    /// The cost a step: instructions (`--instructions`), else wall time in ms.
+    cost: f64,
 }
 
 /// How each engine's cost a step grows with the number of blocks and with the number of blocks
 /// in motion (`rockbench::loglog`: the log-log slope fitted with its standard error, end to end,
 /// and between neighbouring walls; walls with none in motion have no logarithm and are left out
 /// of the second), and each wall's cost over the last engine's (rapier by default): Markdown and
-/// CSV.
-fn growth(engines: &[String], measured: &[Finished]) -> (String, String) {
-    let mut md = "\n## Growth of the cost a step with the number of blocks\n\n| engine | against | walls | fitted log-log slope | standard error | end to end | between neighbours |\n|---|---|---|---|---|---|---|\n".to_string();
+/// CSV. The cost is in instructions when they were counted, else in wall time.
+fn growth(engines: &[String], measured: &[Finished], in_instructions: bool) -> (String, String) {
+    let cost = if in_instructions {
+        "instructions"
+    } else {
+        "wall time"
+    };
+    let mut md = format!(
+        "\n## Growth of the cost a step ({cost}) with the number of blocks\n\n| engine | against | walls | fitted log-log slope | standard error | end to end | between neighbours |\n|---|---|---|---|---|---|---|\n"
+    );
     let mut csv =
         "engine,against,walls,slope,std_error,end_to_end,local_min,local_max\n".to_string();
     for e in engines {
         let runs = || measured.iter().filter(|m| &m.engine == e);
-        let by_blocks: Vec<(f64, f64)> = runs().map(|m| (m.blocks as f64, m.ms)).collect();
-        let by_moving: Vec<(f64, f64)> = runs().map(|m| (m.moving as f64, m.ms)).collect();
+        let by_blocks: Vec<(f64, f64)> = runs().map(|m| (m.blocks as f64, m.cost)).collect();
+        let by_moving: Vec<(f64, f64)> = runs().map(|m| (m.moving as f64, m.cost)).collect();
         for (against, pairs) in [("blocks", by_blocks), ("blocks in motion", by_moving)] {
             let Some(f) = rockbench::loglog::fit(&pairs) else {
                 continue;
@@ -542,22 +614,22 @@ fn growth(engines: &[String], measured: &[Finished]) -> (String, String) {
         }
     }
     if let [.., base] = engines {
-        let cost = |n: usize| {
+        let base_cost = |n: usize| {
             measured
                 .iter()
                 .find(|m| &m.engine == base && m.blocks == n)
-                .map(|m| m.ms)
+                .map(|m| m.cost)
         };
         let mut rows = String::new();
         for m in measured.iter().filter(|m| &m.engine != base) {
-            if let Some(b) = cost(m.blocks) {
-                let _ = writeln!(rows, "| {} | {} | {:.3} |", m.blocks, m.engine, m.ms / b);
+            if let Some(b) = base_cost(m.blocks) {
+                let _ = writeln!(rows, "| {} | {} | {:.3} |", m.blocks, m.engine, m.cost / b);
             }
         }
         if !rows.is_empty() {
             let _ = write!(
                 md,
-                "\n| blocks | engine | cost a step over {base}'s in the same series |\n|---|---|---|\n{rows}"
+                "\n| blocks | engine | cost a step ({cost}) over {base}'s in the same series |\n|---|---|---|\n{rows}"
             );
         }
     }

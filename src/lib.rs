@@ -42,6 +42,7 @@ pub mod fragility;
 pub mod gallery;
 pub mod gates;
 pub mod geometry;
+pub mod instructions;
 pub mod invariants;
 pub mod loglog;
 pub mod metrics;

@@ -1047,6 +1047,9 @@ impl Stepper {
 
     /// One step of length `dt` (the impact stepper takes any length: a run's last step is
     /// shortened to end at the duration; the paper's stepper is only ever given its own).
+    /// Every step of a run goes through it, never inlined, so that callgrind can count a
+    /// step's instructions by its name (`crate::instructions`).
+    #[inline(never)]
     pub fn step_by(&mut self, s: &mut NativeState, dt: f64) -> Result<&StepSolution, StepError> {
         let last = std::mem::take(&mut self.last_solution);
         self.give_back_solution(last);
