@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions bench-walls-external-qp bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
 	stress proptest proptest-assemblies fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -279,6 +279,22 @@ bench-walls-instructions: records valgrind
 	$(CARGO) run --release --example bench_dynamic -- --courses 10 --instructions true --budget 36000 --out out/bench-walls-instructions/standing
 	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10,20,40 --duration 1 --instructions true --budget 36000 --out out/bench-walls-instructions/at-rest
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --instructions true --budget 36000 --out out/bench-walls-instructions/sliding
+
+# The sliding walls' step problems (215 / 430 / 860 blocks, the ten pulse steps at step ends of
+# bench-walls-in-motion) written out with the native back-end's solutions of them
+# (examples/wall_problems.rs) and solved again by Clarabel, PIQP, ProxQP, QPALM, OSQP and HiGHS
+# (the pinned python/requirements-qp.txt, installed into the .venv here; one thread, tolerance
+# 1e-9, 20 s a problem): time, iterations and distance from the native displacement a problem;
+# out/bench-walls-external-qp/external-qp.{md,json}. About 15 minutes (docs/method.md, "Walls":
+# "Independent QP solvers on a sliding wall's steps").
+bench-walls-external-qp: $(VENV)/.requirements.stamp
+	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
+	$(CARGO) build --release --example bench_dynamic --example wall_problems
+	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --engines native --out out/bench-walls-external-qp/run
+	for n in 215 430 860; do \
+	  ./target/release/examples/wall_problems out/bench-walls-external-qp/run/scenes/wall-$$n.toml 10 out/bench-walls-external-qp/wall-$$n || exit 1; \
+	done
+	$(VPY) benches/walls/external_qp.py out/bench-walls-external-qp/wall-215 out/bench-walls-external-qp/wall-430 out/bench-walls-external-qp/wall-860 --out out/bench-walls-external-qp/external-qp.md
 
 # The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
 # and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the

@@ -1,0 +1,151 @@
+"""The step problems `examples/wall_problems.rs` writes, as `benches/walls/external_qp.py` reads
+them: the QP it builds from a problem is the one the native back-end solved (scipy's SLSQP, an
+independent solver, finds the native displacement on a small sliding wall's steps), and a file
+that is not a step problem is one line naming it."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "benches" / "walls"))
+import external_qp  # noqa: E402
+
+#: Two courses of a running-bond wall (0.6 x 0.25 m) slid by a 0.8 g pulse at friction 0.7:
+#: every bed joint at the edge of its cone.
+SCENE = """name = "sliding-wall-of-five"
+duration = 0.005
+
+[[blocks]]
+name = "c0b0"
+width = 0.6
+height = 0.25
+x = 0.3
+
+[[blocks]]
+name = "c0b1"
+width = 0.6
+height = 0.25
+x = 0.9
+
+[[blocks]]
+name = "c0b2"
+width = 0.6
+height = 0.25
+x = 1.5
+
+[[blocks]]
+name = "c1b0"
+width = 0.6
+height = 0.25
+x = 0.6
+
+[[blocks]]
+name = "c1b1"
+width = 0.6
+height = 0.25
+x = 1.2
+
+[contact]
+friction = 0.7
+
+[excitation.horizontal]
+kind = "rectangular"
+amplitude = 7.848
+duration = 0.005
+start = 0
+
+[native]
+locate_impacts = false
+"""
+
+STEPS = 5
+
+
+@pytest.fixture(scope="module")
+def problems(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("problems")
+    (d / "wall.toml").write_text(SCENE)
+    subprocess.run(
+        ["cargo", "build", "--release", "--quiet", "--example", "wall_problems"],
+        cwd=ROOT,
+        check=True,
+    )
+    exe = ROOT / "target" / "release" / "examples" / "wall_problems"
+    subprocess.run(
+        [str(exe), str(d / "wall.toml"), str(STEPS), str(d / "steps")],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    )
+    return d / "steps"
+
+
+def slsqp(st: external_qp.Step) -> np.ndarray:
+    """`min 1/2 u'Pu + q'u s.t. D u + r >= 0` by SLSQP from the free minimiser."""
+    d = st.d.toarray()
+    res = minimize(
+        lambda u: 0.5 * u @ (st.p * u) + st.q @ u,
+        -st.q / st.p,
+        jac=lambda u: st.p * u + st.q,
+        constraints=[{"type": "ineq", "fun": lambda u: d @ u + st.r, "jac": lambda _u: d}],
+        method="SLSQP",
+        options={"ftol": 1e-16, "maxiter": 500},
+    )
+    assert res.success, res.message
+    return res.x
+
+
+def test_the_problems_are_those_native_solved(problems: Path) -> None:
+    files = sorted(problems.glob("step-*.json"))
+    assert len(files) == STEPS
+    sliding = 0
+    for f in files:
+        st = external_qp.load_step(f)
+        assert st.p.size == 15 and st.r.size > 0
+        u = slsqp(st)
+        # Metres of the step's displacement: SLSQP's answer is the native one.
+        assert np.abs(u - st.native_u).max() * st.dt < 1e-10, f.name
+        _, complementarity, violation = external_qp.native_residuals(st)
+        assert violation < 1e-12 and complementarity < 1e-12, f.name
+        # Contact points loaded on one edge of the cone only: slipping at the cone's edge.
+        z = st.native_z.reshape(-1, 2)
+        big = z.max()
+        sliding += int(np.sum((z.max(axis=1) > 1e-3 * big) & (z.min(axis=1) < 1e-9 * big)))
+    assert sliding > 0, "no point slips: the problems do not test the cone's rows"
+
+
+def test_the_external_solvers_table_lists_native(problems: Path, tmp_path: Path) -> None:
+    """The table has a row for native and one for each solver asked for; without the optional
+    solvers installed (`make bench-walls-external-qp` installs them) native's alone."""
+    out = tmp_path / "table.md"
+    assert external_qp.main([str(problems), "--solvers", "", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "native (warm, as in the run)" in text
+    assert f"| {problems.name} | 15 |" in text
+    assert (tmp_path / "table.json").exists()
+    assert not list(tmp_path.glob("*.partial"))
+
+
+def test_a_file_that_is_no_step_problem_is_one_line(tmp_path: Path) -> None:
+    bad = tmp_path / "steps"
+    bad.mkdir()
+    (bad / "step-0001.json").write_text('{"problem": {"mass": [1, 1, 1]}}')
+    with pytest.raises(SystemExit) as e:
+        external_qp.main([str(bad), "--out", str(tmp_path / "t.md")])
+    message = str(e.value)
+    assert message.startswith(f"error: {bad / 'step-0001.json'}: problem: ")
+    assert "\n" not in message
+    assert not (tmp_path / "t.md").exists()
+
+
+def test_an_unknown_solver_is_refused(problems: Path, tmp_path: Path) -> None:
+    with pytest.raises(SystemExit) as e:
+        external_qp.main([str(problems), "--solvers", "Gurobi", "--out", str(tmp_path / "t.md")])
+    assert "--solvers: unknown ['Gurobi']" in str(e.value)
