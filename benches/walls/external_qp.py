@@ -28,6 +28,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import multiprocessing
+import queue
 import sys
 import time
 from dataclasses import dataclass
@@ -399,7 +401,46 @@ def judge(st: Step, ans: Answer) -> tuple[float, float]:
     return diff, violation
 
 
+def solve_in_turn(files: list[Path], solve, warm: bool, results) -> None:
+    """A child process: solve the problems of `files` in turn, each answer (or an error) put
+    on `results` as it comes."""
+    prev, prev_ans = None, None
+    for f in files:
+        st = load_step(f)
+        start = None
+        if warm and prev is not None and prev_ans is not None and prev_ans.u is not None:
+            if prev.p.size == st.p.size:
+                start = (prev_ans.u, warm_multipliers(prev, prev_ans.z, st))
+        try:
+            ans = solve(st, start)
+        except Exception as e:  # noqa: BLE001 - a solver's failure is that problem's answer
+            ans = Answer(None, None, math.nan, 0, f"error: {e}")
+        diff, violation = judge(st, ans)
+        results.put((ans.status, ans.iterations, ans.ms, diff, violation))
+        prev, prev_ans = st, ans
+
+
+def row(st: Step, directory: Path, solver: str, status: str, iterations: int, ms: float,
+        diff: float, violation: float) -> dict:
+    return {
+        "problems": directory.name,
+        "step": st.path.stem,
+        "dofs": st.p.size,
+        "rows": st.r.size,
+        "solver": solver,
+        "status": status,
+        "iterations": iterations,
+        "ms": ms,
+        "difference_m": diff,
+        "violation_m": violation,
+    }
+
+
 def run(dirs: list[Path], names: set[str] | None) -> list[dict]:
+    """Every solver on every set of problems, each solver's sequence in a child process: a
+    problem that has no answer `TIME_LIMIT` s (and a margin) after the last one stops the
+    child, and the rest of that set counts as not run for that solver."""
+    ctx = multiprocessing.get_context("fork")
     rows = []
     for directory in dirs:
         files = sorted(directory.glob("step-*.json"))
@@ -410,75 +451,46 @@ def run(dirs: list[Path], names: set[str] | None) -> list[dict]:
             if names is not None and name not in names:
                 continue
             for warm in (False, True) if takes_warm else (False,):
-                prev, prev_ans = None, None
+                solver = name + (" (warm)" if warm else "")
+                results = ctx.Queue()
+                child = ctx.Process(target=solve_in_turn, args=(files, solve, warm, results))
+                child.start()
                 over = False
                 for st in steps:
                     if over:
-                        # A solver past the time limit on one problem of a set is not run on
-                        # the rest of it (the bench stays bounded); they count as unsolved.
-                        rows.append(
-                            {
-                                "problems": directory.name,
-                                "step": st.path.stem,
-                                "dofs": st.p.size,
-                                "rows": st.r.size,
-                                "solver": name + (" (warm)" if warm else ""),
-                                "status": "not run (an earlier problem over the time limit)",
-                                "iterations": 0,
-                                "ms": math.nan,
-                                "difference_m": math.nan,
-                                "violation_m": math.nan,
-                            }
-                        )
+                        rows.append(row(st, directory, solver, "not run (an earlier problem "
+                                        "over the time limit)", 0, math.nan, math.nan, math.nan))
                         continue
-                    start = None
-                    if warm and prev is not None and prev_ans is not None and prev_ans.u is not None:
-                        if prev.p.size == st.p.size:
-                            start = (prev_ans.u, warm_multipliers(prev, prev_ans.z, st))
-                    ans = solve(st, start)
-                    if ans.ms > 1e3 * TIME_LIMIT:
+                    try:
+                        status, its, ms, diff, violation = results.get(timeout=TIME_LIMIT + 30)
+                    except queue.Empty:
+                        child.kill()
                         over = True
-                        ans = Answer(None, None, ans.ms, ans.iterations, f"{ans.status}, over the time limit")
-                    diff, violation = judge(st, ans)
-                    rows.append(
-                        {
-                            "problems": directory.name,
-                            "step": st.path.stem,
-                            "dofs": st.p.size,
-                            "rows": st.r.size,
-                            "solver": name + (" (warm)" if warm else ""),
-                            "status": ans.status,
-                            "iterations": ans.iterations,
-                            "ms": ans.ms,
-                            "difference_m": diff,
-                            "violation_m": violation,
-                        }
-                    )
+                        rows.append(row(st, directory, solver, "no answer within the time limit",
+                                        0, math.nan, math.nan, math.nan))
+                        continue
+                    if ms > 1e3 * TIME_LIMIT:
+                        over = True
+                        status, diff, violation = f"{status}, over the time limit", math.nan, math.nan
+                    rows.append(row(st, directory, solver, status, its, ms, diff, violation))
                     print(
-                        f"{directory.name} {st.path.stem} {rows[-1]['solver']}: {ans.status}, "
-                        f"{ans.iterations} iterations, {ans.ms:.1f} ms, {diff:.1e} m from native",
+                        f"{directory.name} {st.path.stem} {solver}: {status}, {its} iterations, "
+                        f"{ms:.1f} ms, {diff:.1e} m from native",
                         file=sys.stderr,
                     )
-                    prev, prev_ans = st, ans
+                child.kill()
+                child.join()
         for st in steps:
             stat, comp, viol = native_residuals(st)
-            rows.append(
-                {
-                    "problems": directory.name,
-                    "step": st.path.stem,
-                    "dofs": st.p.size,
-                    "rows": st.r.size,
-                    "solver": "native (warm, as in the run)",
-                    "status": "solved",
-                    "iterations": st.native_factorisations,
-                    "ms": st.native_ms,
-                    "difference_m": 0.0,
-                    "violation_m": viol,
-                    "stationarity": stat,
-                    "complementarity_m": comp,
-                }
-            )
+            r = row(st, directory, "native (warm, as in the run)", "solved",
+                    st.native_factorisations, st.native_ms, 0.0, viol)
+            r["stationarity"], r["complementarity_m"] = stat, comp
+            rows.append(r)
     return rows
+
+
+def metres(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x:.1e}"
 
 
 def table(rows: list[dict]) -> str:
@@ -507,7 +519,7 @@ def table(rows: list[dict]) -> str:
             cost = "- | -"
         out.append(
             f"| {problems} | {rs[0]['dofs']} | {rows_range} | {solver} | {len(solved)} of {len(rs)} "
-            f"| {cost} | {diff:.1e} | {viol:.1e} |"
+            f"| {cost} | {metres(diff)} | {metres(viol)} |"
         )
     return "\n".join(out) + "\n"
 
