@@ -32,8 +32,10 @@ import multiprocessing
 import queue
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -45,6 +47,9 @@ TOLERANCE = 1e-9
 MAX_ITER = 200_000
 #: A problem's time limit, s, for the solvers that take one (an answer after it is no answer).
 TIME_LIMIT = 20.0
+#: How long past `TIME_LIMIT` a child process may go without an answer before it is stopped (a
+#: solver that does not honour its limit, or takes none).
+ANSWER_MARGIN = 30.0
 #: ProxQP takes no time limit: its outer iterations are capped instead (it takes 100-200 on
 #: the 215-block wall's problems, about 15 ms each).
 PROXQP_MAX_ITER = 2000
@@ -156,6 +161,11 @@ class Answer:
     status: str
 
 
+#: A start: the previous step's displacement and its multipliers on this step's rows.
+Warm = tuple[np.ndarray, np.ndarray] | None
+Solve = Callable[[Step, Warm], "Answer"]
+
+
 def warm_multipliers(prev: Step | None, prev_z: np.ndarray | None, st: Step) -> np.ndarray:
     """The previous step's multipliers on this step's rows, by key (new rows start at 0)."""
     z = np.zeros(st.keys.size)
@@ -170,7 +180,7 @@ def warm_multipliers(prev: Step | None, prev_z: np.ndarray | None, st: Step) -> 
     return z
 
 
-def solve_clarabel(st: Step, _warm) -> Answer:
+def solve_clarabel(st: Step, _warm: Warm) -> Answer:
     import clarabel
 
     n = st.p.size
@@ -203,7 +213,7 @@ def solve_clarabel(st: Step, _warm) -> Answer:
     )
 
 
-def solve_piqp(st: Step, _warm) -> Answer:
+def solve_piqp(st: Step, _warm: Warm) -> Answer:
     import piqp
 
     solver = piqp.SparseSolver()
@@ -228,7 +238,7 @@ def solve_piqp(st: Step, _warm) -> Answer:
     )
 
 
-def solve_proxqp(st: Step, _warm) -> Answer:
+def solve_proxqp(st: Step, _warm: Warm) -> Answer:
     import proxsuite
 
     n, m = st.p.size, st.r.size
@@ -261,7 +271,7 @@ def solve_proxqp(st: Step, _warm) -> Answer:
     )
 
 
-def solve_qpalm(st: Step, warm) -> Answer:
+def solve_qpalm(st: Step, warm: Warm) -> Answer:
     import qpalm
 
     n, m = st.p.size, st.r.size
@@ -295,7 +305,7 @@ def solve_qpalm(st: Step, warm) -> Answer:
     )
 
 
-def solve_osqp(st: Step, warm) -> Answer:
+def solve_osqp(st: Step, warm: Warm) -> Answer:
     import osqp
 
     m = st.r.size
@@ -329,11 +339,11 @@ def solve_osqp(st: Step, warm) -> Answer:
     )
 
 
-def solve_highs(st: Step, _warm) -> Answer:
+def solve_highs(st: Step, _warm: Warm) -> Answer:
     import highspy
 
     n, m = st.p.size, st.r.size
-    h = highspy.Highs()
+    h = highspy.Highs()  # type: ignore[no-untyped-call]
     h.setOptionValue("output_flag", False)
     h.setOptionValue("threads", 1)
     h.setOptionValue("time_limit", TIME_LIMIT)
@@ -378,7 +388,7 @@ def solve_highs(st: Step, _warm) -> Answer:
 
 
 #: (name, solve, takes a warm start)
-SOLVERS = [
+SOLVERS: list[tuple[str, Solve, bool]] = [
     ("Clarabel", solve_clarabel, False),
     ("PIQP", solve_piqp, False),
     # ProxQP's warm start (`InitialGuess.WARM_START`, the previous step's displacement and
@@ -401,7 +411,7 @@ def judge(st: Step, ans: Answer) -> tuple[float, float]:
     return diff, violation
 
 
-def solve_in_turn(files: list[Path], solve, warm: bool, results) -> None:
+def solve_in_turn(files: list[Path], solve: Solve, warm: bool, results: Any) -> None:
     """A child process: solve the problems of `files` in turn, each answer (or an error) put
     on `results` as it comes."""
     prev, prev_ans = None, None
@@ -420,8 +430,16 @@ def solve_in_turn(files: list[Path], solve, warm: bool, results) -> None:
         prev, prev_ans = st, ans
 
 
-def row(st: Step, directory: Path, solver: str, status: str, iterations: int, ms: float,
-        diff: float, violation: float) -> dict:
+def row(
+    st: Step,
+    directory: Path,
+    solver: str,
+    status: str,
+    iterations: int,
+    ms: float,
+    diff: float,
+    violation: float,
+) -> dict[str, Any]:
     return {
         "problems": directory.name,
         "step": st.path.stem,
@@ -436,9 +454,9 @@ def row(st: Step, directory: Path, solver: str, status: str, iterations: int, ms
     }
 
 
-def run(dirs: list[Path], names: set[str] | None) -> list[dict]:
+def run(dirs: list[Path], names: set[str] | None) -> list[dict[str, Any]]:
     """Every solver on every set of problems, each solver's sequence in a child process: a
-    problem that has no answer `TIME_LIMIT` s (and a margin) after the last one stops the
+    problem that has no answer `TIME_LIMIT + ANSWER_MARGIN` s after the last one stops the
     child, and the rest of that set counts as not run for that solver."""
     ctx = multiprocessing.get_context("fork")
     rows = []
@@ -462,7 +480,8 @@ def run(dirs: list[Path], names: set[str] | None) -> list[dict]:
                                         "over the time limit)", 0, math.nan, math.nan, math.nan))
                         continue
                     try:
-                        status, its, ms, diff, violation = results.get(timeout=TIME_LIMIT + 30)
+                        answer = results.get(timeout=TIME_LIMIT + ANSWER_MARGIN)
+                        status, its, ms, diff, violation = answer
                     except queue.Empty:
                         child.kill()
                         over = True
@@ -471,7 +490,8 @@ def run(dirs: list[Path], names: set[str] | None) -> list[dict]:
                         continue
                     if ms > 1e3 * TIME_LIMIT:
                         over = True
-                        status, diff, violation = f"{status}, over the time limit", math.nan, math.nan
+                        status = f"{status}, over the time limit"
+                        diff, violation = math.nan, math.nan
                     rows.append(row(st, directory, solver, status, its, ms, diff, violation))
                     print(
                         f"{directory.name} {st.path.stem} {solver}: {status}, {its} iterations, "
@@ -493,7 +513,7 @@ def metres(x: float) -> str:
     return "-" if math.isnan(x) else f"{x:.1e}"
 
 
-def table(rows: list[dict]) -> str:
+def table(rows: list[dict[str, Any]]) -> str:
     """Per set of problems and solver: solved count, median and largest time, median
     iterations, largest difference from native and largest violation."""
     out = [
@@ -501,7 +521,7 @@ def table(rows: list[dict]) -> str:
         "| iterations, median | largest difference from native, m | largest row violation, m |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    groups: dict[tuple[str, str], list[dict]] = {}
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["problems"], r["solver"]), []).append(r)
     for (problems, solver), rs in groups.items():
@@ -518,7 +538,8 @@ def table(rows: list[dict]) -> str:
         else:
             cost = "- | -"
         out.append(
-            f"| {problems} | {rs[0]['dofs']} | {rows_range} | {solver} | {len(solved)} of {len(rs)} "
+            f"| {problems} | {rs[0]['dofs']} | {rows_range} | {solver} "
+            f"| {len(solved)} of {len(rs)} "
             f"| {cost} | {metres(diff)} | {metres(viol)} |"
         )
     return "\n".join(out) + "\n"
@@ -535,7 +556,8 @@ def main(argv: list[str] | None = None) -> int:
     if names is not None:
         unknown = names - {n for n, _, _ in SOLVERS}
         if unknown:
-            sys.exit(f"error: --solvers: unknown {sorted(unknown)}; known: {[n for n, _, _ in SOLVERS]}")
+            known = [n for n, _, _ in SOLVERS]
+            sys.exit(f"error: --solvers: unknown {sorted(unknown)}; known: {known}")
     rows = run(args.dirs, names)
     versions = {}
     for module in ("clarabel", "piqp", "proxsuite", "qpalm", "osqp", "highspy", "numpy", "scipy"):

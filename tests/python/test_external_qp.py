@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -149,3 +150,25 @@ def test_an_unknown_solver_is_refused(problems: Path, tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as e:
         external_qp.main([str(problems), "--solvers", "Gurobi", "--out", str(tmp_path / "t.md")])
     assert "--solvers: unknown ['Gurobi']" in str(e.value)
+
+
+def test_a_solver_without_an_answer_in_time_is_stopped(
+    problems: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A solver that does not return is stopped after the time limit and its margin; the rest
+    of the set counts as not run, and the table still gets written."""
+
+    def hangs(_st, _warm):
+        time.sleep(60)
+
+    monkeypatch.setattr(external_qp, "TIME_LIMIT", 0.2)
+    monkeypatch.setattr(external_qp, "ANSWER_MARGIN", 0.8)
+    monkeypatch.setattr(external_qp, "SOLVERS", [("Hangs", hangs, False)])
+    t0 = time.perf_counter()
+    rows = external_qp.run([problems], None)
+    assert time.perf_counter() - t0 < 30
+    mine = [r for r in rows if r["solver"] == "Hangs"]
+    assert [r["status"] for r in mine] == ["no answer within the time limit"] + [
+        "not run (an earlier problem over the time limit)"
+    ] * (STEPS - 1)
+    assert "| Hangs | 0 of 5 | - | - | - | - |" in external_qp.table(rows)
