@@ -16,6 +16,10 @@ use rockbench::scene::load_scene_with_overrides;
 use std::path::PathBuf;
 use std::time::Instant;
 
+#[path = "common/step_count.rs"]
+mod step_count;
+use step_count::whole_steps;
+
 const USAGE: &str = "usage: wall_problems SCENE STEPS DIR [--set K=V ...]";
 
 fn main() {
@@ -31,10 +35,7 @@ fn write_problems() -> anyhow::Result<()> {
     let [scene, steps, dir, flags @ ..] = &args[..] else {
         bail!("{USAGE}");
     };
-    let steps: u64 =
-        steps.parse().ok().filter(|&n| n > 0).with_context(|| {
-            format!("STEPS: {steps:?} is not a whole number of steps, 1 or more")
-        })?;
+    let steps = whole_steps(steps)?;
     let mut sets = Vec::new();
     let mut rest = flags.iter();
     while let Some(flag) = rest.next() {

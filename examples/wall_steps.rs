@@ -6,6 +6,10 @@ use rockbench::native::stepper_for;
 use rockbench::scene::load_scene_with_overrides;
 use std::time::Instant;
 
+#[path = "common/step_count.rs"]
+mod step_count;
+use step_count::whole_steps;
+
 const USAGE: &str = "usage: wall_steps SCENE [STEPS] [--every N] [--set K=V ...]";
 
 fn main() {
@@ -21,13 +25,10 @@ fn steps() -> anyhow::Result<()> {
     let Some(path) = args.first().map(std::path::PathBuf::from) else {
         bail!("{USAGE}");
     };
-    let steps: u64 =
-        match args.get(1).filter(|a| !a.starts_with("--")) {
-            Some(a) => a.parse().ok().filter(|&n| n > 0).with_context(|| {
-                format!("STEPS: {a:?} is not a whole number of steps, 1 or more")
-            })?,
-            None => 1000,
-        };
+    let steps = match args.get(1).filter(|a| !a.starts_with("--")) {
+        Some(a) => whole_steps(a)?,
+        None => 1000,
+    };
     // The flags after SCENE [STEPS]: `--set K=V` (repeatable) and `--every N`.
     let first_flag = if args.len() > 1 && !args[1].starts_with("--") {
         2
