@@ -47,10 +47,10 @@ fn write_problems() -> anyhow::Result<()> {
             _ => bail!("unknown argument {flag:?}; {USAGE}"),
         }
     }
-    let dir = PathBuf::from(dir);
-    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let scene = load_scene_with_overrides(std::path::Path::new(scene), &sets)?;
     let (mut st, mut s) = stepper_for(&scene)?;
+    let dir = PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let mut solver = solver_for(&st.settings);
     let dt = st.settings.dt;
     for k in 1..=steps {

@@ -172,3 +172,20 @@ def test_a_solver_without_an_answer_in_time_is_stopped(
         "not run (an earlier problem over the time limit)"
     ] * (STEPS - 1)
     assert "| Hangs | 0 of 5 | - | - | - | - |" in external_qp.table(rows)
+
+
+def test_wall_problems_refuses_a_missing_scene_in_one_line(problems: Path, tmp_path: Path) -> None:
+    exe = ROOT / "target" / "release" / "examples" / "wall_problems"
+    missing = tmp_path / "no-such-scene.toml"
+    out = subprocess.run(
+        [str(exe), str(missing), "3", str(tmp_path / "steps")], capture_output=True, text=True
+    )
+    assert out.returncode != 0
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "no-such-scene.toml" in lines[0]
+    assert not (tmp_path / "steps").exists()
+    out = subprocess.run(
+        [str(exe), str(missing), "0", str(tmp_path / "s")], capture_output=True, text=True
+    )
+    assert out.returncode != 0
+    assert out.stderr.strip() == 'error: STEPS: "0" is not a whole number of steps, 1 or more'
