@@ -8,7 +8,9 @@
 //! `DIR/step-KKKK.json` as `{"step", "problem", "native"}`. `native` is that problem solved by
 //! a back-end of the scene's settings (`solver_for`) that has solved the earlier steps' problems
 //! in turn, so it starts warm as the engine's does: `dq`, `normal`, `tangential`, the wall time
-//! `ms`, and its `factorisations` and `rescues`. The engine's own step then advances the state.
+//! `ms`, and its `factorisations` and `rescues`; `native.cold` is the same problem solved by a
+//! back-end that has solved nothing (`dq`, `ms`, `factorisations`, `rescues`), as the
+//! independent solvers solve it. The engine's own step then advances the state.
 use anyhow::{Context, bail};
 use rockbench::native::solver::solver_for;
 use rockbench::native::stepper_for;
@@ -65,6 +67,18 @@ fn write_problems() -> anyhow::Result<()> {
             )
         })?;
         let ms = t0.elapsed().as_secs_f64() * 1e3;
+        // The same problem from a back-end that has solved nothing: the cold solve, as the
+        // independent solvers make it.
+        let mut cold = solver_for(&st.settings);
+        let t0 = Instant::now();
+        let cold_solution = cold.solve(&problem).map_err(|e| {
+            anyhow::anyhow!(
+                "step {k}: the native back-end ({}), cold, failed: {}",
+                e.solver,
+                e.status
+            )
+        })?;
+        let cold_ms = t0.elapsed().as_secs_f64() * 1e3;
         let record = serde_json::json!({
             "step": k,
             "problem": problem,
@@ -76,6 +90,12 @@ fn write_problems() -> anyhow::Result<()> {
                 "ms": ms,
                 "factorisations": solver.factorisations() - f0,
                 "rescues": solver.rescues() - r0,
+                "cold": {
+                    "dq": cold_solution.dq,
+                    "ms": cold_ms,
+                    "factorisations": cold.factorisations(),
+                    "rescues": cold.rescues(),
+                },
             },
         });
         let path = dir.join(format!("step-{k:04}.json"));

@@ -2,10 +2,10 @@
 
 `python benches/walls/external_qp.py DIR [DIR ...] --out FILE.md` reads the files
 `examples/wall_problems.rs` writes (`DIR/step-KKKK.json`: the problem a step starts with and the
-native back-end's solution of it, warm from the earlier steps, with its time) and solves each
-problem with Clarabel, PIQP, ProxQP, QPALM, OSQP and HiGHS, cold, and those whose start works
-here (QPALM, OSQP) also warm, from the previous step's solution (its displacement, and its
-multipliers matched by contact key). `make bench-walls-external-qp` runs it on the sliding
+native back-end's solutions of it, warm from the earlier steps and cold, with their times) and
+solves each problem with Clarabel, PIQP, ProxQP, QPALM, OSQP and HiGHS, cold, and those whose
+start works here (QPALM, OSQP) also warm, from the previous step's solution (its displacement,
+and its multipliers matched by contact key). `make bench-walls-external-qp` runs it on the sliding
 walls' ten pulse steps (docs/method.md, "Walls": "Independent QP solvers on a sliding wall's
 steps").
 
@@ -74,6 +74,10 @@ class Step:
     native_z: np.ndarray
     native_ms: float
     native_factorisations: int
+    #: The same problem solved by a native back-end that has solved nothing.
+    cold_u: np.ndarray
+    cold_ms: float
+    cold_factorisations: int
 
 
 def fail(path: Path, field: str, problem: str) -> None:
@@ -84,6 +88,7 @@ def load_step(path: Path) -> Step:
     try:
         record = json.loads(path.read_text())
         pr, native = record["problem"], record["native"]
+        cold = native["cold"]
         theta, dt = float(pr["theta"]), float(pr["dt"])
         mass = np.asarray(pr["mass"], float)
         force = np.asarray(pr["force"], float)
@@ -135,6 +140,9 @@ def load_step(path: Path) -> Step:
         native_z=z,
         native_ms=float(native["ms"]),
         native_factorisations=int(native["factorisations"]),
+        cold_u=np.asarray(cold["dq"], float) / dt,
+        cold_ms=float(cold["ms"]),
+        cold_factorisations=int(cold["factorisations"]),
     )
 
 
@@ -506,6 +514,13 @@ def run(dirs: list[Path], names: set[str] | None) -> list[dict[str, Any]]:
                     st.native_factorisations, st.native_ms, 0.0, viol)
             r["stationarity"], r["complementarity_m"] = stat, comp
             rows.append(r)
+        for st in steps:
+            cold = Answer(st.cold_u, None, st.cold_ms, st.cold_factorisations, "solved")
+            diff, viol = judge(st, cold)
+            rows.append(
+                row(st, directory, "native (cold)", "solved", st.cold_factorisations,
+                    st.cold_ms, diff, viol)
+            )
     return rows
 
 

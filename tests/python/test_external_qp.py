@@ -113,6 +113,8 @@ def test_the_problems_are_those_native_solved(problems: Path) -> None:
         u = slsqp(st)
         # Metres of the step's displacement: SLSQP's answer is the native one.
         assert np.abs(u - st.native_u).max() * st.dt < 1e-10, f.name
+        # The cold native solve finds the same displacement as the warm one.
+        assert np.abs(st.cold_u - st.native_u).max() * st.dt < 1e-12, f.name
         _, complementarity, violation = external_qp.native_residuals(st)
         assert violation < 1e-12 and complementarity < 1e-12, f.name
         # Contact points loaded on one edge of the cone only: slipping at the cone's edge.
