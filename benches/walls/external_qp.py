@@ -462,6 +462,20 @@ def row(
     }
 
 
+def provenance(directory: Path) -> dict[str, Any]:
+    """What produced a directory's problems (`wall_problems`' `provenance.json`: its command,
+    versions and machine, the scene and the native settings)."""
+    path = directory / "provenance.json"
+    try:
+        record = json.loads(path.read_text())
+        for part, field in (("provenance", "rockbench_version"), ("native_settings", "dt")):
+            if field not in record[part]:
+                raise KeyError(f"{part}.{field}")
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        fail(path, "provenance", f"not the provenance wall_problems writes ({e})")
+    return dict(record)
+
+
 def run(dirs: list[Path], names: set[str] | None) -> list[dict[str, Any]]:
     """Every solver on every set of problems, each solver's sequence in a child process: a
     problem that has no answer `TIME_LIMIT + ANSWER_MARGIN` s after the last one stops the
@@ -573,6 +587,7 @@ def main(argv: list[str] | None = None) -> int:
         if unknown:
             known = [n for n, _, _ in SOLVERS]
             sys.exit(f"error: --solvers: unknown {sorted(unknown)}; known: {known}")
+    origins = {str(d): provenance(d) for d in args.dirs}
     rows = run(args.dirs, names)
     versions = {}
     for module in ("clarabel", "piqp", "proxsuite", "qpalm", "osqp", "highspy", "numpy", "scipy"):
@@ -587,14 +602,24 @@ def main(argv: list[str] | None = None) -> int:
         f"Tolerance asked of each: {TOLERANCE:g} on the scaled problem; one thread; times are "
         "setup and solve, in this process.\nVersions: "
         + ", ".join(f"{k} {v}" for k, v in versions.items())
-        + "\n\n"
+        + "\n\nProblems (each directory's `provenance.json` has the whole of it):\n"
+        + "".join(
+            f"- {d}: `{o['scene']}`, rockbench {o['provenance']['rockbench_version']} "
+            f"({o['provenance']['git_commit']}), native dt {o['native_settings']['dt']}, "
+            f"locate_impacts {json.dumps(o['native_settings'].get('locate_impacts'))}\n"
+            for d, o in origins.items()
+        )
+        + "\n"
     )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     partial = args.out.with_suffix(".md.partial")
     partial.write_text(header + table(rows))
     json_out = args.out.with_suffix(".json")
     json_out.with_suffix(".json.partial").write_text(
-        json.dumps({"versions": versions, "tolerance": TOLERANCE, "rows": rows}, indent=1)
+        json.dumps(
+            {"versions": versions, "tolerance": TOLERANCE, "problems": origins, "rows": rows},
+            indent=1,
+        )
     )
     json_out.with_suffix(".json.partial").rename(json_out)
     partial.rename(args.out)

@@ -132,13 +132,19 @@ def test_the_external_solvers_table_lists_native(problems: Path, tmp_path: Path)
     text = out.read_text()
     assert "native (warm, as in the run)" in text
     assert f"| {problems.name} | 15 |" in text
+    # What produced the problems: the scene, rockbench's version and the native settings.
+    assert "wall.toml`, rockbench " in text and "native dt 0.001" in text
     assert (tmp_path / "table.json").exists()
     assert not list(tmp_path.glob("*.partial"))
 
 
-def test_a_file_that_is_no_step_problem_is_one_line(tmp_path: Path) -> None:
+def test_a_file_that_is_no_step_problem_is_one_line(problems: Path, tmp_path: Path) -> None:
     bad = tmp_path / "steps"
     bad.mkdir()
+    with pytest.raises(SystemExit) as e:
+        external_qp.main([str(bad), "--out", str(tmp_path / "t.md")])
+    assert str(e.value).startswith(f"error: {bad / 'provenance.json'}: provenance: ")
+    (bad / "provenance.json").write_text((problems / "provenance.json").read_text())
     (bad / "step-0001.json").write_text('{"problem": {"mass": [1, 1, 1]}}')
     with pytest.raises(SystemExit) as e:
         external_qp.main([str(bad), "--out", str(tmp_path / "t.md")])
