@@ -285,11 +285,11 @@ bench-walls-instructions: records valgrind
 # (examples/wall_problems.rs) and solved again by Clarabel, PIQP, ProxQP, QPALM, OSQP and HiGHS
 # (the pinned python/requirements-qp.txt, installed into the .venv here; one thread, tolerance
 # 1e-9, 20 s a problem): time, iterations and distance from the native displacement a problem;
-# out/bench-walls-external-qp/external-qp.{md,json}. About 15 minutes (docs/method.md, "Walls":
+# out/bench-walls-external-qp/external-qp.{md,json}. About 10 minutes (docs/method.md, "Walls":
 # "Independent QP solvers on a sliding wall's steps").
 bench-walls-external-qp: $(VENV)/.requirements.stamp
 	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
-	$(CARGO) build --release --example bench_dynamic --example wall_problems
+	$(CARGO) build --release --example wall_problems
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --engines native --out out/bench-walls-external-qp/run
 	for n in 215 430 860; do \
 	  ./target/release/examples/wall_problems out/bench-walls-external-qp/run/scenes/wall-$$n.toml 10 out/bench-walls-external-qp/wall-$$n || exit 1; \

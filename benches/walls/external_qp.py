@@ -18,9 +18,10 @@ The problem is the one the native back-ends solve (docs/FORMULATION, `StepProble
 
 one pair of rows per contact point, the multipliers `z±` of the rows giving the forces
 `N = (z+ + z-) s / dt` and `T = mu (z+ - z-) s / dt`. Each answer is judged in metres of the
-step's displacement `dq = u dt`: its largest difference from the native solution, its largest
-row violation `max(0, -(D dq + g))`, and the KKT residual of the native solution itself
-(stationarity with its forces, and complementarity), which checks the conversion.
+step's displacement `dq = u dt`: its largest difference from the native solution and its
+largest row violation `max(0, -(D dq + g))`; the solvers' agreement with the native displacement
+is what checks the conversion. The JSON rows of the native solution also hold its stationarity
+with its own forces and its complementarity (the accuracy of its multipliers).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import scipy.sparse as sp
@@ -80,7 +81,7 @@ class Step:
     cold_factorisations: int
 
 
-def fail(path: Path, field: str, problem: str) -> None:
+def fail(path: Path, field: str, problem: str) -> NoReturn:
     sys.exit(f"error: {path}: {field}: {problem}")
 
 
