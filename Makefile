@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions bench-walls-external-qp bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
 	stress proptest proptest-assemblies fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -282,19 +282,33 @@ bench-walls-instructions: records valgrind
 
 # The sliding walls' step problems (215 / 430 / 860 blocks, the ten pulse steps at step ends of
 # bench-walls-in-motion) written out with the native back-end's solutions of them
-# (examples/wall_problems.rs) and solved again by Clarabel, PIQP, ProxQP, QPALM, OSQP and HiGHS
-# (the pinned python/requirements-qp.txt, installed into the .venv here; one thread, tolerance
-# 1e-9, 20 s a problem): time, iterations and distance from the native displacement a problem;
-# out/bench-walls-external-qp/external-qp.{md,json}. About 10 minutes (docs/method.md, "Walls":
-# "Independent QP solvers on a sliding wall's steps").
-bench-walls-external-qp: $(VENV)/.requirements.stamp
-	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
+# (examples/wall_problems.rs); out/bench-walls-problems/wall-{215,430,860}. Under a minute; the
+# two targets below read them.
+WALL_PROBLEMS := out/bench-walls-problems
+WALL_PROBLEM_DIRS := $(WALL_PROBLEMS)/wall-215 $(WALL_PROBLEMS)/wall-430 $(WALL_PROBLEMS)/wall-860
+wall-problems:
 	$(CARGO) build --release --example wall_problems
-	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --engines native --out out/bench-walls-external-qp/run
+	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --engines native --out $(WALL_PROBLEMS)/run
 	for n in 215 430 860; do \
-	  ./target/release/examples/wall_problems out/bench-walls-external-qp/run/scenes/wall-$$n.toml 10 out/bench-walls-external-qp/wall-$$n || exit 1; \
+	  ./target/release/examples/wall_problems $(WALL_PROBLEMS)/run/scenes/wall-$$n.toml 10 $(WALL_PROBLEMS)/wall-$$n || exit 1; \
 	done
-	$(VPY) benches/walls/external_qp.py out/bench-walls-external-qp/wall-215 out/bench-walls-external-qp/wall-430 out/bench-walls-external-qp/wall-860 --out out/bench-walls-external-qp/external-qp.md
+
+# The sliding walls' step problems (wall-problems) solved again by Clarabel, PIQP, ProxQP,
+# QPALM, OSQP and HiGHS (the pinned python/requirements-qp.txt, installed into the .venv here;
+# one thread, tolerance 1e-9, 20 s a problem): time, iterations and distance from the native
+# displacement a problem; out/bench-walls-external-qp/external-qp.{md,json}. About 10 minutes
+# (docs/method.md, "Walls": "Independent QP solvers on a sliding wall's steps").
+bench-walls-external-qp: $(VENV)/.requirements.stamp wall-problems
+	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
+	$(VPY) benches/walls/external_qp.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-external-qp/external-qp.md
+
+# The closed rows that change from one step's problem to the next on the sliding walls
+# (wall-problems), with the factorisations the native back-end spent on each problem: what
+# bounds the cost of an exact active-set solve of a moving wall's step;
+# out/bench-walls-closed-rows/closed-rows.{md,json}. About a minute (docs/method.md, "Walls":
+# "How many rows a moving wall's step changes, and what an exact solve of it costs").
+bench-walls-closed-rows: $(VENV)/.requirements.stamp wall-problems
+	$(VPY) benches/walls/closed_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-closed-rows/closed-rows.md
 
 # The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
 # and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the

@@ -477,6 +477,20 @@ def provenance(directory: Path) -> dict[str, Any]:
     return dict(record)
 
 
+def origins_list(origins: dict[str, dict[str, Any]]) -> str:
+    """What produced each directory of problems, a line each (for a table's header)."""
+    return (
+        "Problems (each directory's `provenance.json` has the whole of it):\n"
+        + "".join(
+            f"- {d}: `{o['scene']}`, rockbench {o['provenance']['rockbench_version']} "
+            f"({o['provenance']['git_commit']}), native dt {o['native_settings']['dt']}, "
+            f"locate_impacts {json.dumps(o['native_settings'].get('locate_impacts'))}\n"
+            for d, o in origins.items()
+        )
+        + "\n"
+    )
+
+
 def run(dirs: list[Path], names: set[str] | None) -> list[dict[str, Any]]:
     """Every solver on every set of problems, each solver's sequence in a child process: a
     problem that has no answer `TIME_LIMIT + ANSWER_MARGIN` s after the last one stops the
@@ -603,14 +617,8 @@ def main(argv: list[str] | None = None) -> int:
         f"Tolerance asked of each: {TOLERANCE:g} on the scaled problem; one thread; times are "
         "setup and solve, in this process.\nVersions: "
         + ", ".join(f"{k} {v}" for k, v in versions.items())
-        + "\n\nProblems (each directory's `provenance.json` has the whole of it):\n"
-        + "".join(
-            f"- {d}: `{o['scene']}`, rockbench {o['provenance']['rockbench_version']} "
-            f"({o['provenance']['git_commit']}), native dt {o['native_settings']['dt']}, "
-            f"locate_impacts {json.dumps(o['native_settings'].get('locate_impacts'))}\n"
-            for d, o in origins.items()
-        )
-        + "\n"
+        + "\n\n"
+        + origins_list(origins)
     )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     partial = args.out.with_suffix(".md.partial")

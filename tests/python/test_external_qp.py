@@ -14,78 +14,10 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-ROOT = Path(__file__).resolve().parents[2]
+from conftest import ROOT, SLIDING_WALL_STEPS
+
 sys.path.insert(0, str(ROOT / "benches" / "walls"))
 import external_qp  # noqa: E402
-
-#: Two courses of a running-bond wall (0.6 x 0.25 m) slid by a 0.8 g pulse at friction 0.7:
-#: every bed joint at the edge of its cone.
-SCENE = """name = "sliding-wall-of-five"
-duration = 0.005
-
-[[blocks]]
-name = "c0b0"
-width = 0.6
-height = 0.25
-x = 0.3
-
-[[blocks]]
-name = "c0b1"
-width = 0.6
-height = 0.25
-x = 0.9
-
-[[blocks]]
-name = "c0b2"
-width = 0.6
-height = 0.25
-x = 1.5
-
-[[blocks]]
-name = "c1b0"
-width = 0.6
-height = 0.25
-x = 0.6
-
-[[blocks]]
-name = "c1b1"
-width = 0.6
-height = 0.25
-x = 1.2
-
-[contact]
-friction = 0.7
-
-[excitation.horizontal]
-kind = "rectangular"
-amplitude = 7.848
-duration = 0.005
-start = 0
-
-[native]
-locate_impacts = false
-"""
-
-STEPS = 5
-
-
-@pytest.fixture(scope="module")
-def problems(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    d = tmp_path_factory.mktemp("problems")
-    (d / "wall.toml").write_text(SCENE)
-    subprocess.run(
-        ["cargo", "build", "--release", "--quiet", "--example", "wall_problems"],
-        cwd=ROOT,
-        check=True,
-    )
-    exe = ROOT / "target" / "release" / "examples" / "wall_problems"
-    subprocess.run(
-        [str(exe), str(d / "wall.toml"), str(STEPS), str(d / "steps")],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-    )
-    return d / "steps"
 
 
 def slsqp(st: external_qp.Step) -> np.ndarray:
@@ -103,9 +35,9 @@ def slsqp(st: external_qp.Step) -> np.ndarray:
     return res.x
 
 
-def test_the_problems_are_those_native_solved(problems: Path) -> None:
-    files = sorted(problems.glob("step-*.json"))
-    assert len(files) == STEPS
+def test_the_problems_are_those_native_solved(sliding_wall_problems: Path) -> None:
+    files = sorted(sliding_wall_problems.glob("step-*.json"))
+    assert len(files) == SLIDING_WALL_STEPS
     sliding = 0
     for f in files:
         st = external_qp.load_step(f)
@@ -124,27 +56,31 @@ def test_the_problems_are_those_native_solved(problems: Path) -> None:
     assert sliding > 0, "no point slips: the problems do not test the cone's rows"
 
 
-def test_the_external_solvers_table_lists_native(problems: Path, tmp_path: Path) -> None:
+def test_the_external_solvers_table_lists_native(
+    sliding_wall_problems: Path, tmp_path: Path
+) -> None:
     """The table has a row for native and one for each solver asked for; without the optional
     solvers installed (`make bench-walls-external-qp` installs them) native's alone."""
     out = tmp_path / "table.md"
-    assert external_qp.main([str(problems), "--solvers", "", "--out", str(out)]) == 0
+    assert external_qp.main([str(sliding_wall_problems), "--solvers", "", "--out", str(out)]) == 0
     text = out.read_text()
     assert "native (warm, as in the run)" in text
-    assert f"| {problems.name} | 15 |" in text
+    assert f"| {sliding_wall_problems.name} | 15 |" in text
     # What produced the problems: the scene, rockbench's version and the native settings.
     assert "wall.toml`, rockbench " in text and "native dt 0.001" in text
     assert (tmp_path / "table.json").exists()
     assert not list(tmp_path.glob("*.partial"))
 
 
-def test_a_file_that_is_no_step_problem_is_one_line(problems: Path, tmp_path: Path) -> None:
+def test_a_file_that_is_no_step_problem_is_one_line(
+    sliding_wall_problems: Path, tmp_path: Path
+) -> None:
     bad = tmp_path / "steps"
     bad.mkdir()
     with pytest.raises(SystemExit) as e:
         external_qp.main([str(bad), "--out", str(tmp_path / "t.md")])
     assert str(e.value).startswith(f"error: {bad / 'provenance.json'}: provenance: ")
-    (bad / "provenance.json").write_text((problems / "provenance.json").read_text())
+    (bad / "provenance.json").write_text((sliding_wall_problems / "provenance.json").read_text())
     (bad / "step-0001.json").write_text('{"problem": {"mass": [1, 1, 1]}}')
     with pytest.raises(SystemExit) as e:
         external_qp.main([str(bad), "--out", str(tmp_path / "t.md")])
@@ -154,14 +90,16 @@ def test_a_file_that_is_no_step_problem_is_one_line(problems: Path, tmp_path: Pa
     assert not (tmp_path / "t.md").exists()
 
 
-def test_an_unknown_solver_is_refused(problems: Path, tmp_path: Path) -> None:
+def test_an_unknown_solver_is_refused(sliding_wall_problems: Path, tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as e:
-        external_qp.main([str(problems), "--solvers", "Gurobi", "--out", str(tmp_path / "t.md")])
+        external_qp.main(
+            [str(sliding_wall_problems), "--solvers", "Gurobi", "--out", str(tmp_path / "t.md")]
+        )
     assert "--solvers: unknown ['Gurobi']" in str(e.value)
 
 
 def test_a_solver_without_an_answer_in_time_is_stopped(
-    problems: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    sliding_wall_problems: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A solver that does not return is stopped after the time limit and its margin; the rest
     of the set counts as not run, and the table still gets written."""
@@ -173,16 +111,18 @@ def test_a_solver_without_an_answer_in_time_is_stopped(
     monkeypatch.setattr(external_qp, "ANSWER_MARGIN", 0.8)
     monkeypatch.setattr(external_qp, "SOLVERS", [("Hangs", hangs, False)])
     t0 = time.perf_counter()
-    rows = external_qp.run([problems], None)
+    rows = external_qp.run([sliding_wall_problems], None)
     assert time.perf_counter() - t0 < 30
     mine = [r for r in rows if r["solver"] == "Hangs"]
     assert [r["status"] for r in mine] == ["no answer within the time limit"] + [
         "not run (an earlier problem over the time limit)"
-    ] * (STEPS - 1)
+    ] * (SLIDING_WALL_STEPS - 1)
     assert "| Hangs | 0 of 5 | - | - | - | - |" in external_qp.table(rows)
 
 
-def test_wall_problems_refuses_a_missing_scene_in_one_line(problems: Path, tmp_path: Path) -> None:
+def test_wall_problems_refuses_a_missing_scene_in_one_line(
+    sliding_wall_problems: Path, tmp_path: Path
+) -> None:
     exe = ROOT / "target" / "release" / "examples" / "wall_problems"
     missing = tmp_path / "no-such-scene.toml"
     out = subprocess.run(
