@@ -77,11 +77,13 @@ test-python: .venv build
 # virtual environment in a temporary folder installs it with pip (extra [dask]; versions
 # constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
 # outside the source tree (import, run, compare, a fragility study here and on Dask,
-# DataFrames, xarray). 108-153 s on 2 shared cores (load 4-5), 72-99 s of it the release
-# build, the rest pip and the smoke script.
+# DataFrames, xarray). The build sees the interpreter of `.venv` as `maturin develop` does
+# (pyo3's build script runs again whenever the interpreter changes), so after `.venv` it
+# reuses that build: about 45 s on 2 cores, pip and the smoke script, where it recompiled for
+# 50-99 s more with the interpreter maturin finds on its own.
 wheel-test: $(VENV)/.requirements.stamp
 	rm -rf target/wheels
-	$(VENV)/bin/maturin build --release --out target/wheels
+	VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin build --release --out target/wheels
 	tmp=$$(mktemp -d) && trap 'rm -rf "$$tmp"' EXIT && \
 	$(PYTHON311) -m venv "$$tmp/venv" && \
 	"$$tmp/venv/bin/pip" install -q --disable-pip-version-check "$$(ls target/wheels/rockbench-*.whl)[dask]" -c python/requirements.txt && \
