@@ -75,9 +75,7 @@ pub const END_OF_STEP: f64 = 1e-6;
 
 use super::solver::{Blob, ContactSolver, SolveFailure};
 use crate::excitation::{DefinedBy, GroundMotion};
-use crate::geometry::{
-    ContactPoint, Placed, Pose, block_contacts, broad_phase_into, ground_contacts,
-};
+use crate::geometry::{BroadPhase, ContactPoint, Placed, Pose, block_contacts, ground_contacts};
 use crate::scene::AppliedAs;
 
 /// No gradients (a point that does not end closed).
@@ -354,10 +352,11 @@ struct Restart {
     struck: Vec<u64>,
 }
 
-/// Detection's working storage: the placed rectangles and the broad phase's pairs.
+/// Detection's working storage: the placed rectangles, the broad phase's and its pairs.
 #[derive(Default)]
 struct Detection {
     placed: Vec<Placed>,
+    broad: BroadPhase,
     pairs: Vec<(usize, usize)>,
 }
 
@@ -751,7 +750,11 @@ impl Stepper {
     /// [`Stepper::detect`] into `out`, with `scratch` as working storage.
     fn detect_into(&self, s: &NativeState, scratch: &mut Detection, out: &mut Vec<ContactPoint>) {
         out.clear();
-        let Detection { placed, pairs } = scratch;
+        let Detection {
+            placed,
+            broad,
+            pairs,
+        } = scratch;
         let dt = self.settings.dt;
         let frac = self.settings.contact_reach;
         let ground_z = match self.applied_as {
@@ -804,7 +807,7 @@ impl Stepper {
         if count < 2 {
             return;
         }
-        broad_phase_into(placed, &margin, pairs);
+        broad.pairs_into(placed, &margin, pairs);
         for &(ki, kj) in pairs.iter() {
             let (i, j) = (member(ki), member(kj));
             if asleep(i) && asleep(j) {
