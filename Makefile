@@ -52,10 +52,13 @@ fragility-pybullet: build records .venv
 fragility-engines: fragility-rapier fragility-mujoco fragility-pybullet
 	$(BIN) fragility validation/studies/statue-farfield-engines.toml --out out/fragility/statue-farfield-engines
 
-# Every test, numerical ones in release mode: the build without optional engines, cargo's
-# tests, pytest (warnings are errors, see pyproject.toml) including the stub check, and the wheel
-# installed in a fresh virtual environment (wheel-test, about 2-2.5 min).
-test: test-no-default-features test-rust test-python wheel-test
+# Every test, numerical ones in release mode: the wheel installed in a fresh virtual
+# environment (wheel-test), the build without optional engines, cargo's tests, pytest (warnings
+# are errors, see pyproject.toml) including the stub check. The wheel comes first, right after
+# `maturin develop` (`.venv`), whose build it reuses: a `cargo build` in between would cost it
+# a recompilation (the library's cdylib keeps one fingerprint for every feature set, so builds
+# with and without `python` replace each other).
+test: wheel-test test-no-default-features test-rust test-python
 
 # The validation tests load the earthquake case, whose record `make records` downloads; the
 # MuJoCo and PyBullet tests run the worker of the `.venv`; the fragility tests write `--paper`
@@ -78,10 +81,9 @@ test-python: .venv build
 # constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
 # outside the source tree (import, run, compare, a fragility study here and on Dask,
 # DataFrames, xarray). The build sees the interpreter of `.venv` as `maturin develop` does
-# (pyo3's build script runs again whenever the interpreter changes), so after `.venv` it
-# reuses that build: about 45 s on 2 cores, pip and the smoke script, where it recompiled for
-# 50-99 s more with the interpreter maturin finds on its own.
-wheel-test: $(VENV)/.requirements.stamp
+# (pyo3's build script runs again whenever the interpreter changes), so right after `.venv` it
+# reuses that build.
+wheel-test: .venv
 	rm -rf target/wheels
 	VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin build --release --out target/wheels
 	tmp=$$(mktemp -d) && trap 'rm -rf "$$tmp"' EXIT && \
