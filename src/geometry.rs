@@ -125,10 +125,10 @@ pub fn broad_phase(blocks: &[Placed], margin: &dyn Fn(usize) -> f64) -> Vec<(usi
 type Box4 = (f64, f64, f64, f64);
 
 /// [`broad_phase`] with its working storage kept from one call to the next. The grid's order of
-/// the blocks starts from the last call's, which for blocks that moved less than a cell is
-/// already sorted (the sort then only checks it), and the pairs are sorted by buckets of their
-/// first block: the same pairs in the same order as [`broad_phase`], in time linear in the
-/// blocks and pairs.
+/// the blocks starts from the last call's, which is still sorted where every block stayed in
+/// its cell (a wall at rest; the sort then only checks it), and the pairs are sorted by buckets
+/// of their first block: the same pairs in the same order as [`broad_phase`], in time linear in
+/// the blocks and pairs.
 #[derive(Debug, Default)]
 pub struct BroadPhase {
     boxes: Vec<Box4>,
