@@ -54,10 +54,10 @@ fragility-engines: fragility-rapier fragility-mujoco fragility-pybullet
 
 # Every test, numerical ones in release mode: the wheel installed in a fresh virtual
 # environment (wheel-test), the build without optional engines, cargo's tests, pytest (warnings
-# are errors, see pyproject.toml) including the stub check. The wheel comes first, right after
-# `maturin develop` (`.venv`), whose build it reuses: a `cargo build` in between would cost it
-# a recompilation (the library's cdylib keeps one fingerprint for every feature set, so builds
-# with and without `python` replace each other).
+# are errors, see pyproject.toml) including the stub check. `maturin develop` (`.venv`) and
+# `maturin build` (the wheel) share one build of the extension, which keeps its own fingerprint
+# beside cargo's builds (Cargo.toml, `[lib]`), and every build shares the dependencies (Cargo.toml,
+# the dependencies not used directly).
 test: wheel-test test-no-default-features test-rust test-python
 
 # The validation tests load the earthquake case, whose record `make records` downloads; the
@@ -81,8 +81,7 @@ test-python: .venv build
 # constrained to the pins of python/requirements.txt) and runs tests/wheel/smoke.py there,
 # outside the source tree (import, run, compare, a fragility study here and on Dask,
 # DataFrames, xarray). The build sees the interpreter of `.venv` as `maturin develop` does
-# (pyo3's build script runs again whenever the interpreter changes), so right after `.venv` it
-# reuses that build.
+# (pyo3's build script runs again whenever the interpreter changes), so it reuses that build.
 wheel-test: .venv
 	rm -rf target/wheels
 	VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin build --release --out target/wheels
