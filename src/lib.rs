@@ -58,6 +58,7 @@ pub mod sliding;
 pub mod spectrum;
 pub mod stress;
 pub mod summary;
+pub mod text_table;
 pub mod trajectory;
 pub mod validation;
 pub mod walls;

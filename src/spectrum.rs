@@ -42,7 +42,7 @@ use crate::events;
 use crate::excitation::GroundMotion;
 use crate::scene::{ExcitationSpec, MotionSpec, Scene};
 use crate::trajectory::Trajectory;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -237,13 +237,14 @@ impl Settings {
     }
 }
 
-/// Why a run ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// Why a run ended (spectra and fragility studies alike).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Stop {
     /// The full duration was run.
     End,
-    /// Early stop: a block beyond its critical angle, turning outwards, after the pulse.
+    /// Early stop: a single block beyond its critical angle, turning outwards, after the pulse;
+    /// in an assembly, a block on its side.
     Overturned,
     /// Early stop: every block still for the rest window after the pulse.
     AtRest,

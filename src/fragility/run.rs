@@ -82,28 +82,9 @@ fn scene_with_tables<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Scene, D:
     Ok(scene)
 }
 
-/// Why a run ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Stop {
-    End,
-    /// A block on its side (or, after the record, a single block beyond its critical angle
-    /// turning outwards).
-    Overturned,
-    AtRest,
-    BelowTippingEnergy,
-}
-
-impl Stop {
-    pub fn name(self) -> &'static str {
-        match self {
-            Stop::End => "end",
-            Stop::Overturned => "overturned",
-            Stop::AtRest => "at-rest",
-            Stop::BelowTippingEnergy => "below-tipping-energy",
-        }
-    }
-}
+/// Why a run ended: the spectra's stop reasons, with the multi-block overturning rule of
+/// [`super::early`].
+pub use crate::spectrum::Stop;
 
 /// What a run gives: per block (scene order) the largest |rotation| relative to its support
 /// over its critical angle, whether it overturned, its residual sliding (m).
@@ -242,12 +223,6 @@ pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulat
     }
     if early_stop && engine == "housner" && scene.blocks.len() == 1 {
         let (tr, _, stop) = housner_early_stop(scene)?;
-        let stop = match stop {
-            crate::spectrum::Stop::End => Stop::End,
-            crate::spectrum::Stop::Overturned => Stop::Overturned,
-            crate::spectrum::Stop::AtRest => Stop::AtRest,
-            crate::spectrum::Stop::BelowTippingEnergy => Stop::BelowTippingEnergy,
-        };
         let bound = (stop == Stop::BelowTippingEnergy).then(|| {
             let b = tr.blocks[0].clone();
             let k = b.phi.len() - 1;

@@ -609,27 +609,7 @@ pub fn table(results: &[GateResult]) -> String {
             ]
         })
         .collect();
-    let mut w: Vec<usize> = head.iter().map(|h| h.len()).collect();
-    for r in &rows {
-        for (k, c) in r.iter().enumerate() {
-            w[k] = w[k].max(c.chars().count());
-        }
-    }
-    let line = |cells: Vec<String>| {
-        cells
-            .iter()
-            .enumerate()
-            .map(|(k, c)| format!("{c:<width$}", width = w[k]))
-            .collect::<Vec<_>>()
-            .join("  ")
-            .trim_end()
-            .to_string()
-    };
-    let mut out = line(head.iter().map(|s| s.to_string()).collect()) + "\n";
-    for r in rows {
-        out += &(line(r) + "\n");
-    }
-    out
+    crate::text_table::aligned(&head, &rows)
 }
 
 impl Gate {

@@ -228,28 +228,7 @@ pub fn matrix_text(results: &[CaseResult], engines: &[String]) -> String {
             row
         })
         .collect();
-    let mut w: Vec<usize> = head.iter().map(|h| h.len()).collect();
-    for r in &rows {
-        for (k, c) in r.iter().enumerate() {
-            w[k] = w[k].max(c.len());
-        }
-    }
-    let line = |cells: &[String]| {
-        cells
-            .iter()
-            .enumerate()
-            .map(|(k, c)| format!("{c:<width$}", width = w[k]))
-            .collect::<Vec<_>>()
-            .join("  ")
-            .trim_end()
-            .to_string()
-            + "\n"
-    };
-    let mut out = line(&head);
-    for r in &rows {
-        out += &line(r);
-    }
-    out
+    crate::text_table::aligned(&head, &rows)
 }
 
 fn paper_section(d: &mut Doc, r: &CaseResult, claims: &PaperClaims) {
