@@ -302,8 +302,17 @@ pub fn apply_override(root: &mut serde_json::Value, assignment: &str) -> Result<
         match seg {
             Segment::Key(name) => {
                 if node.is_array() {
+                    // `blocks.0.width` is the dotted spelling of `blocks[0].width`.
+                    let example = match name.parse::<usize>() {
+                        Ok(i) => {
+                            let mut fixed = segs.clone();
+                            fixed[k] = Segment::Index(i);
+                            show_path(&fixed)
+                        }
+                        Err(_) => format!("{here}[0].{name}"),
+                    };
                     return Err(format!(
-                        "`{key}`: `{here}` is an array: give an index, e.g. `{here}[0].{name}`"
+                        "`{key}`: `{here}` is an array: give an index, e.g. `{example}`"
                     ));
                 }
                 let obj = node
@@ -389,6 +398,10 @@ mod tests {
             (
                 "blocks.width=1",
                 "`blocks` is an array: give an index, e.g. `blocks[0].width`",
+            ),
+            (
+                "blocks.1.width=1",
+                "`blocks` is an array: give an index, e.g. `blocks[1].width`",
             ),
             ("duration[0]=1", "`duration` is not an array"),
             ("native[0].dt=1", "the scene has no `native` to index"),
