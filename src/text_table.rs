@@ -1,27 +1,26 @@
 //! Plain-text tables for the terminal: columns left-aligned to their widest cell (in
 //! characters), two spaces apart, each line's trailing spaces trimmed.
 
-/// The header line and one line per row, each ending in a newline.
+/// The header line and one line per row (each row as many cells as the head, or fewer), each
+/// ending in a newline.
 pub fn aligned<H: AsRef<str>, C: AsRef<str>>(head: &[H], rows: &[Vec<C>]) -> String {
     let mut widths: Vec<usize> = head.iter().map(|h| h.as_ref().chars().count()).collect();
     for row in rows {
-        for (k, cell) in row.iter().enumerate() {
-            if k == widths.len() {
-                widths.push(0);
-            }
-            widths[k] = widths[k].max(cell.as_ref().chars().count());
+        for (width, cell) in widths.iter_mut().zip(row) {
+            *width = (*width).max(cell.as_ref().chars().count());
         }
     }
-    let line = |cells: &mut dyn Iterator<Item = &str>| {
+    let line = |cells: Vec<&str>| {
         let padded: Vec<String> = cells
-            .enumerate()
-            .map(|(k, c)| format!("{c:<width$}", width = widths[k]))
+            .iter()
+            .zip(&widths)
+            .map(|(c, &width)| format!("{c:<width$}"))
             .collect();
         padded.join("  ").trim_end().to_string() + "\n"
     };
-    let mut out = line(&mut head.iter().map(AsRef::as_ref));
+    let mut out = line(head.iter().map(AsRef::as_ref).collect());
     for row in rows {
-        out += &line(&mut row.iter().map(AsRef::as_ref));
+        out += &line(row.iter().map(AsRef::as_ref).collect());
     }
     out
 }
