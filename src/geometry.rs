@@ -638,18 +638,84 @@ mod tests {
         pairs
     }
 
+    /// The grid broad phase finds exactly the pairs an all-pairs test finds: random layouts of
+    /// few and many blocks of similar and of very different sizes, and a running-bond wall whose
+    /// blocks touch exactly (closed intervals).
+    #[test]
+    fn broad_phase_equals_all_pairs() {
+        let mut rnd = crate::test_random::uniform(12345);
+        let mut layouts: Vec<(Vec<Rect>, Vec<Pose>)> = Vec::new();
+        for case in 0..80 {
+            let n = [5, 30, 200][case % 3];
+            let spread = if case % 2 == 0 { 1.0 } else { 8.0 };
+            let rects: Vec<Rect> = (0..n)
+                .map(|_| Rect {
+                    b: 0.05 + spread * rnd() * rnd(),
+                    h: 0.05 + spread * rnd() * rnd(),
+                })
+                .collect();
+            let poses: Vec<Pose> = (0..n)
+                .map(|_| Pose {
+                    x: 20.0 * rnd(),
+                    z: 5.0 * rnd(),
+                    phi: rnd() - 0.5,
+                })
+                .collect();
+            layouts.push((rects, poses));
+        }
+        let (mut rects, mut poses) = (Vec::new(), Vec::new());
+        for c in 0..12 {
+            for i in 0..15 {
+                rects.push(Rect { b: 0.6, h: 0.25 });
+                let shift = if c % 2 == 1 { 0.3 } else { 0.0 };
+                poses.push(Pose {
+                    x: 0.3 + 0.6 * i as f64 + shift,
+                    z: 0.125 + 0.25 * c as f64,
+                    phi: 0.0,
+                });
+            }
+        }
+        layouts.push((rects, poses));
+        for (rects, poses) in &layouts {
+            let n = rects.len();
+            let margin = |_: usize| 0.05;
+            let placed: Vec<Placed> = rects
+                .iter()
+                .zip(poses)
+                .map(|(r, p)| Placed::new(r, p))
+                .collect();
+            let got = broad_phase(&placed, &margin);
+            let bb = |i: usize| {
+                let v = rects[i].vertices(&poses[i]);
+                let xs = v.iter().map(|p| p.0);
+                let zs = v.iter().map(|p| p.1);
+                (
+                    xs.clone().fold(f64::INFINITY, f64::min) - 0.05,
+                    xs.fold(f64::NEG_INFINITY, f64::max) + 0.05,
+                    zs.clone().fold(f64::INFINITY, f64::min) - 0.05,
+                    zs.fold(f64::NEG_INFINITY, f64::max) + 0.05,
+                )
+            };
+            let mut want = Vec::new();
+            for i in 0..n {
+                for j in i + 1..n {
+                    let (a, b) = (bb(i), bb(j));
+                    if a.0 <= b.1 && b.0 <= a.1 && a.2 <= b.3 && b.2 <= a.3 {
+                        want.push((i, j));
+                    }
+                }
+            }
+            assert!(!want.is_empty() || n < 10);
+            assert_eq!(got, want, "{n} blocks");
+        }
+    }
+
     #[test]
     fn a_kept_broad_phase_finds_every_overlapping_pair_in_order_call_after_call() {
         // Blocks of two sizes on a jittered grid, moved, reshuffled and changed in number from
         // one call to the next, as a wall's blocks are from step to step; a linear congruential
         // generator keeps the case reproducible.
-        let mut seed = 12345u64;
-        let mut uniform = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = crate::test_random::uniform(12345);
         let mut kept = BroadPhase::default();
         let mut pairs = Vec::new();
         let mut checked = 0;

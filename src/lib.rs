@@ -58,6 +58,8 @@ pub mod sliding;
 pub mod spectrum;
 pub mod stress;
 pub mod summary;
+#[cfg(test)]
+mod test_random;
 pub mod text_table;
 pub mod trajectory;
 pub mod validation;

@@ -144,13 +144,8 @@ mod tests {
     /// the order of its standard error, a shifted one the shift.
     #[test]
     fn a_shift_stands_out_of_the_spread_and_noise_does_not() {
-        let mut state = 12345u64;
-        let mut draw = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * 3f64.sqrt()
-        };
+        let mut signed = crate::test_random::signed(12345);
+        let mut draw = move || signed() * 3f64.sqrt();
         let n = 200;
         let mut sample = |shift: f64, m: usize| -> Vec<Vec<f64>> {
             (0..m)

@@ -659,8 +659,8 @@ impl Envelope {
 
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
     use super::*;
+    use crate::test_random::signed as sequence;
     use nalgebra::{DMatrix, DVector};
 
     /// `P + sum a c c'` over random rows coupling random pairs of blocks, factorised in the

@@ -373,8 +373,8 @@ impl InteriorPoint {
 
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
     use super::*;
+    use crate::test_random::signed as sequence;
 
     /// Rows of a chain of `n_blocks` blocks: four random rows on each neighbouring pair and
     /// four on the first block alone (the ground), with offsets `r >= 0` (so `u = 0` is

@@ -294,15 +294,3 @@ fn whole_built_for(s: &NativeSettings, sparse: fn() -> SparseSolver) -> Box<dyn 
         }),
     }
 }
-
-/// A deterministic pseudo-random sequence in [-1, 1) (for the back-ends' unit tests).
-#[cfg(test)]
-fn sequence(seed: u64) -> impl FnMut() -> f64 {
-    let mut x = seed;
-    move || {
-        x = x
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-}
