@@ -530,17 +530,13 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
         .copied()
         .unwrap_or(0.0);
     let layout = scene.layout();
-    let crit: Vec<f64> = scene
-        .blocks
-        .iter()
-        .map(|b| (b.width / b.height).atan())
-        .collect();
+    let crit: Vec<f64> = scene.blocks.iter().map(|b| b.critical_angle()).collect();
     let window = (REST_WINDOW / dt).ceil() as u64;
     let mut still = 0u64;
     let single = scene.blocks.len() == 1;
     let b0 = &scene.blocks[0];
     let z_rest = layout.blocks[0].z;
-    let barrier = tipping_energy(b0, scene.gravity);
+    let barrier = b0.tipping_energy_per_mass(scene.gravity);
     let mut prev: Vec<f64> = vec![0.0; scene.blocks.len()];
     for k in 1..=n_steps {
         stepper
@@ -552,12 +548,7 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
         if !states.iter().flatten().all(|x| x.is_finite()) {
             return Err(failed("the trajectory contains NaN or infinity".into()));
         }
-        let rel: Vec<(f64, f64)> = (0..states.len())
-            .map(|i| match layout.supports[i] {
-                Some(j) => (states[i][2] - states[j][2], states[i][5] - states[j][5]),
-                None => (states[i][2], states[i][5]),
-            })
-            .collect();
+        let rel = layout.relative_rotations(&states);
         if state.t > pulse_end {
             for (i, &(phi, w)) in rel.iter().enumerate() {
                 // One block on the ground cannot come back from beyond its critical angle
@@ -581,7 +572,8 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
             }
             if single
                 && rel[0].0.abs() < crit[0]
-                && energy(&states[0], b0, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier
+                && b0.energy_per_mass(&states[0], scene.gravity, z_rest)
+                    < SAFE_ENERGY_FRACTION * barrier
             {
                 {
                     return Ok((tr, Stop::BelowTippingEnergy));
@@ -593,18 +585,6 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
         }
     }
     Ok((tr, Stop::End))
-}
-
-/// Mechanical energy per unit mass of a block's state `(x, z, phi, vx, vz, omega)` relative to
-/// the ground: kinetic (centroid and rotation about it) plus potential above `z_rest`.
-fn energy(s: &[f64; 6], b: &crate::scene::BlockSpec, g: f64, z_rest: f64) -> f64 {
-    let i_over_m = (b.width * b.width + b.height * b.height) / 12.0;
-    0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5]) + g * (s[1] - z_rest)
-}
-
-/// The energy per unit mass a block at rest needs to tip over its corner: `g (R - H/2)`.
-fn tipping_energy(b: &crate::scene::BlockSpec, g: f64) -> f64 {
-    g * (0.5 * b.width.hypot(b.height) - 0.5 * b.height)
 }
 
 /// The Housner engine's integration ([`housner::integrate`], the engine's settings) through
@@ -629,7 +609,7 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
     let mut tr = Trajectory::new(std::slice::from_ref(&b.name));
     let mut impacts = Vec::new();
     let z_rest = 0.5 * b.height;
-    let barrier = tipping_energy(b, scene.gravity);
+    let barrier = b.tipping_energy_per_mass(scene.gravity);
     let free = GroundMotion::default();
     let (mut t0, mut state) = (0.0, (0.0, 0.0));
     let mut first = true;
@@ -668,7 +648,7 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
             return Ok((tr, impacts, Stop::AtRest));
         }
         if th.abs() < blk.alpha
-            && energy(&s, b, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier
+            && b.energy_per_mass(&s, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier
         {
             return Ok((tr, impacts, Stop::BelowTippingEnergy));
         }

@@ -332,8 +332,7 @@ pub fn quiet_after(gm: &GroundMotion, a: f64) -> f64 {
 /// The largest |phi| a single block with state `s` can reach in free rocking: where its
 /// energy above rest is all potential, `g (R cos(alpha - phi) - H/2) = E`.
 fn reachable_angle(s: &[f64; 6], b: &crate::scene::BlockSpec, g: f64, z_rest: f64) -> f64 {
-    let i_over_m = (b.width * b.width + b.height * b.height) / 12.0;
-    let e = 0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5]) + g * (s[1] - z_rest);
+    let e = b.energy_per_mass(s, g, z_rest);
     let r = 0.5 * b.width.hypot(b.height);
     let alpha = (b.width / b.height).atan();
     let c = ((e / g + 0.5 * b.height) / r).clamp(-1.0, 1.0);
@@ -460,7 +459,7 @@ fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
     let single = scene.blocks.len() == 1;
     let b0 = &scene.blocks[0];
     let z_rest = layout.blocks[0].z;
-    let barrier = 0.5 * b0.width.hypot(b0.height) - 0.5 * b0.height;
+    let barrier = b0.tipping_energy_per_mass(scene.gravity);
     let mut still = 0u64;
     let mut prev = vec![0.0; scene.blocks.len()];
     let version = format!(
@@ -485,12 +484,7 @@ fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
         if !states.iter().flatten().all(|x| x.is_finite()) {
             return Err(failed("the trajectory contains NaN or infinity".into()));
         }
-        let rel: Vec<(f64, f64)> = (0..states.len())
-            .map(|i| match layout.supports[i] {
-                Some(j) => (states[i][2] - states[j][2], states[i][5] - states[j][5]),
-                None => (states[i][2], states[i][5]),
-            })
-            .collect();
+        let rel = layout.relative_rotations(&states);
         let mut stop = None;
         if rel
             .iter()
@@ -523,10 +517,7 @@ fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
             }
             if stop.is_none() && single && rel[0].0.abs() < crit[0] {
                 let s = &states[0];
-                let i_over_m = (b0.width * b0.width + b0.height * b0.height) / 12.0;
-                let e = 0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5])
-                    + scene.gravity * (s[1] - z_rest);
-                if e < SAFE_ENERGY_FRACTION * scene.gravity * barrier {
+                if b0.energy_per_mass(s, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier {
                     let bound = reachable_angle(s, b0, scene.gravity, z_rest);
                     stop = Some((Stop::BelowTippingEnergy, Some(bound)));
                 }

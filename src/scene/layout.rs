@@ -78,6 +78,19 @@ pub(crate) fn overlap(a: (f64, f64), b: (f64, f64)) -> f64 {
 }
 
 impl Layout {
+    /// Each block's rotation and rate relative to the body it initially rests on (as they
+    /// are, on the ground), from the blocks' states `(x, z, phi, vx, vz, omega)`.
+    pub fn relative_rotations(&self, states: &[[f64; 6]]) -> Vec<(f64, f64)> {
+        states
+            .iter()
+            .zip(&self.supports)
+            .map(|(s, support)| match *support {
+                Some(j) => (s[2] - states[j][2], s[5] - states[j][5]),
+                None => (s[2], s[5]),
+            })
+            .collect()
+    }
+
     pub fn of(scene: &Scene) -> Layout {
         let n = scene.blocks.len();
         let mut upright = Vec::with_capacity(n);
@@ -190,5 +203,63 @@ impl Layout {
             upright,
             pivots,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::load::parse_scene_str;
+
+    /// A pedestal on the ground carrying a statue turned about its corner on it.
+    fn stack(pedestal: f64, statue: f64) -> crate::scene::Scene {
+        let text = format!(
+            "name = \"stack\"\nduration = 1\n[[blocks]]\nname = \"p\"\nwidth = 1.25\nheight = 1.25\n\
+             [[blocks]]\nname = \"s\"\nwidth = 1.0\nheight = 2.5\n\
+             [initial.blocks.p]\nrotation = {pedestal}\nomega = 0.5\n\
+             [initial.blocks.s]\nrotation = {statue}\nomega = -0.25\n"
+        );
+        parse_scene_str(&text, false, "stack.toml", &[]).unwrap()
+    }
+
+    fn states(layout: &super::Layout) -> Vec<[f64; 6]> {
+        let s = &layout.blocks;
+        s.iter()
+            .map(|b| [b.x, b.z, b.phi, b.vx, b.vz, b.omega])
+            .collect()
+    }
+
+    #[test]
+    fn relative_rotations_are_taken_against_the_support() {
+        let layout = stack(0.1, -0.05).layout();
+        let rel = layout.relative_rotations(&states(&layout));
+        assert!((rel[0].0 - 0.1).abs() < 1e-15 && (rel[0].1 - 0.5).abs() < 1e-15);
+        assert!((rel[1].0 + 0.05).abs() < 1e-15, "{:?}", rel[1]);
+        assert!((rel[1].1 + 0.25).abs() < 1e-15, "{:?}", rel[1]);
+    }
+
+    /// At its critical angle a block's centroid stands above its pivot, `R` high: its
+    /// potential energy above rest is the tipping energy `g (R - H/2)`.
+    #[test]
+    fn a_block_turned_to_its_critical_angle_holds_its_tipping_energy() {
+        let scene = stack(0.0, 0.0);
+        let statue = &scene.blocks[1];
+        let at_rest = stack(0.0, 0.0).layout();
+        let at_rest = states(&at_rest)[1];
+        let mut tipped = states(&stack(0.0, statue.critical_angle()).layout())[1];
+        tipped[3..].fill(0.0); // at rest there
+        let g = 9.81;
+        let e = statue.energy_per_mass(&tipped, g, at_rest[1]);
+        let tipping = statue.tipping_energy_per_mass(g);
+        assert!(
+            (e - tipping).abs() < 1e-12 * tipping,
+            "{e} against {tipping}"
+        );
+        assert_eq!(
+            statue.energy_per_mass(&[0.0, at_rest[1], 0.0, 0.0, 0.0, 0.0], g, at_rest[1]),
+            0.0
+        );
+        // Kinetic: a rate about the centroid alone, `I/m omega^2 / 2`.
+        let spin = statue.energy_per_mass(&[0.0, at_rest[1], 0.0, 0.0, 0.0, 2.0], g, at_rest[1]);
+        assert!((spin - 0.5 * (1.0 + 6.25) / 12.0 * 4.0).abs() < 1e-15);
     }
 }

@@ -167,6 +167,16 @@ impl BlockSpec {
     pub fn critical_angle(&self) -> f64 {
         (self.width / self.height).atan()
     }
+    /// Mechanical energy per unit mass of the state `s = (x, z, phi, vx, vz, omega)` relative
+    /// to the ground: kinetic (centroid and rotation about it) plus potential above `z_rest`.
+    pub fn energy_per_mass(&self, s: &[f64; 6], g: f64, z_rest: f64) -> f64 {
+        let i_over_m = (self.width * self.width + self.height * self.height) / 12.0;
+        0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5]) + g * (s[1] - z_rest)
+    }
+    /// The energy per unit mass the block at rest needs to tip over its corner: `g (R - H/2)`.
+    pub fn tipping_energy_per_mass(&self, g: f64) -> f64 {
+        g * (0.5 * self.width.hypot(self.height) - 0.5 * self.height)
+    }
 }
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
