@@ -5,13 +5,12 @@
 //! (`native.dt`, `rapier.dt`, `mujoco.timestep`, ...); engines without one (housner, auto)
 //! run once. Runs that fail or blow up stay in the table as failed, with their reason.
 
-use crate::compare::{ReferenceSpec, Status, classify};
+use crate::compare::{ReferenceSpec, Status, classify, run_of};
 use crate::engines::registry::load_scene_with_overrides;
-use crate::engines::{RunOutput, engine_by_name, run_timed};
+use crate::engines::{engine_by_name, run_timed};
 use crate::metrics::{Cost, MetricRow, MetricSettings, Run, compare_runs};
 use crate::report::svg::{Curve, Marker, Plot};
 use crate::scene::Scene;
-use crate::summary::Summary;
 use crate::trajectory::Trajectory;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -79,20 +78,6 @@ pub struct BenchRow {
     pub first_impact_diff: Option<f64>,
     /// Relative error of the bottom block's amplitude after its first impact.
     pub amplitude_1_rel_error: Option<f64>,
-}
-
-/// A run for the metrics, from an engine's output and summary.
-pub fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
-    Run {
-        name: name.to_string(),
-        trajectory: out.trajectory.clone(),
-        exact_impacts: out.exact_impacts.clone(),
-        cost: Cost {
-            wall_time_s: Some(s.wall_time_s),
-            steps: Some(s.steps),
-            solver_iterations: s.solver_iterations,
-        },
-    }
 }
 
 /// The median of `v` (NaN for none): the wall time of repeated runs.

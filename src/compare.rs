@@ -119,20 +119,27 @@ pub struct EngineRun {
     pub cached: bool,
 }
 
+/// A run for the metrics, from an engine's output and summary.
+pub fn run_of(name: &str, out: &RunOutput, s: &Summary) -> Run {
+    Run {
+        name: name.to_string(),
+        trajectory: out.trajectory.clone(),
+        exact_impacts: out.exact_impacts.clone(),
+        cost: Cost {
+            wall_time_s: Some(s.wall_time_s),
+            steps: Some(s.steps),
+            solver_iterations: s.solver_iterations,
+        },
+    }
+}
 impl EngineRun {
     /// The run as a metrics input.
     pub fn as_run(&self) -> Option<Run> {
-        let (out, s) = (self.output.as_ref()?, self.summary.as_ref()?);
-        Some(Run {
-            name: self.engine.clone(),
-            trajectory: out.trajectory.clone(),
-            exact_impacts: out.exact_impacts.clone(),
-            cost: Cost {
-                wall_time_s: Some(s.wall_time_s),
-                steps: Some(s.steps),
-                solver_iterations: s.solver_iterations,
-            },
-        })
+        Some(run_of(
+            &self.engine,
+            self.output.as_ref()?,
+            self.summary.as_ref()?,
+        ))
     }
 }
 

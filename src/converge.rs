@@ -15,8 +15,9 @@
 //! largest of the local orders `ln(e_i / e_j) / ln(dt_i / dt_j)` of consecutive step sizes.
 //! Runs that fail stay listed with their reason.
 
-use crate::bench::{reference_run, run_of, step_setting};
+use crate::bench::{reference_run, step_setting};
 use crate::compare::ReferenceSpec;
+use crate::compare::run_of;
 use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{engine_by_name, run_timed};
 use crate::metrics::{MetricRow, MetricSettings, Run, compare_runs, series_of};

@@ -54,20 +54,10 @@ pub struct RunSpec {
 /// `[mujoco]`, ...) flattened beside them. The tables go back to [`Scene::engines`], so a spec
 /// read back runs with the same settings and has the same [`RunSpec::key`].
 fn scene_with_tables<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Scene, D::Error> {
-    const FIELDS: [&str; 8] = [
-        "name",
-        "duration",
-        "gravity",
-        "output_interval",
-        "blocks",
-        "initial",
-        "contact",
-        "excitation",
-    ];
     let mut v = serde_json::Map::deserialize(d)?;
     let tables: Vec<String> = v
         .keys()
-        .filter(|k| !FIELDS.contains(&k.as_str()))
+        .filter(|k| !crate::scene::SCENE_FIELDS.contains(&k.as_str()))
         .cloned()
         .collect();
     let mut engines = crate::scene::EngineTables::new();
