@@ -11,26 +11,16 @@ pub struct GateArgs {
     /// Write the results as JUnit XML to this file.
     #[arg(long)]
     junit: Option<PathBuf>,
-    /// Run cache directory (also $ROCKBENCH_CACHE_DIR).
-    #[arg(long, env = "ROCKBENCH_CACHE_DIR", default_value = ".cache/rockbench")]
-    cache_dir: PathBuf,
-    /// Run every engine again (the cache is neither read nor written).
-    #[arg(long)]
-    no_cache: bool,
-    /// Engines run at once (default: the number of cores, at most 2).
-    #[arg(long)]
-    jobs: Option<usize>,
-    /// No progress indicator on stderr.
-    #[arg(long)]
-    quiet: bool,
+    #[command(flatten)]
+    run_cache: super::RunCacheArgs,
 }
 
 pub fn gate_cmd(a: GateArgs) -> Result<()> {
     let gates = load_gates(&a.gates)?;
     let opts = GateOptions {
-        cache_dir: (!a.no_cache).then(|| a.cache_dir.clone()),
-        jobs: a.jobs.unwrap_or_else(crate::compare::default_jobs),
-        progress: !a.quiet,
+        cache_dir: a.run_cache.cache_dir(),
+        jobs: a.run_cache.jobs(),
+        progress: a.run_cache.progress(),
     };
     let (results, stats) = run_gates(&gates, &opts);
     print!("{}", table(&results));
@@ -41,10 +31,9 @@ pub fn gate_cmd(a: GateArgs) -> Result<()> {
         "engine runs: {} from the cache, {} run now{}",
         stats.hits,
         stats.runs,
-        if a.no_cache {
-            " (cache disabled)".to_string()
-        } else {
-            format!(" (cache {})", a.cache_dir.display())
+        match &opts.cache_dir {
+            None => " (cache disabled)".to_string(),
+            Some(dir) => format!(" (cache {})", dir.display()),
         }
     );
     if let Some(p) = &a.junit {

@@ -70,6 +70,39 @@ enum Command {
     Sensitivity(sensitivity::SensitivityArgs),
 }
 
+/// The options of the commands that run engines through the run cache (`gate`, `validate`).
+#[derive(clap::Args)]
+pub(crate) struct RunCacheArgs {
+    /// Run cache directory (also $ROCKBENCH_CACHE_DIR).
+    #[arg(long, env = "ROCKBENCH_CACHE_DIR", default_value = ".cache/rockbench")]
+    cache_dir: std::path::PathBuf,
+    /// Run every engine again (the cache is neither read nor written).
+    #[arg(long)]
+    no_cache: bool,
+    /// Engines run at once (default: the number of cores, at most 2).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// No progress indicator on stderr.
+    #[arg(long)]
+    quiet: bool,
+}
+
+impl RunCacheArgs {
+    /// The cache directory, or `None` with `--no-cache`.
+    pub(crate) fn cache_dir(&self) -> Option<std::path::PathBuf> {
+        (!self.no_cache).then(|| self.cache_dir.clone())
+    }
+    /// Engines run at once, at least one.
+    pub(crate) fn jobs(&self) -> usize {
+        self.jobs
+            .unwrap_or_else(crate::compare::default_jobs)
+            .max(1)
+    }
+    pub(crate) fn progress(&self) -> bool {
+        !self.quiet
+    }
+}
+
 /// The `--help` text of an engine option: its own line, then every engine of the registry and
 /// whether it runs here.
 pub(crate) fn engines_help(first: &str) -> String {

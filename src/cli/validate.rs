@@ -2,7 +2,6 @@
 //! engine, evaluate its gates and write `DIR/report.html` (summary matrix, the paper's
 //! two-block case, one section per case) with each comparison's report under `DIR/<case>/`.
 
-use crate::compare::default_jobs;
 use crate::gates::{junit::junit_xml, load_gates};
 use crate::report::provenance::Provenance;
 use crate::report::write_comparison;
@@ -37,18 +36,8 @@ pub struct ValidateArgs {
     /// SVG, PDF and CSV).
     #[arg(long)]
     paper: bool,
-    /// Run cache directory (also $ROCKBENCH_CACHE_DIR).
-    #[arg(long, env = "ROCKBENCH_CACHE_DIR", default_value = ".cache/rockbench")]
-    cache_dir: PathBuf,
-    /// Run every engine again (the cache is neither read nor written).
-    #[arg(long)]
-    no_cache: bool,
-    /// Engines run at once (default: the number of cores, at most 2).
-    #[arg(long)]
-    jobs: Option<usize>,
-    /// No progress indicator on stderr.
-    #[arg(long)]
-    quiet: bool,
+    #[command(flatten)]
+    run_cache: super::RunCacheArgs,
 }
 
 /// `path` relative to the current directory when it is under it.
@@ -86,9 +75,9 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
         .collect();
     let opts = ValidateOptions {
         engines: a.engines.clone(),
-        cache_dir: (!a.no_cache).then(|| a.cache_dir.clone()),
-        jobs: a.jobs.unwrap_or_else(default_jobs).max(1),
-        progress: !a.quiet,
+        cache_dir: a.run_cache.cache_dir(),
+        jobs: a.run_cache.jobs(),
+        progress: a.run_cache.progress(),
     };
     let (results, stats) = validate(&cases, &gates, &opts).map_err(anyhow::Error::msg)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
