@@ -260,6 +260,23 @@ fn csv(tr: &Trajectory) -> Result<String, String> {
     String::from_utf8(bytes).map_err(|e| e.to_string())
 }
 
+/// One case's files: `reference.toml`, `trajectory.csv` where the case has a reference
+/// history, and `PROVENANCE.md`.
+fn insert_case(
+    tree: &mut Tree,
+    case: &str,
+    reference: String,
+    history: Option<&Trajectory>,
+    provenance: String,
+) -> Result<(), String> {
+    tree.insert(format!("reference-data/{case}/reference.toml"), reference);
+    if let Some(tr) = history {
+        tree.insert(format!("reference-data/{case}/trajectory.csv"), csv(tr)?);
+    }
+    tree.insert(format!("reference-data/{case}/PROVENANCE.md"), provenance);
+    Ok(())
+}
+
 /// The closed-form history of blocks sliding together by a [`Slide`] from their laid-out
 /// places, sampled every `dt` up to `t_end`.
 fn sliding_trajectory(scene: &Scene, sl: &Slide, dt: f64, t_end: f64) -> Trajectory {
@@ -324,20 +341,20 @@ pub fn generate(root: &Path) -> Result<Tree, String> {
             &out.trajectory,
             out.exact_impacts.clone(),
         );
-        tree.insert(format!("reference-data/{case}/reference.toml"), r);
-        tree.insert(
-            format!("reference-data/{case}/trajectory.csv"),
-            csv(&out.trajectory)?,
-        );
-        tree.insert(
-            format!("reference-data/{case}/PROVENANCE.md"),
+        insert_case(
+            &mut tree,
+            case,
+            r,
+            Some(&out.trajectory),
             provenance(
                 case,
-                &format!("the exact Housner (1963) history of validation/scenes/{case}.toml (trajectory.csv) and its impacts, peaks, effective restitution and rest times (reference.toml)"),
+                &format!(
+                    "the exact Housner (1963) history of validation/scenes/{case}.toml (trajectory.csv) and its impacts, peaks, effective restitution and rest times (reference.toml)"
+                ),
                 "",
                 "Housner's equation of motion of a single block on a rigid base with his restitution 1 - 1.5 sin^2 alpha, integrated by RK4 with steps <= 1e-4 s and impacts located by bisection to 1e-10 s; the engine's tests check it against the linearised closed form and energy bookkeeping. It is the model the paper's method reduces to for one block",
             ),
-        );
+        )?;
     }
 
     // 3. The paper's two-block case: converged native run and the paper's claims.
@@ -355,20 +372,18 @@ rest_time_s = 3.5\nrest_threshold = \"not stated\"\n\
 upper_block_curve = \"qualitative: rocking of decaying amplitude about zero, shown in the paper's figure\"\n"
         );
         r += &events_toml(&scene, "native", &out.trajectory, None);
-        tree.insert(format!("reference-data/{case}/reference.toml"), r);
-        tree.insert(
-            format!("reference-data/{case}/trajectory.csv"),
-            csv(&out.trajectory)?,
-        );
-        tree.insert(
-            format!("reference-data/{case}/PROVENANCE.md"),
+        insert_case(
+            &mut tree,
+            case,
+            r,
+            Some(&out.trajectory),
             provenance(
                 case,
                 "the native engine's run of validation/scenes/two-block-free-rocking.toml with its default (impact-consistent) stepper at dt = 5e-5 s (twenty times smaller than the default), and the paper's own stated claims (reference.toml [paper])",
                 "",
                 "no closed form exists for two blocks. The run is converged: from dt = 5e-5 s to 2.5e-5 s the pedestal's ground impact and the statue's first four crossings move by at most 3 ns and its rest at 3e-2 and 1e-4 rad by 3 ns and 21 us; the same events agree to 0.1 us from dt = 1e-4 s, and to 27 us between 5e-4 and 2.5e-4 s (docs/method.md, 'Law against stepper on the two-block case'). It is the paper's associative law: the dilatancy of a sliding pivot delays the statue's rest by about 0.12 s against Coulomb friction, which the other engines use. The paper's numbers are copied as stated (rest 'at about 3.5 s', threshold not stated); they are a claim to show beside the engines, not a reference the engines are tuned to",
             ),
-        );
+        )?;
     }
 
     // 4. Sliding: the stopping distance v^2 / (2 mu g) and the constant-acceleration push.
@@ -552,20 +567,18 @@ closed_form_ratio = {closed:.8}   # 1 / (1 - exp(-p t1)), linearised\nclosed_for
             &out.trajectory,
             out.exact_impacts.clone(),
         );
-        tree.insert(format!("reference-data/{case}/reference.toml"), r);
-        tree.insert(
-            format!("reference-data/{case}/trajectory.csv"),
-            csv(&out.trajectory)?,
-        );
-        tree.insert(
-            format!("reference-data/{case}/PROVENANCE.md"),
+        insert_case(
+            &mut tree,
+            case,
+            r,
+            Some(&out.trajectory),
             provenance(
                 case,
                 "the exact Housner history of validation/scenes/support-movement-half-sine.toml: the motion relative to the ground, the same whether the pulse is applied as inertial forces or as a moving ground",
                 "",
                 "Housner's equation is written relative to the ground, where a moving support and inertial forces are the same thing; RK4 with steps <= 1e-4 s, impacts located to 1e-10 s",
             ),
-        );
+        )?;
     }
 
     // 7. Standing assemblies: exact rest.
@@ -579,17 +592,18 @@ closed_form_ratio = {closed:.8}   # 1 / (1 - exp(-p t1)), linearised\nclosed_for
             scene.blocks.len(),
             scene.duration
         );
-        tree.insert(format!("reference-data/{case}/reference.toml"), r);
-        tree.insert(format!("reference-data/{case}/trajectory.csv"), csv(&tr)?);
-        tree.insert(
-            format!("reference-data/{case}/PROVENANCE.md"),
+        insert_case(
+            &mut tree,
+            case,
+            r,
+            Some(&tr),
             provenance(
                 case,
                 "the exact rest of the assembly: every block where the scene's layout puts it (trajectory.csv, every 0.1 s)",
                 "",
                 "blocks stacked upright on level faces under gravity alone with friction are in equilibrium with zero motion; any drift an engine shows is its own error",
             ),
-        );
+        )?;
     }
 
     // 8. Earthquake record: no closed form.
@@ -604,16 +618,18 @@ closed_form_ratio = {closed:.8}   # 1 / (1 - exp(-p t1)), linearised\nclosed_for
 record_wheel_sha256 = \"{}\"\nreference = \"native engine at the scene's settings\"",
             super::ELCENTRO_WHEEL_SHA256
         );
-        tree.insert(format!("reference-data/{case}/reference.toml"), r);
-        tree.insert(
-            format!("reference-data/{case}/PROVENANCE.md"),
+        insert_case(
+            &mut tree,
+            case,
+            r,
+            None,
             provenance(
                 case,
                 "no reference history: the statue-on-pedestal case under the El Centro 1940 record is compared engine against engine (reference: the native engine). The record is not committed: `make records` downloads the quakeio 0.1.21 wheel from PyPI with pip, checks its sha256, reads the list of accelerations from quakeio/elcentro.py as text (never imported or executed) and writes validation/records/elcentro-1940.AT2 in the PEER format (validation/records/fetch_elcentro.py)",
                 "",
                 "a real accelerogram has no closed-form response; agreement between independent engines (native, rapier, MuJoCo, PyBullet) on overturning and on the peak rotation is the evidence. The record's origin is the quakeio package (BSD licence), whose file names it El Centro; its PGA (0.313 g) and 0.02 s sampling are those of the widely distributed 1940 El Centro NS record",
             ),
-        );
+        )?;
     }
 
     // 9. Walls and colonnades in motion: no closed form; which blocks overturn, engine against
@@ -648,11 +664,7 @@ record_wheel_sha256 = \"{}\"\nreference = \"native engine at the scene's setting
             scene.blocks.len(),
             scene.duration
         );
-        tree.insert(format!("reference-data/{case}/reference.toml"), r);
-        tree.insert(
-            format!("reference-data/{case}/PROVENANCE.md"),
-            provenance(case, what, "", trust),
-        );
+        insert_case(&mut tree, case, r, None, provenance(case, what, "", trust))?;
     }
     Ok(tree)
 }
