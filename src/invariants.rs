@@ -79,6 +79,18 @@ pub struct Check {
 }
 
 impl Check {
+    /// A check that could not be made because its run failed (a mirrored run, a rerun).
+    pub fn run_failed(name: &'static str, e: EngineError) -> Check {
+        Check {
+            name,
+            applies: true,
+            passed: false,
+            value: f64::INFINITY,
+            limit: 0.0,
+            detail: format!("the run failed: {e}"),
+        }
+    }
+
     fn not_applicable(name: &'static str, why: &str) -> Check {
         Check {
             name,
@@ -784,25 +796,17 @@ pub fn run_checked(
 ) -> Result<(RunOutput, InvariantReport), EngineError> {
     let out = engine.run(scene)?;
     let mut report = check_single(scene, &out.trajectory, tol);
-    let failed_run = |name: &'static str, e: EngineError| Check {
-        name,
-        applies: true,
-        passed: false,
-        value: f64::INFINITY,
-        limit: 0.0,
-        detail: format!("the run failed: {e}"),
-    };
     if extra.mirror {
         let m = mirror_scene(scene);
         report.checks.push(match engine.run(&m) {
             Ok(mo) => mirror_check_run(engine, scene, &out.trajectory, &mo.trajectory, tol),
-            Err(e) => failed_run("mirror", e),
+            Err(e) => Check::run_failed("mirror", e),
         });
     }
     if extra.rerun {
         report.checks.push(match engine.run(scene) {
             Ok(ro) => check_rerun(&out.trajectory, &ro.trajectory),
-            Err(e) => failed_run("rerun", e),
+            Err(e) => Check::run_failed("rerun", e),
         });
     }
     Ok((out, report))

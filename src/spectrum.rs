@@ -314,11 +314,7 @@ impl<'a> Spectrum<'a> {
         let omega_p = ratio * self.p;
         let a_p = amplitude * self.base.gravity * self.alpha.tan();
         let mut s = self.base.clone();
-        let applied_as = s
-            .excitation
-            .as_ref()
-            .map(|e| e.applied_as)
-            .unwrap_or_default();
+        let applied_as = s.applied_as();
         s.excitation = Some(ExcitationSpec {
             applied_as,
             horizontal: Some(self.pulse.motion(a_p, omega_p)),

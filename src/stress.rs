@@ -691,24 +691,13 @@ fn run_checked_extra(
         Ok(m) => {
             crate::invariants::mirror_check_run(engine, scene, &out.trajectory, &m.trajectory, tol)
         }
-        Err(e) => failed_check("mirror", e),
+        Err(e) => crate::invariants::Check::run_failed("mirror", e),
     });
     report.checks.push(match engine.run(scene) {
         Ok(again) => crate::invariants::check_rerun(&out.trajectory, &again.trajectory),
-        Err(e) => failed_check("rerun", e),
+        Err(e) => crate::invariants::Check::run_failed("rerun", e),
     });
     Ok(((), report))
-}
-
-fn failed_check(name: &'static str, e: EngineError) -> crate::invariants::Check {
-    crate::invariants::Check {
-        name,
-        applies: true,
-        passed: false,
-        value: f64::INFINITY,
-        limit: 0.0,
-        detail: format!("the run failed: {e}"),
-    }
 }
 
 fn finish(mut r: CellResult, judge: &Judge, scene: Option<&Scene>) -> CellResult {

@@ -164,11 +164,7 @@ impl RapierSim {
     pub fn new(scene: &Scene) -> Result<RapierSim, EngineError> {
         let s = &RapierSettings::of(scene)?;
         let motion = GroundMotion::from_scene(scene)?;
-        let applied_as = scene
-            .excitation
-            .as_ref()
-            .map(|e| e.applied_as)
-            .unwrap_or_default();
+        let applied_as = scene.applied_as();
         let moving = applied_as == AppliedAs::MovingGround && !motion.is_none();
         let mut world = PhysicsWorld {
             gravity: Vector::new(0.0, -scene.gravity),

@@ -61,11 +61,7 @@ pub fn spec_for(
     scale: f64,
 ) -> RunSpec {
     let mut s = scene.clone();
-    let applied_as = s
-        .excitation
-        .as_ref()
-        .map(|e| e.applied_as)
-        .unwrap_or_default();
+    let applied_as = s.applied_as();
     s.excitation = Some(ExcitationSpec {
         applied_as,
         horizontal: Some(MotionSpec::Record {

@@ -44,11 +44,7 @@ pub fn stepper_with(
 ) -> Result<(Stepper, NativeState), SceneError> {
     let settings = settings_of(scene)?;
     let motion = GroundMotion::from_scene(scene)?;
-    let applied_as = scene
-        .excitation
-        .as_ref()
-        .map(|e| e.applied_as)
-        .unwrap_or_default();
+    let applied_as = scene.applied_as();
     let bodies = assembly::Bodies::of(scene);
     let layout = scene.layout();
     let q = layout

@@ -366,6 +366,14 @@ impl Serialize for Scene {
 }
 
 impl Scene {
+    /// How the excitation is applied (the default when the scene has none).
+    pub fn applied_as(&self) -> AppliedAs {
+        self.excitation
+            .as_ref()
+            .map(|e| e.applied_as)
+            .unwrap_or_default()
+    }
+
     /// Friction of the interface under block `i` (with the ground for a block on the ground).
     pub fn friction_below(&self, i: usize) -> f64 {
         self.contact
