@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
-	stress proptest proptest-assemblies fuzz fmt clippy clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
+	stress proptest proptest-assemblies fuzz fmt clippy doc clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
 
@@ -241,6 +241,11 @@ fmt:
 clippy:
 	$(CARGO) clippy --release --all-targets -- -D warnings
 	$(CARGO) clippy --release --lib --features python -- -D warnings
+
+# The API documentation (target/doc/rockbench), its links checked: a broken or private
+# intra-doc link is an error.
+doc:
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps
 
 clean:
 	rm -rf out target $(VENV) python/rockbench/_native*.so

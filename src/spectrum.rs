@@ -583,7 +583,7 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
     Ok((tr, Stop::End))
 }
 
-/// The Housner engine's integration ([`housner::integrate`], the engine's settings) through
+/// The Housner engine's integration ([`crate::engines::housner::integrate`], the engine's settings) through
 /// the pulse, then free rocking in chunks of 1/p with the early stops of the module docs
 /// checked between chunks. Returns the trajectory (the engine's centroid states), the impact
 /// instants above the noise floor and the stop.

@@ -1,6 +1,6 @@
 //! `rockbench spectrum SCENE_OR_BLOCK --pulse P --ratios ... --engines ... --out DIR`: overturning
 //! spectra (see `crate::spectrum`). Writes DIR/minimum.csv, DIR/map.csv, one SVG per pulse
-//! (DIR/spectrum-<pulse>.svg) and DIR/spectrum.json (settings, versions, the command).
+//! (`DIR/spectrum-<pulse>.svg`) and DIR/spectrum.json (settings, versions, the command).
 
 use crate::spectrum::{self, Pulse, Request, Settings};
 use anyhow::{Context, Result, anyhow};

@@ -149,7 +149,7 @@ fn housner_overturns(c: &PulseCase, amp: f64) -> Result<(bool, Option<f64>), Str
 }
 
 /// The smallest amplitude that overturns the pulse block (Housner engine): an upward scan in
-/// steps of 2 % from the rocking threshold `g tan alpha`, then bisection to [`BISECTION_TOL`].
+/// steps of 2 % from the rocking threshold `g tan alpha`, then bisection to `BISECTION_TOL`.
 pub fn overturning_threshold(c: &PulseCase) -> Result<f64, String> {
     let (_, alpha) = housner_p_alpha(PULSE_B, PULSE_H, 9.81);
     let mut lo = 9.81 * alpha.tan();

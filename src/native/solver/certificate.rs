@@ -1,7 +1,7 @@
 //! An a-posteriori bound on a step's distance from the minimiser of its QP.
 //!
 //! In the scaled primal problem ([`crate::native::problem::Scaled`], the rows of
-//! [`super::rows::edge_rows`]) `min f(u) = 1/2 u' P u + q' u` s.t. `s(u) = D u + r >= 0`, any
+//! `rows::edge_rows`) `min f(u) = 1/2 u' P u + q' u` s.t. `s(u) = D u + r >= 0`, any
 //! multipliers `z >= 0` give the dual bound `f(u*) >= min_u f(u) - z' s(u)`, so that for a
 //! feasible `u`, with the stationarity residual `g = P u + q - D' z`,
 //!

@@ -12,7 +12,7 @@
 //! interior-point solution has closed (slack below multiplier, or a predicted gap below
 //! 1e-10 m) and is corrected by active-set moves: add the most violated row, drop the row with
 //! the most negative multiplier (at most 2 m + 4 moves, and never a working set met before: the
-//! moves cycle there, see [`super::visited`]; then again from the start under Bland's rule).
+//! moves cycle there, see `solver::visited`; then again from the start under Bland's rule).
 //!
 //! The polished `u` is accepted when it meets the KKT conditions of the convex QP, which make it
 //! the QP's one minimiser whatever the interior point's status or distance: stationarity (by

@@ -254,7 +254,7 @@ pub struct SparseSolver {
     /// Whether the augmented Lagrangian is settling an interior-point solution.
     settling: bool,
     /// Whether the last problem was rescued; then the sorted keys of its rows and of the rows
-    /// the rescue held (see [`SparseSolver::solve_step`]).
+    /// the rescue held (see `SparseSolver::solve_step`).
     last_rescued: bool,
     rescued_keys: Vec<u64>,
     rescued_held: Vec<u64>,
@@ -264,7 +264,7 @@ pub struct SparseSolver {
     rescued_dt: f64,
     /// The velocities at the start of the step of the last problem handed to the interior
     /// point: a problem that starts from them is another solve of that step (see
-    /// [`SparseSolver::solve_step`]).
+    /// `SparseSolver::solve_step`).
     rescued_v0: Vec<f64>,
     /// Scratch: the current rows' keys, sorted.
     keys_now: Vec<u64>,
@@ -296,15 +296,15 @@ pub struct SparseSolver {
     /// Problems solved by the last retry (cold, a longer Newton iteration, stagnation at
     /// round-off accepted).
     pub last_retries: u64,
-    /// Problems handed to the interior-point rescue (see [`SparseSolver::rescue`]).
+    /// Problems handed to the interior-point rescue (see `SparseSolver::rescue`).
     pub rescues: u64,
-    /// Problems after a rescue solved from its held rows (see [`SparseSolver::solve_step`]).
+    /// Problems after a rescue solved from its held rows (see `SparseSolver::solve_step`).
     pub rescues_reused: u64,
-    /// Problems tried with the rows the last rescue held ([`SparseSolver::solve_holding_rescued`]).
+    /// Problems tried with the rows the last rescue held (`SparseSolver::solve_holding_rescued`).
     pub rescue_holds_tried: u64,
     /// Warm starts of wide problems given up at a stalled Newton step (`STALLED_STEP`).
     pub stalled_warm_starts: u64,
-    /// Rows taken into or out of a factor by rank-one updates (see [`SparseSolver::update_factor`]).
+    /// Rows taken into or out of a factor by rank-one updates (see `SparseSolver::update_factor`).
     pub updates: u64,
     /// Minimisations ended where their Newton steps stagnated (`STAGNATION_TOLERANCE`) on a
     /// problem whose rows have offsets (not `homogeneous`): the multiplier loop's test of every
@@ -318,7 +318,7 @@ pub struct SparseSolver {
     /// [`SparseSolver::new`]; off only to compare them with factorisations afresh).
     pub update_factors: bool,
     /// Whether a problem reuses the work of a rescue before it: the rows the rescue held, and
-    /// its interior-point iterate near the central path (see [`SparseSolver::solve_step`]; on
+    /// its interior-point iterate near the central path (see `SparseSolver::solve_step`; on
     /// from [`SparseSolver::new`], off only to compare).
     pub reuse_rescues: bool,
     /// Whether a wide problem's warm start goes to the rescue at its first stalled Newton step
@@ -379,7 +379,7 @@ impl SparseSolver {
     }
 
     /// Interior-point solves started from the iterate of the solve before
-    /// ([`InteriorPoint::solve`]), and those of them that started again cold.
+    /// (`InteriorPoint::solve`), and those of them that started again cold.
     pub fn interior_path_starts(&self) -> (u64, u64) {
         (self.interior.path_starts, self.interior.path_failures)
     }
@@ -742,7 +742,7 @@ impl ContactSolver for SparseSolver {
         Ok(())
     }
 
-    /// See [`SparseSolver::solve_step`].
+    /// See `SparseSolver::solve_step`.
     fn solve_into(&mut self, pr: &StepProblem, out: &mut StepSolution) -> Result<(), SolveFailure> {
         *out = self.solve_step(pr)?;
         Ok(())
@@ -832,7 +832,7 @@ impl SparseSolver {
     /// its Newton steps from there stalled as before), in one to three factorisations.
     ///
     /// A problem with the rows of the last interior-point solve, and its step's length, starts
-    /// from that solve's iterate near the central path ([`InteriorPoint::solve`]).
+    /// from that solve's iterate near the central path (`InteriorPoint::solve`).
     fn rescue(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let sc = pr.scaled();
         if self.rows.is_empty() || self.envelope.dofs() != sc.p.len() {
