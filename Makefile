@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-targets bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
 	stress proptest proptest-assemblies fuzz fmt clippy doc clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -317,6 +317,19 @@ bench-walls-external-qp: $(VENV)/.requirements.stamp wall-problems
 # "How many rows a moving wall's step changes, and what an exact solve of it costs").
 bench-walls-closed-rows: $(VENV)/.requirements.stamp wall-problems
 	$(VPY) benches/walls/closed_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-closed-rows/closed-rows.md
+
+# The walls against issue 14's targets in one command (docs/method.md, "Walls"): the 215-block
+# wall under El Centro x2 for 5 s, the walls of 43 to 860 blocks standing over the record's first
+# second, and the walls of 215 to 860 blocks sliding (ten pulse steps, impacts at step ends),
+# native and rapier in the same runs; out/bench-walls-targets/{wall-215,standing,sliding} and
+# targets.md, one row a target: measured and met or not (benches/walls/targets.py). About a
+# minute; milliseconds are this machine's, rapier's step beside them the yardstick.
+WALL_TARGETS := out/bench-walls-targets
+bench-walls-targets: records $(VENV)/.requirements.stamp
+	$(CARGO) run --release --example bench_dynamic -- --courses 10 --out $(WALL_TARGETS)/wall-215
+	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10,20,40 --duration 1 --out $(WALL_TARGETS)/standing
+	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --out $(WALL_TARGETS)/sliding
+	$(VPY) benches/walls/targets.py $(WALL_TARGETS)
 
 # The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
 # and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the

@@ -1,0 +1,209 @@
+"""The walls against issue 14's targets, from one set of `bench_dynamic` runs.
+
+`python benches/walls/targets.py DIR` reads the three series `make bench-walls-targets` writes
+under DIR, each a `bench_dynamic` output (`dynamic.csv`, `growth.csv`) with native and rapier in
+the same runs:
+
+- `wall-215`: the 215-block running-bond wall under El Centro x2 for 5 s, default settings;
+- `standing`: the walls of 43 to 860 blocks over the record's first second (they stand);
+- `sliding`: the walls of 215 to 860 blocks sliding under a 0.8 g pulse, ten steps, impacts
+  at the end of their step (every block in motion).
+
+It prints, and writes to DIR/targets.md, one row a target: what was measured and whether it
+is met. The targets (docs/method.md, "Walls"):
+
+- the 215-block wall at most `WALL_215_MS` a step, no slower than rapier, no fallback;
+- the standing series' cost growing with log-log slope at most `SLOPE` in the blocks;
+- the walls in motion growing with slope at most `SLOPE` in the blocks in motion, and the
+  860-block wall in motion at most `WALL_860_MS` a step.
+
+Milliseconds depend on the machine; rapier's step in the same run is the yardstick beside them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+WALL_215_MS = 1.0
+WALL_860_MS = 5.0
+SLOPE = 1.2
+
+SERIES = ("wall-215", "standing", "sliding")
+
+
+class BadRun(Exception):
+    """A series that is missing or not `bench_dynamic`'s output: one line naming the file."""
+
+
+@dataclass
+class Row:
+    blocks: int
+    engine: str
+    ms_per_step: float
+    fallbacks: str
+    rescues: str
+
+
+@dataclass
+class Series:
+    rows: list[Row]
+    # (engine, against) -> (slope, standard error)
+    slopes: dict[tuple[str, str], tuple[float, float]]
+
+    def row(self, blocks: int, engine: str, path: Path) -> Row:
+        for r in self.rows:
+            if r.blocks == blocks and r.engine == engine:
+                return r
+        raise BadRun(f"{path}: no row of {engine} on the {blocks}-block wall")
+
+    def slope(self, engine: str, against: str, path: Path) -> tuple[float, float]:
+        try:
+            return self.slopes[(engine, against)]
+        except KeyError:
+            raise BadRun(f"{path}: no slope of {engine} against {against}") from None
+
+
+def read_csv(path: Path, columns: tuple[str, ...]) -> list[dict[str, str]]:
+    """The rows of a CSV file with at least `columns` (none: a header alone, as the growth of
+    a series of one wall)."""
+    try:
+        with path.open(newline="") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+            header = reader.fieldnames or []
+    except OSError as e:
+        raise BadRun(f"{path}: {e.strerror or e}") from None
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise BadRun(f"{path}: no column {', '.join(missing)}")
+    return rows
+
+
+def number(path: Path, column: str, text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise BadRun(f"{path}: {column} {text!r} is not a number") from None
+
+
+def load(directory: Path) -> Series:
+    runs = directory / "dynamic.csv"
+    rows = [
+        Row(
+            blocks=int(number(runs, "blocks", r["blocks"])),
+            engine=r["engine"],
+            ms_per_step=number(runs, "ms_per_step", r["ms_per_step"]),
+            fallbacks=r["fallbacks"],
+            rescues=r["rescues"],
+        )
+        for r in read_csv(
+            runs, ("blocks", "engine", "ms_per_step", "fallbacks", "rescues")
+        )
+    ]
+    growth = directory / "growth.csv"
+    slopes = {
+        (r["engine"], r["against"]): (
+            number(growth, "slope", r["slope"]),
+            number(growth, "std_error", r["std_error"]),
+        )
+        for r in read_csv(growth, ("engine", "against", "slope", "std_error"))
+    }
+    return Series(rows, slopes)
+
+
+def verdict(met: bool) -> str:
+    return "met" if met else "not met"
+
+
+def targets(directory: Path) -> list[tuple[str, str, str]]:
+    """(target, measured, verdict) for each target, from the series under `directory`."""
+    series = {name: load(directory / name) for name in SERIES}
+    out: list[tuple[str, str, str]] = []
+
+    path = directory / "wall-215" / "dynamic.csv"
+    native = series["wall-215"].row(215, "native", path)
+    rapier = series["wall-215"].row(215, "rapier", path)
+    out.append(
+        (
+            f"215-block wall, El Centro x2, 5 s: at most {WALL_215_MS:g} ms a step",
+            f"{native.ms_per_step:.3f} ms",
+            verdict(native.ms_per_step <= WALL_215_MS),
+        )
+    )
+    out.append(
+        (
+            "the same: no slower than rapier in the same run",
+            f"{native.ms_per_step / rapier.ms_per_step:.2f} of rapier's "
+            f"{rapier.ms_per_step:.3f} ms",
+            verdict(native.ms_per_step <= rapier.ms_per_step),
+        )
+    )
+    out.append(
+        (
+            "the same: no Clarabel fallback",
+            f"{native.fallbacks} fallbacks, {native.rescues} interior-point rescues",
+            verdict(native.fallbacks == "0"),
+        )
+    )
+
+    path = directory / "standing" / "growth.csv"
+    slope, error = series["standing"].slope("native", "blocks", path)
+    rapier_slope, _ = series["standing"].slope("rapier", "blocks", path)
+    out.append(
+        (
+            "walls standing under the record (first second): "
+            f"slope at most {SLOPE:g} in the blocks",
+            f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f})",
+            verdict(slope <= SLOPE),
+        )
+    )
+
+    path = directory / "sliding" / "growth.csv"
+    slope, error = series["sliding"].slope("native", "blocks in motion", path)
+    rapier_slope, _ = series["sliding"].slope("rapier", "blocks", path)
+    out.append(
+        (
+            f"walls in motion (sliding): slope at most {SLOPE:g} in the blocks in motion",
+            f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f} in the blocks)",
+            verdict(slope <= SLOPE),
+        )
+    )
+    path = directory / "sliding" / "dynamic.csv"
+    native = series["sliding"].row(860, "native", path)
+    rapier = series["sliding"].row(860, "rapier", path)
+    out.append(
+        (
+            f"the 860-block wall in motion: at most {WALL_860_MS:g} ms a step",
+            f"{native.ms_per_step:.1f} ms (rapier {rapier.ms_per_step:.2f})",
+            verdict(native.ms_per_step <= WALL_860_MS),
+        )
+    )
+    return out
+
+
+def markdown(rows: list[tuple[str, str, str]]) -> str:
+    lines = ["| target | measured | verdict |", "|---|---|---|"]
+    lines += [f"| {t} | {m} | {v} |" for t, m, v in rows]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("directory", type=Path, help="where the three series were written")
+    args = parser.parse_args(argv)
+    try:
+        text = markdown(targets(args.directory))
+    except BadRun as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    (args.directory / "targets.md").write_text(text)
+    print(text, end="")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

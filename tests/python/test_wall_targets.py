@@ -1,0 +1,135 @@
+"""`benches/walls/targets.py`: each of issue 14's targets is judged from the series
+`bench_dynamic` writes, on either side of its threshold, and a series it cannot read is one line
+naming the file, with nothing written."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "benches" / "walls"))
+import targets  # noqa: E402
+
+RUNS_HEADER = (
+    "blocks,courses,engine,blocks_in_motion,overturned,wall_s,steps,ms_per_step,"
+    "iterations_per_step,factorisations_per_step,factor_updates_per_step,fallbacks,rescues,"
+    "splits_per_step,instructions_per_step"
+)
+GROWTH_HEADER = "engine,against,walls,slope,std_error,end_to_end,local_min,local_max"
+
+
+def series(
+    directory: Path,
+    runs: list[tuple[int, str, float, str]],
+    slopes: list[tuple[str, str, float]],
+) -> None:
+    """A `bench_dynamic` output: (blocks, engine, ms a step, fallbacks) rows and slopes."""
+    directory.mkdir(parents=True)
+    lines = [RUNS_HEADER] + [
+        f"{b},{b // 21},{e},0,0,1.0,1000,{ms},1,0,0,{fb},{'0' if e == 'native' else '-'},0,"
+        for b, e, ms, fb in runs
+    ]
+    (directory / "dynamic.csv").write_text("\n".join(lines) + "\n")
+    lines = [GROWTH_HEADER] + [f"{e},{a},5,{s},0.01,{s},{s},{s}" for e, a, s in slopes]
+    (directory / "growth.csv").write_text("\n".join(lines) + "\n")
+
+
+def bench(
+    root: Path, wall_215: float, rapier_215: float, standing: float, moving: float, wall_860: float
+) -> Path:
+    """The three series, with the 215-block wall's steps, the standing series' slope, the
+    moving series' slope and the 860-block wall's step given."""
+    series(
+        root / "wall-215",
+        [(215, "native", wall_215, "0"), (215, "rapier", rapier_215, "-")],
+        [],
+    )
+    series(
+        root / "standing",
+        [(43, "native", 0.1, "0"), (43, "rapier", 0.2, "-")],
+        [("native", "blocks", standing), ("rapier", "blocks", 1.05)],
+    )
+    series(
+        root / "sliding",
+        [(860, "native", wall_860, "0"), (860, "rapier", 8.0, "-")],
+        [
+            ("native", "blocks in motion", moving),
+            ("native", "blocks", moving),
+            ("rapier", "blocks", 1.0),
+        ],
+    )
+    return root
+
+
+def verdicts(root: Path) -> list[str]:
+    return [v for _, _, v in targets.targets(root)]
+
+
+def test_each_target_is_judged_against_its_threshold(tmp_path: Path) -> None:
+    met = bench(tmp_path / "met", 0.95, 1.5, 1.2, 1.19, 4.9)
+    assert verdicts(met) == ["met"] * 6
+    missed = bench(tmp_path / "missed", 1.05, 1.0, 1.21, 1.8, 280.0)
+    assert verdicts(missed) == ["not met", "not met", "met", "not met", "not met", "not met"]
+    rows = targets.targets(missed)
+    assert rows[1][1] == "1.05 of rapier's 1.000 ms"
+    assert rows[5][1] == "280.0 ms (rapier 8.00)"
+
+
+def test_a_fallback_misses_its_target(tmp_path: Path) -> None:
+    root = bench(tmp_path / "b", 0.9, 1.5, 1.1, 1.1, 4.0)
+    text = (root / "wall-215" / "dynamic.csv").read_text().replace(",0,0,0,0,", ",0,0,3,0,", 1)
+    (root / "wall-215" / "dynamic.csv").write_text(text)
+    rows = targets.targets(root)
+    assert rows[2] == (
+        "the same: no Clarabel fallback",
+        "3 fallbacks, 0 interior-point rescues",
+        "not met",
+    )
+
+
+def test_the_table_is_written_beside_the_series(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    root = bench(tmp_path / "b", 0.9, 1.5, 1.1, 1.1, 4.0)
+    assert targets.main([str(root)]) == 0
+    written = (root / "targets.md").read_text()
+    assert written == capsys.readouterr().out
+    assert written.count("| met |") == 6
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (
+            lambda r: (r / "sliding" / "growth.csv").unlink(),
+            "sliding/growth.csv: No such file or directory",
+        ),
+        (
+            lambda r: (r / "standing" / "growth.csv").write_text("engine,slope\n"),
+            "standing/growth.csv: no column against, std_error",
+        ),
+        (
+            lambda r: (r / "sliding" / "dynamic.csv").write_text(
+                RUNS_HEADER + "\n860,40,native,0,0,1,10,fast,1,1,1,0,0,0,\n"
+            ),
+            "sliding/dynamic.csv: ms_per_step 'fast' is not a number",
+        ),
+        (
+            lambda r: (r / "wall-215" / "dynamic.csv").write_text(RUNS_HEADER + "\n"),
+            "wall-215/dynamic.csv: no row of native on the 215-block wall",
+        ),
+    ],
+)
+def test_a_series_it_cannot_read_is_one_line_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], damage, message: str
+) -> None:
+    root = bench(tmp_path / "b", 0.9, 1.5, 1.1, 1.1, 4.0)
+    damage(root)
+    assert targets.main([str(root)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and message in err, err
+    assert not (root / "targets.md").exists()
