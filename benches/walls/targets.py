@@ -124,63 +124,54 @@ def targets(directory: Path) -> list[tuple[str, str, str]]:
     series = {name: load(directory / name) for name in SERIES}
     out: list[tuple[str, str, str]] = []
 
+    def judge(target: str, measured: str, met: bool) -> None:
+        out.append((target, measured, verdict(met)))
+
     path = directory / "wall-215" / "dynamic.csv"
     native = series["wall-215"].row(215, "native", path)
     rapier = series["wall-215"].row(215, "rapier", path)
-    out.append(
-        (
-            f"215-block wall, El Centro x2, 5 s: at most {WALL_215_MS:g} ms a step",
-            f"{native.ms_per_step:.3f} ms",
-            verdict(native.ms_per_step <= WALL_215_MS),
-        )
+    judge(
+        f"215-block wall, El Centro x2, 5 s: at most {WALL_215_MS:g} ms a step",
+        f"{native.ms_per_step:.3f} ms",
+        native.ms_per_step <= WALL_215_MS,
     )
-    out.append(
-        (
-            "the same: no slower than rapier in the same run",
-            f"{native.ms_per_step / rapier.ms_per_step:.2f} of rapier's "
-            f"{rapier.ms_per_step:.3f} ms",
-            verdict(native.ms_per_step <= rapier.ms_per_step),
-        )
+    judge(
+        "the same: no slower than rapier in the same run",
+        f"{native.ms_per_step / rapier.ms_per_step:.2f} of rapier's "
+        f"{rapier.ms_per_step:.3f} ms",
+        native.ms_per_step <= rapier.ms_per_step,
     )
-    out.append(
-        (
-            "the same: no Clarabel fallback",
-            f"{native.fallbacks} fallbacks, {native.rescues} interior-point rescues",
-            verdict(native.fallbacks == "0"),
-        )
+    judge(
+        "the same: no Clarabel fallback",
+        f"{native.fallbacks} fallbacks, {native.rescues} interior-point rescues",
+        native.fallbacks == "0",
     )
 
     path = directory / "standing" / "growth.csv"
     slope, error = series["standing"].slope("native", "blocks", path)
     rapier_slope, _ = series["standing"].slope("rapier", "blocks", path)
-    out.append(
-        (
-            "walls standing under the record (first second): "
-            f"slope at most {SLOPE:g} in the blocks",
-            f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f})",
-            verdict(slope <= SLOPE),
-        )
+    judge(
+        "walls standing under the record (first second): "
+        f"slope at most {SLOPE:g} in the blocks",
+        f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f})",
+        slope <= SLOPE,
     )
 
     path = directory / "sliding" / "growth.csv"
     slope, error = series["sliding"].slope("native", "blocks in motion", path)
     rapier_slope, _ = series["sliding"].slope("rapier", "blocks", path)
-    out.append(
-        (
-            f"walls in motion (sliding): slope at most {SLOPE:g} in the blocks in motion",
-            f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f} in the blocks)",
-            verdict(slope <= SLOPE),
-        )
+    judge(
+        f"walls in motion (sliding): slope at most {SLOPE:g} in the blocks in motion",
+        f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f} in the blocks)",
+        slope <= SLOPE,
     )
     path = directory / "sliding" / "dynamic.csv"
     native = series["sliding"].row(860, "native", path)
     rapier = series["sliding"].row(860, "rapier", path)
-    out.append(
-        (
-            f"the 860-block wall in motion: at most {WALL_860_MS:g} ms a step",
-            f"{native.ms_per_step:.1f} ms (rapier {rapier.ms_per_step:.2f})",
-            verdict(native.ms_per_step <= WALL_860_MS),
-        )
+    judge(
+        f"the 860-block wall in motion: at most {WALL_860_MS:g} ms a step",
+        f"{native.ms_per_step:.1f} ms (rapier {rapier.ms_per_step:.2f})",
+        native.ms_per_step <= WALL_860_MS,
     )
     return out
 
