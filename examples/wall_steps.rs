@@ -1,7 +1,10 @@
 //! Diagnostics: step a scene with the native engine and print per-step cost and counters.
 //! `cargo run --release --example wall_steps -- SCENE [STEPS] [--every N] [--set K=V ...]`
-//! (a line every `N` steps, 100 by default)
+//! (a line every `N` steps, 100 by default). Each line ends with the islands of the step's
+//! contact points: how many, the blocks of the largest, and the blocks with no point at all
+//! (docs/method.md, "Blocks out of reach").
 use anyhow::{Context, bail};
+use rockbench::native::islands::components_of_points;
 use rockbench::native::stepper_for;
 use rockbench::scene::load_scene_with_overrides;
 use std::time::Instant;
@@ -62,8 +65,9 @@ fn steps() -> anyhow::Result<()> {
         s.t = k as f64 * dt;
         if k % every == 0 {
             let now = Instant::now();
+            let islands = Islands::of(s.q.len() / 3, &st.last_contacts);
             println!(
-                "{:5} t={:.2} {:7.3} ms/step it/step {:6.1} fact/step {:5.2} fallbacks {} rescues {} vmax {:.3e}",
+                "{:5} t={:.2} {:7.3} ms/step it/step {:6.1} fact/step {:5.2} fallbacks {} rescues {} vmax {:.3e} islands {} largest {} free {}",
                 k,
                 s.t,
                 (now - last.3).as_secs_f64() * 1e3 / every as f64,
@@ -71,7 +75,10 @@ fn steps() -> anyhow::Result<()> {
                 (st.solver_factorisations() - last.1) as f64 / every as f64,
                 st.solver_fallbacks() - last.2,
                 st.solver_rescues(),
-                s.v.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+                s.v.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+                islands.count,
+                islands.largest,
+                islands.free
             );
             last = (
                 st.iterations,
@@ -95,4 +102,28 @@ fn steps() -> anyhow::Result<()> {
         st.solver_factor_updates()
     );
     Ok(())
+}
+
+/// The islands of a step's contact points, counted.
+struct Islands {
+    count: usize,
+    /// Blocks in the largest island.
+    largest: usize,
+    /// Blocks with no contact point (moving freely).
+    free: usize,
+}
+
+impl Islands {
+    fn of(blocks: usize, points: &[rockbench::geometry::ContactPoint]) -> Self {
+        let island = components_of_points(blocks, points);
+        let mut sizes = vec![0usize; island.iter().flatten().max().map_or(0, |m| m + 1)];
+        for &i in island.iter().flatten() {
+            sizes[i] += 1;
+        }
+        Islands {
+            count: sizes.len(),
+            largest: sizes.iter().copied().max().unwrap_or(0),
+            free: island.iter().filter(|i| i.is_none()).count(),
+        }
+    }
 }

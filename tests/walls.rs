@@ -4,6 +4,7 @@
 mod common;
 
 use rockbench::gallery::GallerySpec;
+use rockbench::native::islands::components_of_points;
 use rockbench::native::solver::certificate::certify;
 use rockbench::native::solver::{ClarabelSolver, ContactSolver, SparseSolver};
 use rockbench::native::{NativeState, Stepper, stepper_for};
@@ -694,4 +695,101 @@ fn solutions_that_stagnate_on_rows_with_offsets_are_certified_minimisers() {
     );
     assert!(worst <= 1e-9, "certified within {worst:.3e} m");
     assert!(moved > 1e-6, "the wall did not move ({moved:.3e} m)");
+}
+
+/// The islands of the last step's contact points (`components_of_points`), as the sets of
+/// blocks they hold.
+fn islands_of(stepper: &Stepper, blocks: usize) -> Vec<Vec<usize>> {
+    let island = components_of_points(blocks, &stepper.last_contacts);
+    let mut sets = vec![Vec::new(); island.iter().flatten().max().map_or(0, |m| m + 1)];
+    for (b, i) in island.iter().enumerate() {
+        if let Some(i) = i {
+            sets[*i].push(b);
+        }
+    }
+    sets
+}
+
+/// A block pushed off its pedestal leaves the pedestal's problem (docs/method.md, "Blocks out of
+/// reach"): one island of both blocks while it slides on the pedestal, no contact point while it
+/// falls (its flight then the closed-form parabola under gravity), and an island of its own once
+/// it lands, the pedestal alone in the other, still at rest. Under Coulomb's law, so that the
+/// block slides along the pedestal's top (the associative law would lift it off at `mu` times
+/// its speed from the first step and kick the pedestal).
+#[test]
+fn a_block_pushed_off_its_pedestal_leaves_the_pedestals_problem() {
+    let s = scene(
+        r#"
+name = "pushed-off"
+duration = 1.2
+
+[[blocks]]
+name = "pedestal"
+width = 0.6
+height = 1.0
+
+[[blocks]]
+name = "block"
+width = 0.2
+height = 0.2
+offset = 0.15
+
+[initial.blocks.block]
+vx = 2.0
+
+[contact]
+friction = 0.3
+
+[native]
+friction_law = "coulomb"
+"#,
+        &[],
+    );
+    let (mut stepper, mut state) = stepper_for(&s).unwrap();
+    let dt = stepper.settings.dt;
+    let pedestal_at_start = state.q[..3].to_vec();
+    let (mut shared, mut flight, mut apart) = (0, Vec::new(), 0);
+    for _ in 0..(s.duration / dt).round() as usize {
+        stepper.step(&mut state).unwrap();
+        let islands = islands_of(&stepper, 2);
+        if islands == [vec![0, 1]] {
+            assert!(
+                flight.is_empty() && apart == 0,
+                "both blocks in one island again at {}",
+                state.t
+            );
+            shared += 1;
+        } else if islands == [vec![0]] {
+            // The block in the air: no contact point of its own.
+            assert_eq!(apart, 0, "the block back in the air at {}", state.t);
+            flight.push((state.t, state.q[3..6].to_vec(), state.v[3..6].to_vec()));
+        } else {
+            assert_eq!(islands, [vec![0], vec![1]], "islands at {}", state.t);
+            apart += 1;
+        }
+    }
+    assert!(
+        shared > 0 && flight.len() > 100 && apart > 100,
+        "{shared} / {} / {apart} steps",
+        flight.len()
+    );
+    // In the air the block's centre follows the parabola from the first step of its flight to
+    // the last, and its rotation turns at a constant rate.
+    let ((t0, q0, v0), (t1, q1, _)) = (&flight[0], flight.last().unwrap());
+    let t = t1 - t0;
+    let expected = [
+        q0[0] + v0[0] * t,
+        q0[1] + v0[1] * t - 0.5 * s.gravity * t * t,
+        q0[2] + v0[2] * t,
+    ];
+    let off = largest_difference(q1, &expected);
+    assert!(off < 1e-9, "flight off its parabola by {off:e} over {t} s");
+    // Landed, the block lies beyond the pedestal's face; the pedestal has not moved.
+    assert!(
+        state.q[3] > 0.3 + 0.1,
+        "the block's centre at x = {}",
+        state.q[3]
+    );
+    let moved = largest_difference(&state.q[..3], &pedestal_at_start);
+    assert!(moved < 1e-9, "the pedestal moved by {moved:e}");
 }
