@@ -4,7 +4,7 @@
 //! contact points: how many, the blocks of the largest, and the blocks with no point at all
 //! (docs/method.md, "Blocks out of reach").
 use anyhow::{Context, bail};
-use rockbench::native::islands::components_of_points;
+use rockbench::native::islands::{components_of_points, members};
 use rockbench::native::stepper_for;
 use rockbench::scene::load_scene_with_overrides;
 use std::time::Instant;
@@ -116,13 +116,10 @@ struct Islands {
 impl Islands {
     fn of(blocks: usize, points: &[rockbench::geometry::ContactPoint]) -> Self {
         let island = components_of_points(blocks, points);
-        let mut sizes = vec![0usize; island.iter().flatten().max().map_or(0, |m| m + 1)];
-        for &i in island.iter().flatten() {
-            sizes[i] += 1;
-        }
+        let sets = members(&island);
         Islands {
-            count: sizes.len(),
-            largest: sizes.iter().copied().max().unwrap_or(0),
+            count: sets.len(),
+            largest: sets.iter().map(Vec::len).max().unwrap_or(0),
             free: island.iter().filter(|i| i.is_none()).count(),
         }
     }

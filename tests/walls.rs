@@ -4,7 +4,7 @@
 mod common;
 
 use rockbench::gallery::GallerySpec;
-use rockbench::native::islands::components_of_points;
+use rockbench::native::islands::{components_of_points, members};
 use rockbench::native::solver::certificate::certify;
 use rockbench::native::solver::{ClarabelSolver, ContactSolver, SparseSolver};
 use rockbench::native::{NativeState, Stepper, stepper_for};
@@ -697,19 +697,6 @@ fn solutions_that_stagnate_on_rows_with_offsets_are_certified_minimisers() {
     assert!(moved > 1e-6, "the wall did not move ({moved:.3e} m)");
 }
 
-/// The islands of the last step's contact points (`components_of_points`), as the sets of
-/// blocks they hold.
-fn islands_of(stepper: &Stepper, blocks: usize) -> Vec<Vec<usize>> {
-    let island = components_of_points(blocks, &stepper.last_contacts);
-    let mut sets = vec![Vec::new(); island.iter().flatten().max().map_or(0, |m| m + 1)];
-    for (b, i) in island.iter().enumerate() {
-        if let Some(i) = i {
-            sets[*i].push(b);
-        }
-    }
-    sets
-}
-
 /// A block pushed off its pedestal leaves the pedestal's problem (docs/method.md, "Blocks out of
 /// reach"): one island of both blocks while it slides on the pedestal, no contact point while it
 /// falls (its flight then the closed-form parabola under gravity), and an island of its own once
@@ -751,7 +738,7 @@ friction_law = "coulomb"
     let (mut shared, mut flight, mut apart) = (0, Vec::new(), 0);
     for _ in 0..(s.duration / dt).round() as usize {
         stepper.step(&mut state).unwrap();
-        let islands = islands_of(&stepper, 2);
+        let islands = members(&components_of_points(2, &stepper.last_contacts));
         if islands == [vec![0, 1]] {
             assert!(
                 flight.is_empty() && apart == 0,

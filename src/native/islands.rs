@@ -67,6 +67,18 @@ pub fn components_of_points(n_blocks: usize, points: &[ContactPoint]) -> Vec<Opt
     scratch.island
 }
 
+/// The blocks of each island (numbered as by [`components`]), in increasing order; blocks
+/// without contacts are in none.
+pub fn members(island: &[Option<usize>]) -> Vec<Vec<usize>> {
+    let mut sets = vec![Vec::new(); island.iter().flatten().max().map_or(0, |m| m + 1)];
+    for (block, i) in island.iter().enumerate() {
+        if let Some(i) = i {
+            sets[*i].push(block);
+        }
+    }
+    sets
+}
+
 /// [`components`] with its working storage kept from call to call.
 #[derive(Default, serde::Serialize, serde::Deserialize)]
 pub struct Components {
@@ -456,6 +468,13 @@ mod tests {
         ];
         let c = components(6, &contacts);
         assert_eq!(c, vec![Some(0), Some(0), None, Some(1), Some(1), Some(2)]);
+    }
+
+    #[test]
+    fn members_lists_each_islands_blocks_and_leaves_free_blocks_out() {
+        let island = [Some(1), None, Some(0), Some(1), Some(0)];
+        assert_eq!(members(&island), [vec![2, 4], vec![0, 3]]);
+        assert!(members(&[None, None]).is_empty());
     }
 
     /// A problem with two islands and a free block: the split solution equals the whole one
