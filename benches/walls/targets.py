@@ -127,9 +127,12 @@ def targets(directory: Path) -> list[tuple[str, str, str]]:
     def judge(target: str, measured: str, met: bool) -> None:
         out.append((target, measured, verdict(met)))
 
-    path = directory / "wall-215" / "dynamic.csv"
-    native = series["wall-215"].row(215, "native", path)
-    rapier = series["wall-215"].row(215, "rapier", path)
+    def native_and_rapier(name: str, blocks: int) -> tuple[Row, Row]:
+        """The native and rapier rows of one wall of a series."""
+        path = directory / name / "dynamic.csv"
+        return series[name].row(blocks, "native", path), series[name].row(blocks, "rapier", path)
+
+    native, rapier = native_and_rapier("wall-215", 215)
     judge(
         f"215-block wall, El Centro x2, 5 s: at most {WALL_215_MS:g} ms a step",
         f"{native.ms_per_step:.3f} ms",
@@ -165,9 +168,7 @@ def targets(directory: Path) -> list[tuple[str, str, str]]:
         f"{slope:.3f} +- {error:.3f} (rapier {rapier_slope:.3f} in the blocks)",
         slope <= SLOPE,
     )
-    path = directory / "sliding" / "dynamic.csv"
-    native = series["sliding"].row(860, "native", path)
-    rapier = series["sliding"].row(860, "rapier", path)
+    native, rapier = native_and_rapier("sliding", 860)
     judge(
         f"the 860-block wall in motion: at most {WALL_860_MS:g} ms a step",
         f"{native.ms_per_step:.1f} ms (rapier {rapier.ms_per_step:.2f})",
