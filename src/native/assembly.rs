@@ -120,25 +120,34 @@ pub fn contact_rows(
     mu: f64,
     ground_step: (f64, f64),
 ) -> ContactRows {
+    let mut rows = ContactRows::default();
+    contact_rows_into(c, poses, mu, ground_step, &mut rows);
+    rows
+}
+
+/// [`contact_rows`] written over `out` (a problem's rows are rebuilt in place every step).
+pub fn contact_rows_into(
+    c: &ContactPoint,
+    poses: &[Pose],
+    mu: f64,
+    ground_step: (f64, f64),
+    out: &mut ContactRows,
+) {
     let n = c.normal;
     let t = (n.1, -n.0);
-    let mut nrow = SparseRow::new();
-    let mut trow = SparseRow::new();
-    body_terms(&mut nrow, c.b, &poses[c.b], c.point, n, 1.0);
-    body_terms(&mut trow, c.b, &poses[c.b], c.point, t, 1.0);
+    out.nrow.clear();
+    out.trow.clear();
+    body_terms(&mut out.nrow, c.b, &poses[c.b], c.point, n, 1.0);
+    body_terms(&mut out.trow, c.b, &poses[c.b], c.point, t, 1.0);
     if let Some(a) = c.a {
-        body_terms(&mut nrow, a, &poses[a], c.point, n, -1.0);
-        body_terms(&mut trow, a, &poses[a], c.point, t, -1.0);
+        body_terms(&mut out.nrow, a, &poses[a], c.point, n, -1.0);
+        body_terms(&mut out.trow, a, &poses[a], c.point, t, -1.0);
     }
     let (g_n, g_t) = ground_offsets(c, ground_step);
-    ContactRows {
-        key: contact_key(c),
-        mu,
-        g_n: c.gap + g_n,
-        g_t,
-        nrow,
-        trow,
-    }
+    out.key = contact_key(c);
+    out.mu = mu;
+    out.g_n = c.gap + g_n;
+    out.g_t = g_t;
 }
 
 /// The offsets a ground point's rows take from the ground's displacement `ground_step`,

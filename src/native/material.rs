@@ -54,6 +54,7 @@ enum Turns {
 }
 
 /// Body `b`'s turn over the increment `k dq`.
+#[inline]
 fn turn_of(dq: &[f64], k: f64, b: usize) -> Turn {
     let a = k * dq[3 * b + 2];
     let (s, c) = a.sin_cos();
@@ -76,16 +77,19 @@ impl<'a> Increment<'a> {
         Increment { dq, k, turns }
     }
     /// `(sin a, cos a, cos a - 1)` of body `b`'s rotation `a` over the increment.
+    #[inline(always)]
     fn turn(&self, b: usize) -> Turn {
         match &self.turns {
             Turns::Few(turns) => turns[b],
             Turns::Many(cells) => *cells[b].get_or_init(|| turn_of(self.dq, self.k, b)),
         }
     }
+    #[inline(always)]
     fn at(&self, i: usize) -> f64 {
         self.k * self.dq[i]
     }
     /// The whole increment (`k = 1`) as a slice.
+    #[inline]
     fn whole(&self) -> &[f64] {
         debug_assert!(self.k == 1.0);
         self.dq
@@ -103,6 +107,7 @@ struct Carrier {
 }
 
 impl Carrier {
+    #[inline]
     fn new(body: usize, pose: &Pose, p: (f64, f64)) -> Self {
         Carrier {
             body,
@@ -110,12 +115,14 @@ impl Carrier {
         }
     }
     /// The offset turned by the step's increment `dq`: `R(dphi) rho`.
+    #[inline(always)]
     fn arm(&self, dq: Incr) -> (f64, f64) {
         rotate(self.rho, dq.turn(self.body))
     }
     /// The point's displacement over the increment `dq`: `dc + (R(dphi) - I) rho`, formed from
     /// the increments alone so that it keeps their relative precision however far the body is
     /// from the origin (`cos a - 1 = -2 sin^2(a/2)`).
+    #[inline(always)]
     fn displacement(&self, dq: Incr) -> (f64, f64) {
         let (s, _, cm1) = dq.turn(self.body);
         let i = 3 * self.body;
@@ -127,15 +134,18 @@ impl Carrier {
 }
 
 /// `R(a) v` for a rotation given as `(sin a, cos a, _)`.
+#[inline(always)]
 fn rotate(v: (f64, f64), (s, c, _): (f64, f64, f64)) -> (f64, f64) {
     (c * v.0 - s * v.1, s * v.0 + c * v.1)
 }
 
 /// `perp(v) = (-v_z, v_x)`: the derivative of `R(a) v` with respect to `a`.
+#[inline(always)]
 fn perp(v: (f64, f64)) -> (f64, f64) {
     (-v.1, v.0)
 }
 
+#[inline(always)]
 fn dot(a: (f64, f64), b: (f64, f64)) -> f64 {
     a.0 * b.0 + a.1 * b.1
 }
@@ -157,6 +167,7 @@ pub struct MaterialContact {
 }
 
 impl MaterialContact {
+    #[inline]
     pub fn new(c: &ContactPoint, poses: &[Pose]) -> Self {
         MaterialContact {
             a: c.a.map(|a| Carrier::new(a, &poses[a], c.point)),
@@ -166,6 +177,7 @@ impl MaterialContact {
         }
     }
 
+    #[inline]
     fn normal(&self, dq: Incr) -> (f64, f64) {
         match &self.a {
             Some(a) => rotate(self.n0, dq.turn(a.body)),
@@ -174,6 +186,7 @@ impl MaterialContact {
     }
 
     /// `d = p_B - p_A` at `q0 + dq` (zero at `q0`).
+    #[inline]
     fn separation(&self, dq: Incr) -> (f64, f64) {
         let db = self.b.displacement(dq);
         let da = self.a.as_ref().map_or((0.0, 0.0), |a| a.displacement(dq));
@@ -181,12 +194,14 @@ impl MaterialContact {
     }
 
     /// `(g_n, g_t)` at `q0 + dq`.
+    #[inline]
     pub fn gaps(&self, dq: Incr) -> (f64, f64) {
         let (dn, dt) = self.increments(dq);
         (self.g0 + dn, dt)
     }
 
     /// `(g_n - g0, g_t)` at `q0 + dq`: the change of the gaps over the increment.
+    #[inline]
     pub fn increments(&self, dq: Incr) -> (f64, f64) {
         let n = self.normal(dq);
         let t = (n.1, -n.0);
@@ -196,6 +211,7 @@ impl MaterialContact {
 
     /// Gradients of `g_n` and `g_t` at `q0 + dq`, as (DOF, coefficient) pairs: B's three DOFs,
     /// then A's (the layout of `assembly::contact_rows`).
+    #[inline]
     pub fn gradients(&self, dq: Incr) -> (Gradient, Gradient, usize) {
         let n = self.normal(dq);
         self.gradients_along(dq, n, || self.separation(dq))
@@ -203,6 +219,7 @@ impl MaterialContact {
 
     /// [`Self::increments`] and [`Self::gradients`] at `q0 + dq` together (the normal and the
     /// separation formed once).
+    #[inline]
     pub fn increments_and_gradients(&self, dq: Incr) -> ((f64, f64), (Gradient, Gradient, usize)) {
         let n = self.normal(dq);
         let t = (n.1, -n.0);
@@ -212,6 +229,7 @@ impl MaterialContact {
 
     /// The gradients at `q0 + dq` whose normal there is `n` (`separation` gives `d`, asked
     /// only of a point between two blocks).
+    #[inline]
     fn gradients_along(
         &self,
         dq: Incr,
@@ -256,6 +274,7 @@ impl MaterialContact {
     }
 
     /// [`Self::discrete_gradients`] as fixed arrays and their length.
+    #[inline]
     fn discrete_gradient_entries(
         &self,
         dq: Incr,
@@ -284,6 +303,7 @@ impl MaterialContact {
 
     /// Replace the rows of `r` (built by `assembly::contact_rows` for this point) by the
     /// discrete gradients over the increment `dq` (with its midpoint `half`); offsets unchanged.
+    #[inline]
     pub fn set_rows(&self, r: &mut ContactRows, dq: Incr, half: Incr, mass: &[f64]) {
         let (n, t, len) = self.discrete_gradient_entries(dq, half, mass);
         r.nrow.clear();

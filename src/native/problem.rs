@@ -153,7 +153,7 @@ impl<'de> Deserialize<'de> for SparseRow {
 }
 
 /// One contact point's rows.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct ContactRows {
     /// Identity of the contact point (bodies and feature), stable between steps.
     pub key: u64,

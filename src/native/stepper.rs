@@ -31,7 +31,8 @@
 //! absolute coordinates, the ground moves by `Δd`; outputs subtract the ground's `d` and `w`.
 
 use super::assembly::{
-    Bodies, contact_key, contact_rows, ground_offsets, normal_row, pose, poses, poses_into,
+    Bodies, contact_key, contact_rows, contact_rows_into, ground_offsets, normal_row, pose, poses,
+    poses_into,
 };
 use super::coulomb::{COULOMB_TOLERANCE, Coulomb};
 use super::islands::{Components, holding_into};
@@ -859,9 +860,12 @@ impl Stepper {
         };
         let force = &pr.force;
         let free_motion = std::cell::OnceCell::new();
-        pr.contacts.clear();
-        pr.contacts.extend(contacts.iter().map(|c| {
-            let mut r = contact_rows(c, ps, self.bodies.friction(c), ground_step);
+        // Rows written in place over the last step's (a point's rows are some 240 bytes).
+        pr.contacts.truncate(contacts.len());
+        pr.contacts
+            .resize_with(contacts.len(), ContactRows::default);
+        for (c, r) in contacts.iter().zip(pr.contacts.iter_mut()) {
+            contact_rows_into(c, ps, self.bodies.friction(c), ground_step, r);
             if self.settings.stepper == StepperKind::Impact {
                 // Relative velocity at the start of the step.
                 let (mut vn, mut vt) = (row_dot(&r.nrow, &s.v), row_dot(&r.trow, &s.v));
@@ -916,8 +920,7 @@ impl Stepper {
                     }
                 }
             }
-            r
-        }));
+        }
         pr.theta = th;
         pr.dt = dt;
         pr.mass.clone_from(&self.bodies.mass);
