@@ -384,7 +384,8 @@ pub fn block_contacts(
     // normal, as the end of A's face, it is the distance only while the faces are parallel.
     let d = sub(q1, q0);
     let denom = cross(n, d);
-    if denom.abs() > 1e-12 * d.0.hypot(d.1) {
+    // |cross(n, d)| > 1e-12 |d|, squared (no square root per pair).
+    if denom * denom > 1e-24 * dot(d, d) {
         let nm = nb[m];
         for (e, p) in [p0, p1].into_iter().enumerate() {
             let lam = cross(sub(q0, p), d) / denom; // p + lam n lies on the line q0-q1

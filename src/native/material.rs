@@ -72,7 +72,7 @@ impl<'a> Increment<'a> {
             }
             Turns::Few(few)
         } else {
-            Turns::Many((0..bodies).map(|_| OnceCell::new()).collect())
+            Turns::Many(vec![OnceCell::new(); bodies])
         };
         Increment { dq, k, turns }
     }

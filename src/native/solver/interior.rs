@@ -22,7 +22,7 @@
 //! the augmented Lagrangian, which settles it to the back-end's tolerances.
 
 use super::envelope::Envelope;
-use super::rows::EdgeRow;
+use super::rows::{EdgeRow, dots_into};
 
 /// Iterations allowed.
 const MAX_ITERATIONS: usize = 60;
@@ -191,12 +191,11 @@ impl InteriorPoint {
             for (row, &li) in rows.iter().zip(l.iter()) {
                 row.axpy(-li, &mut self.rd);
             }
-            self.rp.clear();
             let mut primal = 0.0f64;
-            for (i, row) in rows.iter().enumerate() {
-                let rp = row.dot(u) + r[i] - self.s[i];
+            dots_into(rows, u, &mut self.rp);
+            for (i, rp) in self.rp.iter_mut().enumerate() {
+                *rp = *rp + r[i] - self.s[i];
                 primal = primal.max(rp.abs() / (1.0 + r[i].abs()));
-                self.rp.push(rp);
             }
             let dual = self.rd.iter().fold(0.0f64, |a, x| a.max(x.abs())) / q_size;
             let mu = self.s.iter().zip(l.iter()).map(|(s, x)| s * x).sum::<f64>() / m as f64;
@@ -346,13 +345,12 @@ impl InteriorPoint {
             );
         }
         envelope.solve(&mut self.du);
-        self.dl.clear();
+        // `dl` first holds `D du`.
+        dots_into(rows, &self.du, &mut self.dl);
         self.ds.clear();
-        for (i, row) in rows.iter().enumerate() {
-            let d = row.dot(&self.du);
-            let dl = -self.w[i] * (self.rp[i] + d) - self.rc[i] / self.s[i];
-            self.dl.push(dl);
-            self.ds.push(-(self.rc[i] + self.s[i] * dl) / l[i]);
+        for (i, dl) in self.dl.iter_mut().enumerate() {
+            *dl = -self.w[i] * (self.rp[i] + *dl) - self.rc[i] / self.s[i];
+            self.ds.push(-(self.rc[i] + self.s[i] * *dl) / l[i]);
         }
     }
 

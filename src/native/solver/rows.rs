@@ -40,6 +40,41 @@ impl EdgeRow {
             len => (0..len).map(|j| c[j] * u[i[j]]).sum(),
         }
     }
+    /// `(a · u, b · u)` for the two edge rows of one contact point (the same DOFs: rows `2k`
+    /// and `2k + 1` of [`edge_rows`]), each summed as [`EdgeRow::dot`] sums it, `u` gathered once.
+    #[inline(always)]
+    pub fn dot_pair(a: &EdgeRow, b: &EdgeRow, u: &[f64]) -> (f64, f64) {
+        debug_assert!(a.len == b.len && a.idx[..a.len] == b.idx[..b.len]);
+        let (ca, cb, i) = (&a.coef, &b.coef, &a.idx);
+        match a.len {
+            6 => {
+                let g = [u[i[0]], u[i[1]], u[i[2]], u[i[3]], u[i[4]], u[i[5]]];
+                (
+                    [
+                        ca[0] * g[0],
+                        ca[1] * g[1],
+                        ca[2] * g[2],
+                        ca[3] * g[3],
+                        ca[4] * g[4],
+                        ca[5] * g[5],
+                    ]
+                    .into_iter()
+                    .sum(),
+                    [
+                        cb[0] * g[0],
+                        cb[1] * g[1],
+                        cb[2] * g[2],
+                        cb[3] * g[3],
+                        cb[4] * g[4],
+                        cb[5] * g[5],
+                    ]
+                    .into_iter()
+                    .sum(),
+                )
+            }
+            _ => (a.dot(u), b.dot(u)),
+        }
+    }
     /// `row · diag(w) · other`. A row holds whole bodies, three consecutive DOFs each (B's,
     /// then A's: `assembly::contact_rows`), so rows share DOFs only by sharing a body: the
     /// bodies are matched, not every pair of entries.
@@ -65,6 +100,16 @@ impl EdgeRow {
     }
 }
 
+/// `out[i] = rows[i] · x` for rows in edge pairs (as [`edge_rows`] makes them), each pair's `x`
+/// gathered once ([`EdgeRow::dot_pair`]).
+pub fn dots_into(rows: &[EdgeRow], x: &[f64], out: &mut Vec<f64>) {
+    assert!(rows.len() % 2 == 0, "edge rows come in pairs");
+    out.resize(rows.len(), 0.0);
+    for (pair, dots) in rows.chunks_exact(2).zip(out.chunks_exact_mut(2)) {
+        (dots[0], dots[1]) = EdgeRow::dot_pair(&pair[0], &pair[1], x);
+    }
+}
+
 /// Fill `rows` and their offsets `r` (row 2k is contact k's `+` edge, 2k + 1 its `-` edge).
 pub fn edge_rows(pr: &StepProblem, rows: &mut Vec<EdgeRow>, r: &mut Vec<f64>) {
     // Written in place over the last problem's rows (a row is some 100 bytes).
@@ -86,8 +131,10 @@ pub fn edge_rows(pr: &StepProblem, rows: &mut Vec<EdgeRow>, r: &mut Vec<f64>) {
                 row.idx[j] = i;
                 row.coef[j] = vn + sign * c.mu * vt;
             }
-            row.idx[row.len..].fill(0);
-            row.coef[row.len..].fill(0.0);
+            if row.len < row.idx.len() {
+                row.idx[row.len..].fill(0);
+                row.coef[row.len..].fill(0.0);
+            }
             r.push((c.g_n + sign * c.mu * c.g_t) / pr.dt);
         }
     }

@@ -56,7 +56,7 @@
 
 use super::envelope::Envelope;
 use super::interior::InteriorPoint;
-use super::rows::{EdgeRow, edge_rows, step_solution};
+use super::rows::{EdgeRow, dots_into, edge_rows, step_solution};
 use super::{ContactSolver, SolveFailure};
 use crate::native::problem::{StepProblem, StepSolution};
 
@@ -270,6 +270,10 @@ pub struct SparseSolver {
     keys_now: Vec<u64>,
     interior: InteriorPoint,
     breaks: Vec<(f64, usize)>,
+    /// Scratch: `D_i x` of every row for the `x` of the pass over the rows at hand (`u`, or
+    /// the line search's `du`).
+    #[serde(skip)]
+    row_values: Vec<f64>,
     /// Row keys and multipliers of the previous solution, in row order, and its step's length.
     /// (The multipliers are impulses over the step, `normal dt / s`: a warm start from a step
     /// of another length scales them by the ratio, so that the forces carry over.)
@@ -492,17 +496,19 @@ impl SparseSolver {
 
     /// `y` at the current `u`, and the keys of the rows in the Newton matrix.
     fn classify(&mut self) {
-        self.y.clear();
+        let n = self.rows.len();
+        self.y.resize(n, 0.0);
+        self.in_matrix.resize(n, false);
         self.active.clear();
-        self.in_matrix.clear();
+        dots_into(&self.rows, &self.u, &mut self.row_values);
         for (i, row) in self.rows.iter().enumerate() {
-            let y = row.dot(&self.u) + self.r[i] - self.lambda[i] / self.rho[i];
+            let y = self.row_values[i] + self.r[i] - self.lambda[i] / self.rho[i];
             let in_matrix = y < self.margin(i) || self.held.get(i).copied().unwrap_or(false);
             if in_matrix {
                 self.active.push(row.key);
             }
-            self.in_matrix.push(in_matrix);
-            self.y.push(y);
+            self.in_matrix[i] = in_matrix;
+            self.y[i] = y;
         }
     }
 
@@ -531,8 +537,9 @@ impl SparseSolver {
             return 0.0;
         }
         self.breaks.clear();
-        for (i, row) in self.rows.iter().enumerate() {
-            let d = row.dot(&self.du);
+        dots_into(&self.rows, &self.du, &mut self.row_values);
+        for i in 0..self.rows.len() {
+            let d = self.row_values[i];
             let y = self.y[i];
             let rho = self.rho[i];
             if y < 0.0 || (y == 0.0 && d < 0.0) {
@@ -568,7 +575,7 @@ impl SparseSolver {
                 if -alpha <= beta * t {
                     return -alpha / beta;
                 }
-                let d = self.rows[i].dot(&self.du);
+                let d = self.row_values[i];
                 let (y, rho) = (self.y[i], self.rho[i]);
                 // Crossing t toggles row i: active rows with d > 0 leave, others enter.
                 let sign = if y < 0.0 || (y == 0.0 && d < 0.0) {
@@ -1036,8 +1043,9 @@ impl SparseSolver {
             // pass over the rows.
             let mut change = 0.0f64;
             let mut holds = true;
-            for (i, row) in self.rows.iter().enumerate() {
-                let c = row.dot(&self.u) + self.r[i];
+            dots_into(&self.rows, &self.u, &mut self.row_values);
+            for i in 0..self.rows.len() {
+                let c = self.row_values[i] + self.r[i];
                 let l = (self.lambda[i] - self.rho[i] * c).max(0.0);
                 change = change.max((l - self.lambda[i]).abs() / self.rho[i]);
                 self.lambda[i] = l;
