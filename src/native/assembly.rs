@@ -103,6 +103,7 @@ fn body_terms(row: &mut SparseRow, i: usize, pose: &Pose, p: (f64, f64), d: (f64
 
 /// The normal row of one contact point (the `nrow` of [`contact_rows`]) at the positions `q`,
 /// without allocating: its entries and their number.
+#[inline]
 pub fn normal_row(c: &ContactPoint, q: &[f64]) -> ([(usize, f64); 6], usize) {
     let mut row = [(0, 0.0); 6];
     row[..3].copy_from_slice(&body_entries(c.b, &pose(q, c.b), c.point, c.normal, 1.0));

@@ -105,6 +105,7 @@ fn equal_to_zero(key: u64, g: f64, row: &SparseRow, w: f64) -> [ContactRows; 2] 
     })
 }
 
+#[inline]
 fn row_dot(row: &[(usize, f64)], x: &[f64]) -> f64 {
     row.iter().map(|&(i, c)| c * x[i]).sum()
 }
@@ -229,6 +230,7 @@ fn approaches(
 
 /// The normal and tangential relative velocities `(n·(v - w), t·(v - w))` of a point whose
 /// gradients at the end configuration are `(gn, gt, len)`; `w` the ground's velocity.
+#[inline]
 fn end_relative_velocity(
     c: &ContactPoint,
     (gn, gt, len): &(Gradient, Gradient, usize),

@@ -103,7 +103,7 @@ impl EdgeRow {
 /// `out[i] = rows[i] · x` for rows in edge pairs (as [`edge_rows`] makes them), each pair's `x`
 /// gathered once ([`EdgeRow::dot_pair`]).
 pub fn dots_into(rows: &[EdgeRow], x: &[f64], out: &mut Vec<f64>) {
-    assert!(rows.len() % 2 == 0, "edge rows come in pairs");
+    assert!(rows.len().is_multiple_of(2), "edge rows come in pairs");
     out.resize(rows.len(), 0.0);
     for (pair, dots) in rows.chunks_exact(2).zip(out.chunks_exact_mut(2)) {
         (dots[0], dots[1]) = EdgeRow::dot_pair(&pair[0], &pair[1], x);
