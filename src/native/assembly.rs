@@ -177,3 +177,51 @@ pub fn contact_key(c: &ContactPoint) -> u64 {
     };
     ((low as u64) << 40) | ((high as u64) << 16) | c.feature as u64
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_written_over_another_points_rows_are_that_points_rows() {
+        let ps = [
+            Pose {
+                x: 0.0,
+                z: 0.5,
+                phi: 0.01,
+            },
+            Pose {
+                x: 0.1,
+                z: 1.5,
+                phi: -0.02,
+            },
+        ];
+        let between = ContactPoint {
+            a: Some(0),
+            b: 1,
+            point: (0.3, 1.0),
+            normal: (0.0, 1.0),
+            gap: 1e-6,
+            feature: 3,
+        };
+        let on_ground = ContactPoint {
+            a: None,
+            b: 0,
+            point: (-0.5, 0.0),
+            normal: (0.0, 1.0),
+            gap: -2e-9,
+            feature: 0,
+        };
+        let mut rows = contact_rows(&between, &ps, 0.7, (1e-3, 0.0));
+        assert_eq!((rows.nrow.len(), rows.trow.len()), (6, 6));
+        contact_rows_into(&on_ground, &ps, 0.5, (1e-3, 2e-4), &mut rows);
+        let fresh = contact_rows(&on_ground, &ps, 0.5, (1e-3, 2e-4));
+        assert_eq!(rows, fresh);
+        assert_eq!(
+            (rows.nrow.len(), rows.key, rows.mu),
+            (3, contact_key(&on_ground), 0.5)
+        );
+        // The ground's displacement enters the offsets: `g_n = gap - n·Δd`, `g_t = -t·Δd`.
+        assert_eq!((rows.g_n, rows.g_t), (-2e-9 - 2e-4, -1e-3));
+    }
+}

@@ -180,3 +180,100 @@ pub fn step_solution_into(
     out.iterations = iterations;
     out.polished = false;
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::native::problem::{ContactRows, SparseRow};
+
+    /// Contact `k`'s rows: a point between two blocks (six entries) or on the ground (three).
+    fn contact(k: u64, between_blocks: bool, rnd: &mut impl FnMut() -> f64) -> ContactRows {
+        let bodies: &[usize] = if between_blocks { &[1, 0] } else { &[2] };
+        let entries = |rnd: &mut dyn FnMut() -> f64| {
+            let mut row = SparseRow::new();
+            for &b in bodies {
+                for d in 0..3 {
+                    row.push((3 * b + d, rnd()));
+                }
+            }
+            row
+        };
+        ContactRows {
+            key: k,
+            mu: 0.5 + 0.5 * rnd(),
+            g_n: 1e-4 * rnd(),
+            g_t: 1e-4 * rnd(),
+            nrow: entries(rnd),
+            trow: entries(rnd),
+        }
+    }
+
+    fn problem(kinds: &[bool], rnd: &mut impl FnMut() -> f64) -> StepProblem {
+        StepProblem {
+            theta: 0.5,
+            dt: 1e-3,
+            mass: vec![1.0; 9],
+            force: vec![0.0; 9],
+            v0: vec![0.0; 9],
+            contacts: kinds
+                .iter()
+                .enumerate()
+                .map(|(k, &b)| contact(k as u64, b, rnd))
+                .collect(),
+        }
+    }
+
+    fn same(a: &EdgeRow, b: &EdgeRow) -> bool {
+        a.idx == b.idx
+            && a.coef.map(f64::to_bits) == b.coef.map(f64::to_bits)
+            && a.len == b.len
+            && a.key == b.key
+    }
+
+    #[test]
+    fn edge_rows_written_over_other_rows_are_the_rows_of_a_fresh_buffer() {
+        let mut rnd = crate::test_random::signed(7);
+        let first = problem(&[true, true, true], &mut rnd);
+        // Fewer contacts, a ground point (three entries) where a six-entry row was.
+        let second = problem(&[false, true], &mut rnd);
+        let (mut rows, mut r) = (Vec::new(), Vec::new());
+        edge_rows(&first, &mut rows, &mut r);
+        assert_eq!(rows.len(), 6);
+        edge_rows(&second, &mut rows, &mut r);
+        let (mut fresh, mut fresh_r) = (Vec::new(), Vec::new());
+        edge_rows(&second, &mut fresh, &mut fresh_r);
+        assert_eq!(rows.len(), 4);
+        assert!(rows.iter().zip(&fresh).all(|(a, b)| same(a, b)));
+        assert_eq!(r, fresh_r);
+        assert_eq!((rows[0].len, rows[2].len), (3, 6));
+        assert_eq!(
+            (&rows[0].idx[3..], &rows[0].coef[3..]),
+            (&[0; 3][..], &[0.0; 3][..])
+        );
+        // The `+` and `-` edges of contact 0: `(nrow ± mu trow)`, offsets `(g_n ± mu g_t)/dt`.
+        let c = &second.contacts[0];
+        for (row, sign) in rows[..2].iter().zip([1.0, -1.0]) {
+            for j in 0..3 {
+                assert_eq!(row.coef[j], c.nrow[j].1 + sign * c.mu * c.trow[j].1);
+            }
+        }
+        assert_eq!(r[1], (c.g_n - c.mu * c.g_t) / second.dt);
+    }
+
+    #[test]
+    fn pair_dots_are_each_rows_dot_to_the_bit() {
+        let mut rnd = crate::test_random::signed(11);
+        let pr = problem(&[true, false, true, true, false], &mut rnd);
+        let (mut rows, mut r) = (Vec::new(), Vec::new());
+        edge_rows(&pr, &mut rows, &mut r);
+        let x: Vec<f64> = (0..9).map(|_| 1e3 * rnd()).collect();
+        let mut dots = vec![f64::NAN; 3];
+        dots_into(&rows, &x, &mut dots);
+        assert_eq!(dots.len(), rows.len());
+        for (row, d) in rows.iter().zip(&dots) {
+            let by_hand: f64 = (0..row.len).map(|j| row.coef[j] * x[row.idx[j]]).sum();
+            assert_eq!(d.to_bits(), row.dot(&x).to_bits());
+            assert!((d - by_hand).abs() <= 1e-12 * by_hand.abs().max(1.0));
+        }
+    }
+}
