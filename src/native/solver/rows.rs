@@ -49,28 +49,19 @@ impl EdgeRow {
         match a.len {
             6 => {
                 let g = [u[i[0]], u[i[1]], u[i[2]], u[i[3]], u[i[4]], u[i[5]]];
-                (
+                let along = |c: &[f64; 6]| -> f64 {
                     [
-                        ca[0] * g[0],
-                        ca[1] * g[1],
-                        ca[2] * g[2],
-                        ca[3] * g[3],
-                        ca[4] * g[4],
-                        ca[5] * g[5],
+                        c[0] * g[0],
+                        c[1] * g[1],
+                        c[2] * g[2],
+                        c[3] * g[3],
+                        c[4] * g[4],
+                        c[5] * g[5],
                     ]
                     .into_iter()
-                    .sum(),
-                    [
-                        cb[0] * g[0],
-                        cb[1] * g[1],
-                        cb[2] * g[2],
-                        cb[3] * g[3],
-                        cb[4] * g[4],
-                        cb[5] * g[5],
-                    ]
-                    .into_iter()
-                    .sum(),
-                )
+                    .sum()
+                };
+                (along(ca), along(cb))
             }
             _ => (a.dot(u), b.dot(u)),
         }
