@@ -417,6 +417,27 @@ fn stalled_warm_starts_go_to_the_rescue_with_the_same_solutions() {
     assert!(worst < 1e-10, "giving up against going on: {worst:.3e} m");
 }
 
+/// A rescue whose settle failed goes on with its interior point and settles again
+/// (`SparseSolver::resume_rescues`) instead of going to the cold retries: over the sliding
+/// wall's first 30 problems, each solved twice (the second time drifted), it is used, saves
+/// factorisations, and gives the solutions of the cold retries to the solvers' tolerance.
+#[test]
+fn rescues_resumed_after_a_failed_settle_give_the_cold_retries_solutions() {
+    let mut resuming = SparseSolver::new();
+    let mut retrying = SparseSolver::new();
+    retrying.resume_rescues = false;
+    let worst = the_sliding_wall_solved_by(&mut resuming, &mut retrying, 1e-9);
+    assert_eq!(retrying.resumed_rescues, 0);
+    assert!(
+        resuming.resumed_settled > 0,
+        "no rescue resumed and settled"
+    );
+    assert!(resuming.factorisations < retrying.factorisations);
+    // Measured: 2 rescues resumed, both settled; 1323 factorisations against 1462 (2 cold
+    // retries), 5.8e-14 m apart.
+    assert!(worst < 1e-10, "resumed against retried: {worst:.3e} m");
+}
+
 /// The largest difference, over every step of the gallery's 15 s, between each pair's
 /// positions in the gallery and in a run of that pair alone; and the gallery's steps of one
 /// island located apart from the others.

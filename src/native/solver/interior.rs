@@ -51,8 +51,19 @@ const PATH_MU: f64 = 1e-8;
 /// Iterations allowed from a kept iterate before the solve starts again cold.
 const MAX_PATH_ITERATIONS: usize = 30;
 
+/// Where the iterations start.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Start {
+    /// Mehrotra's least-squares point.
+    LeastSquares,
+    /// The kept iterate at `PATH_MU` of a problem with the same rows.
+    Path,
+    /// The iterate in hand.
+    Current,
+}
+
 /// A problem: `(P, q)` and the rows `(D, r)`.
-type Problem<'a> = ((&'a [f64], &'a [f64]), (&'a [EdgeRow], &'a [f64]));
+pub type Problem<'a> = ((&'a [f64], &'a [f64]), (&'a [EdgeRow], &'a [f64]));
 
 /// Buffers of the iteration.
 #[derive(Default, serde::Serialize, serde::Deserialize)]
@@ -109,7 +120,14 @@ impl InteriorPoint {
         if from_path && self.start_from_path(p.len(), rows, u, l) {
             self.path_starts += 1;
             let problem = ((p, q), (rows, r));
-            match self.iterate(envelope, problem, tolerance, (u, l), factorisations, true) {
+            match self.iterate(
+                envelope,
+                problem,
+                tolerance,
+                (u, l),
+                factorisations,
+                Start::Path,
+            ) {
                 Ok(iterations) => return Ok(iterations),
                 Err(_) => self.path_failures += 1,
             }
@@ -120,7 +138,31 @@ impl InteriorPoint {
             tolerance,
             (u, l),
             factorisations,
-            false,
+            Start::LeastSquares,
+        )
+    }
+
+    /// The last solve continued from its final iterate (`u`, `l` as it returned them, its
+    /// slacks kept) to a smaller `tolerance`, on the same problem.
+    pub fn resume(
+        &mut self,
+        envelope: &mut Envelope,
+        problem: Problem,
+        tolerance: f64,
+        (u, l): (&mut Vec<f64>, &mut Vec<f64>),
+        factorisations: &mut u64,
+    ) -> Result<usize, String> {
+        let ((p, _), (rows, _)) = problem;
+        if self.s.len() != rows.len() || l.len() != rows.len() || u.len() != p.len() {
+            return Err("interior point: no iterate of this problem to resume".into());
+        }
+        self.iterate(
+            envelope,
+            problem,
+            tolerance,
+            (u, l),
+            factorisations,
+            Start::Current,
         )
     }
 
@@ -162,8 +204,9 @@ impl InteriorPoint {
         tolerance: f64,
         (u, l): (&mut Vec<f64>, &mut Vec<f64>),
         factorisations: &mut u64,
-        from_path: bool,
+        start: Start,
     ) -> Result<usize, String> {
+        let from_path = start == Start::Path;
         let (n, m) = (p.len(), rows.len());
         self.w_max.clear();
         self.w_max.extend(rows.iter().map(|row| {
@@ -172,7 +215,7 @@ impl InteriorPoint {
                 .sum();
             WEIGHT_MAX / d
         }));
-        if !from_path {
+        if start == Start::LeastSquares {
             self.least_squares_start(envelope, (p, q), (rows, r), (u, l), factorisations)?;
         }
         let q_size = 1.0 + q.iter().fold(0.0f64, |a, x| a.max(x.abs()));
@@ -181,9 +224,12 @@ impl InteriorPoint {
         } else {
             MAX_ITERATIONS
         };
-        // The kept iterate is replaced by this solve's at `PATH_MU` (not by its start).
-        self.path_keys.clear();
-        let mut kept = false;
+        // The kept iterate is replaced by this solve's at `PATH_MU` (not by its start); a
+        // resumed solve keeps its own.
+        let mut kept = start == Start::Current;
+        if !kept {
+            self.path_keys.clear();
+        }
         for iteration in 1..=max_iterations {
             // Residuals.
             self.rd.clear();
@@ -463,6 +509,65 @@ mod tests {
             // The loads make some rows bind (else the test says little).
             assert!(closed > 0, "{n_blocks} blocks: no row binds");
         }
+    }
+
+    /// A solve resumed from where it stopped to a smaller tolerance meets the KKT conditions to
+    /// that tolerance, in fewer iterations than a solve to it from the least-squares start; a
+    /// resume with no iterate in hand is refused.
+    #[test]
+    fn a_resumed_solve_goes_on_to_a_smaller_tolerance() {
+        let mut rnd = sequence(7);
+        let n_blocks = 40;
+        let n = 3 * n_blocks;
+        let pairs: Vec<(usize, usize)> = (1..n_blocks).map(|b| (b - 1, b)).collect();
+        let mut envelope = Envelope::new(n_blocks, &pairs);
+        let (rows, r) = chain(n_blocks, &mut rnd);
+        let p: Vec<f64> = (0..n).map(|_| 1.25 + 0.75 * rnd()).collect();
+        let q: Vec<f64> = (0..n).map(|_| 3.0 * rnd()).collect();
+        let problem = ((&p[..], &q[..]), (&rows[..], &r[..]));
+        let (mut u, mut l) = (Vec::new(), Vec::new());
+        let mut resumed = InteriorPoint::default();
+        assert!(
+            resumed
+                .resume(&mut envelope, problem, 1e-10, (&mut u, &mut l), &mut 0)
+                .is_err()
+        );
+        resumed
+            .solve(
+                &mut envelope,
+                problem.0,
+                problem.1,
+                1e-6,
+                (&mut u, &mut l),
+                &mut 0,
+                false,
+            )
+            .unwrap();
+        let further = resumed
+            .resume(&mut envelope, problem, 1e-10, (&mut u, &mut l), &mut 0)
+            .unwrap();
+        assert_kkt(n_blocks, problem.0, problem.1, (&u, &l), 1e-10);
+        let (mut u_cold, mut l_cold) = (Vec::new(), Vec::new());
+        let cold = InteriorPoint::default()
+            .solve(
+                &mut envelope,
+                problem.0,
+                problem.1,
+                1e-10,
+                (&mut u_cold, &mut l_cold),
+                &mut 0,
+                false,
+            )
+            .unwrap();
+        assert!(
+            further > 0 && further < cold,
+            "resumed {further}, cold {cold}"
+        );
+        let apart = u
+            .iter()
+            .zip(&u_cold)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        assert!(apart < 1e-8, "resumed and cold solutions {apart:.2e} apart");
     }
 
     /// A problem with the last solve's rows (here shuffled, their offsets moved by up to 1e-3 as
