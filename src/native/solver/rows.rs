@@ -24,16 +24,7 @@ impl EdgeRow {
         // same order, as the general loop.
         let (c, i) = (&self.coef, &self.idx);
         match self.len {
-            6 => [
-                c[0] * u[i[0]],
-                c[1] * u[i[1]],
-                c[2] * u[i[2]],
-                c[3] * u[i[3]],
-                c[4] * u[i[4]],
-                c[5] * u[i[5]],
-            ]
-            .into_iter()
-            .sum(),
+            6 => two_bodies(c, [u[i[0]], u[i[1]], u[i[2]], u[i[3]], u[i[4]], u[i[5]]]),
             3 => [c[0] * u[i[0]], c[1] * u[i[1]], c[2] * u[i[2]]]
                 .into_iter()
                 .sum(),
@@ -49,19 +40,7 @@ impl EdgeRow {
         match a.len {
             6 => {
                 let g = [u[i[0]], u[i[1]], u[i[2]], u[i[3]], u[i[4]], u[i[5]]];
-                let along = |c: &[f64; 6]| -> f64 {
-                    [
-                        c[0] * g[0],
-                        c[1] * g[1],
-                        c[2] * g[2],
-                        c[3] * g[3],
-                        c[4] * g[4],
-                        c[5] * g[5],
-                    ]
-                    .into_iter()
-                    .sum()
-                };
-                (along(ca), along(cb))
+                (two_bodies(ca, g), two_bodies(cb, g))
             }
             _ => (a.dot(u), b.dot(u)),
         }
@@ -89,6 +68,22 @@ impl EdgeRow {
             x[self.idx[j]] += a * self.coef[j];
         }
     }
+}
+
+/// `c · g` for a row on two bodies, `g` its six DOFs' values gathered: the sum of
+/// [`EdgeRow::dot`] and [`EdgeRow::dot_pair`], in one order.
+#[inline(always)]
+fn two_bodies(c: &[f64; 6], g: [f64; 6]) -> f64 {
+    [
+        c[0] * g[0],
+        c[1] * g[1],
+        c[2] * g[2],
+        c[3] * g[3],
+        c[4] * g[4],
+        c[5] * g[5],
+    ]
+    .into_iter()
+    .sum()
 }
 
 /// `out[i] = rows[i] · x` for rows in edge pairs (as [`edge_rows`] makes them), each pair's `x`
