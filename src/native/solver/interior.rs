@@ -445,6 +445,22 @@ mod tests {
         (rows, r)
     }
 
+    /// A chain's problem: its envelope, its rows and offsets ([`chain`]), and a random `P`
+    /// (diagonal, 0.5 to 2) and `q`.
+    #[allow(clippy::type_complexity)]
+    fn chain_problem(
+        n_blocks: usize,
+        rnd: &mut impl FnMut() -> f64,
+    ) -> (Envelope, (Vec<EdgeRow>, Vec<f64>), (Vec<f64>, Vec<f64>)) {
+        let n = 3 * n_blocks;
+        let pairs: Vec<(usize, usize)> = (1..n_blocks).map(|b| (b - 1, b)).collect();
+        let envelope = Envelope::new(n_blocks, &pairs);
+        let rows = chain(n_blocks, rnd);
+        let p: Vec<f64> = (0..n).map(|_| 1.25 + 0.75 * rnd()).collect();
+        let q: Vec<f64> = (0..n).map(|_| 3.0 * rnd()).collect();
+        (envelope, rows, (p, q))
+    }
+
     /// The KKT conditions of the QP at `(u, l)` to `tolerance`; returns the rows that bind.
     fn assert_kkt(
         n_blocks: usize,
@@ -484,12 +500,7 @@ mod tests {
     fn interior_point_meets_the_kkt_conditions() {
         let mut rnd = sequence(11);
         for n_blocks in [1usize, 3, 12, 40] {
-            let n = 3 * n_blocks;
-            let pairs: Vec<(usize, usize)> = (1..n_blocks).map(|b| (b - 1, b)).collect();
-            let mut envelope = Envelope::new(n_blocks, &pairs);
-            let (rows, r) = chain(n_blocks, &mut rnd);
-            let p: Vec<f64> = (0..n).map(|_| 1.25 + 0.75 * rnd()).collect();
-            let q: Vec<f64> = (0..n).map(|_| 3.0 * rnd()).collect();
+            let (mut envelope, (rows, r), (p, q)) = chain_problem(n_blocks, &mut rnd);
             let (mut u, mut l) = (Vec::new(), Vec::new());
             let mut factorisations = 0;
             let tolerance = 1e-8;
@@ -518,12 +529,7 @@ mod tests {
     fn a_resumed_solve_goes_on_to_a_smaller_tolerance() {
         let mut rnd = sequence(7);
         let n_blocks = 40;
-        let n = 3 * n_blocks;
-        let pairs: Vec<(usize, usize)> = (1..n_blocks).map(|b| (b - 1, b)).collect();
-        let mut envelope = Envelope::new(n_blocks, &pairs);
-        let (rows, r) = chain(n_blocks, &mut rnd);
-        let p: Vec<f64> = (0..n).map(|_| 1.25 + 0.75 * rnd()).collect();
-        let q: Vec<f64> = (0..n).map(|_| 3.0 * rnd()).collect();
+        let (mut envelope, (rows, r), (p, q)) = chain_problem(n_blocks, &mut rnd);
         let problem = ((&p[..], &q[..]), (&rows[..], &r[..]));
         let (mut u, mut l) = (Vec::new(), Vec::new());
         let mut resumed = InteriorPoint::default();
@@ -577,15 +583,10 @@ mod tests {
     fn a_neighbouring_problem_starts_from_the_last_iterate() {
         let mut rnd = sequence(5);
         let n_blocks = 40;
-        let n = 3 * n_blocks;
-        let pairs: Vec<(usize, usize)> = (1..n_blocks).map(|b| (b - 1, b)).collect();
-        let mut envelope = Envelope::new(n_blocks, &pairs);
-        let (mut rows, mut r) = chain(n_blocks, &mut rnd);
+        let (mut envelope, (mut rows, mut r), (p, q)) = chain_problem(n_blocks, &mut rnd);
         for (k, row) in rows.iter_mut().enumerate() {
             row.key = k as u64;
         }
-        let p: Vec<f64> = (0..n).map(|_| 1.25 + 0.75 * rnd()).collect();
-        let q: Vec<f64> = (0..n).map(|_| 3.0 * rnd()).collect();
         let tolerance = 1e-8;
         let mut kept = InteriorPoint::default();
         let mut solve = |ip: &mut InteriorPoint, rows: &[EdgeRow], r: &[f64], from_path| {
