@@ -58,8 +58,28 @@ enum Start {
     LeastSquares,
     /// The kept iterate at `PATH_MU` of a problem with the same rows.
     Path,
-    /// The iterate in hand.
-    Current,
+    /// The iterate in hand, for at most this many iterations.
+    Current(usize),
+}
+
+/// How iterations that did not fail ended.
+enum Ended {
+    /// At the tolerance, after this many iterations.
+    Converged(usize),
+    /// Out of iterations (this many), the last iterate in hand.
+    OutOfIterations(usize),
+}
+
+impl Ended {
+    /// The iterations taken to the tolerance, or the error of a solve that ran out of them.
+    fn converged(self) -> Result<usize, String> {
+        match self {
+            Ended::Converged(iterations) => Ok(iterations),
+            Ended::OutOfIterations(max) => {
+                Err(format!("interior point: not converged in {max} iterations"))
+            }
+        }
+    }
 }
 
 /// A problem: `(P, q)` and the rows `(D, r)`.
@@ -120,14 +140,17 @@ impl InteriorPoint {
         if from_path && self.start_from_path(p.len(), rows, u, l) {
             self.path_starts += 1;
             let problem = ((p, q), (rows, r));
-            match self.iterate(
-                envelope,
-                problem,
-                tolerance,
-                (u, l),
-                factorisations,
-                Start::Path,
-            ) {
+            match self
+                .iterate(
+                    envelope,
+                    problem,
+                    tolerance,
+                    (u, l),
+                    factorisations,
+                    Start::Path,
+                )
+                .and_then(Ended::converged)
+            {
                 Ok(iterations) => return Ok(iterations),
                 Err(_) => self.path_failures += 1,
             }
@@ -140,10 +163,13 @@ impl InteriorPoint {
             factorisations,
             Start::LeastSquares,
         )
+        .and_then(Ended::converged)
     }
 
     /// The last solve continued from its final iterate (`u`, `l` as it returned them, its
-    /// slacks kept) to a smaller `tolerance`, on the same problem.
+    /// slacks kept) towards a smaller `tolerance`, on the same problem, for at most
+    /// `max_iterations`: whether it got there; either way `(u, l)` and the slacks are its last
+    /// iterate. Fails as [`InteriorPoint::solve`] does, but for running out of iterations.
     pub fn resume(
         &mut self,
         envelope: &mut Envelope,
@@ -151,7 +177,8 @@ impl InteriorPoint {
         tolerance: f64,
         (u, l): (&mut Vec<f64>, &mut Vec<f64>),
         factorisations: &mut u64,
-    ) -> Result<usize, String> {
+        max_iterations: usize,
+    ) -> Result<bool, String> {
         let ((p, _), (rows, _)) = problem;
         if self.s.len() != rows.len() || l.len() != rows.len() || u.len() != p.len() {
             return Err("interior point: no iterate of this problem to resume".into());
@@ -162,8 +189,9 @@ impl InteriorPoint {
             tolerance,
             (u, l),
             factorisations,
-            Start::Current,
+            Start::Current(max_iterations),
         )
+        .map(|ended| matches!(ended, Ended::Converged(_)))
     }
 
     /// `u`, `l` and the slacks from the kept iterate, when the problem has its rows and DOFs.
@@ -205,7 +233,7 @@ impl InteriorPoint {
         (u, l): (&mut Vec<f64>, &mut Vec<f64>),
         factorisations: &mut u64,
         start: Start,
-    ) -> Result<usize, String> {
+    ) -> Result<Ended, String> {
         let from_path = start == Start::Path;
         let (n, m) = (p.len(), rows.len());
         self.w_max.clear();
@@ -219,14 +247,14 @@ impl InteriorPoint {
             self.least_squares_start(envelope, (p, q), (rows, r), (u, l), factorisations)?;
         }
         let q_size = 1.0 + q.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let max_iterations = if from_path {
-            MAX_PATH_ITERATIONS
-        } else {
-            MAX_ITERATIONS
+        let max_iterations = match start {
+            Start::LeastSquares => MAX_ITERATIONS,
+            Start::Path => MAX_PATH_ITERATIONS,
+            Start::Current(max) => max,
         };
         // The kept iterate is replaced by this solve's at `PATH_MU` (not by its start); a
         // resumed solve keeps its own.
-        let mut kept = start == Start::Current;
+        let mut kept = matches!(start, Start::Current(_));
         if !kept {
             self.path_keys.clear();
         }
@@ -253,7 +281,7 @@ impl InteriorPoint {
                 self.path_l.clone_from(l);
             }
             if primal <= tolerance && dual <= tolerance && mu <= tolerance * tolerance {
-                return Ok(iteration - 1);
+                return Ok(Ended::Converged(iteration - 1));
             }
             // The Newton matrix.
             self.w.clear();
@@ -317,9 +345,7 @@ impl InteriorPoint {
                 *li = (*li + dual * self.dl[i]).max(f64::MIN_POSITIVE);
             }
         }
-        Err(format!(
-            "interior point: not converged in {max_iterations} iterations"
-        ))
+        Ok(Ended::OutOfIterations(max_iterations))
     }
 
     /// Mehrotra's start: the minimiser of `1/2 u'Pu + q'u + 1/2 |D u + r|^2`, whose multiplier
@@ -524,7 +550,8 @@ mod tests {
 
     /// A solve resumed from where it stopped to a smaller tolerance meets the KKT conditions to
     /// that tolerance, in fewer iterations than a solve to it from the least-squares start; a
-    /// resume with no iterate in hand is refused.
+    /// resume out of iterations says so and leaves its last iterate (finite, inside the bounds);
+    /// a resume with no iterate in hand is refused.
     #[test]
     fn a_resumed_solve_goes_on_to_a_smaller_tolerance() {
         let mut rnd = sequence(7);
@@ -535,7 +562,7 @@ mod tests {
         let mut resumed = InteriorPoint::default();
         assert!(
             resumed
-                .resume(&mut envelope, problem, 1e-10, (&mut u, &mut l), &mut 0)
+                .resume(&mut envelope, problem, 1e-10, (&mut u, &mut l), &mut 0, 60)
                 .is_err()
         );
         resumed
@@ -549,25 +576,51 @@ mod tests {
                 false,
             )
             .unwrap();
-        let further = resumed
-            .resume(&mut envelope, problem, 1e-10, (&mut u, &mut l), &mut 0)
+        let mut once = InteriorPoint::default();
+        let (mut u_once, mut l_once) = (u.clone(), l.clone());
+        once.s.clone_from(&resumed.s);
+        let reached = once
+            .resume(
+                &mut envelope,
+                problem,
+                1e-10,
+                (&mut u_once, &mut l_once),
+                &mut 0,
+                1,
+            )
             .unwrap();
+        assert!(!reached, "one iteration from 1e-6 to 1e-10");
+        assert!(u_once.iter().chain(&l_once).all(|x| x.is_finite()));
+        assert!(once.s.iter().chain(&l_once).all(|&x| x > 0.0) && u_once != u);
+        let mut further = 0;
+        let reached = resumed
+            .resume(
+                &mut envelope,
+                problem,
+                1e-10,
+                (&mut u, &mut l),
+                &mut further,
+                60,
+            )
+            .unwrap();
+        assert!(reached);
         assert_kkt(n_blocks, problem.0, problem.1, (&u, &l), 1e-10);
         let (mut u_cold, mut l_cold) = (Vec::new(), Vec::new());
-        let cold = InteriorPoint::default()
+        let mut cold = 0;
+        InteriorPoint::default()
             .solve(
                 &mut envelope,
                 problem.0,
                 problem.1,
                 1e-10,
                 (&mut u_cold, &mut l_cold),
-                &mut 0,
+                &mut cold,
                 false,
             )
             .unwrap();
         assert!(
             further > 0 && further < cold,
-            "resumed {further}, cold {cold}"
+            "factorisations resumed {further}, cold {cold}"
         );
         let apart = u
             .iter()

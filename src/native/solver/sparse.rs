@@ -158,12 +158,19 @@ const RESCUE_TOLERANCE: f64 = 1e-8;
 /// its square) before it settles again: the rows closed at `RESCUE_TOLERANCE` that the settle
 /// could not hold are then told apart. Without it such a problem went to the cold retries,
 /// which rebuild its working rows a few at a time. Measured (`wall_steps`, all factorisations,
-/// without -> with): the sliding walls of 215 / 430 / 860 blocks at step ends (30 pulse steps)
-/// 2060 / 2614 / 3764 -> 2160 / 2575 / 3295, their cold retries 48 / 149 / 490 factorisations
-/// against 12 / 27 / 101 for the resumed rescues (every one of which settled); the located
-/// sliding 215-block wall (ten steps) 10442 -> 9451 (25 cold retries of 1500 factorisations
-/// against 31 resumed rescues of 228 and one cold retry of 17).
+/// without -> with, `RESUMED_ITERATIONS` 12): the sliding walls of 215 / 430 / 860 blocks at
+/// step ends (30 pulse steps) 2060 / 2614 / 3764 -> 2042 / 2575 / 3424, their cold retries 48 /
+/// 149 / 490 factorisations against 33 / 27 / 102 for the resumed rescues (4 / 4 / 12, every
+/// one settled, no cold retry left); the located sliding 215-block wall (ten steps) 10442 ->
+/// 9163 (25 cold retries of 1500 factorisations against 24 resumed rescues of 185).
 const RESUMED_TOLERANCE: f64 = 1e-10;
+/// The interior point's iterations allowed from where a rescue stopped towards
+/// `RESUMED_TOLERANCE`; the last iterate is settled whether it got there or not. Uncapped, 61
+/// resumes on the walls of `RESUMED_TOLERANCE` took 3-9 iterations but for three, of 16, 35 and
+/// 60 (the last out of iterations, its `mu` stalled at 1e-19 on a settled end velocity of the
+/// sliding 215-block wall, which the cold retries then solved in 47 factorisations more); with
+/// the cap every resumed rescue settled.
+const RESUMED_ITERATIONS: usize = 12;
 /// Newton steps of the last retry: measured on a 430-block wall at 4.2 s of El Centro x2, a cold
 /// start rebuilt about 900 active rows some 30 a step (the exact line search stops at the first
 /// breaks), past 60 steps.
@@ -894,9 +901,11 @@ impl SparseSolver {
                     RESUMED_TOLERANCE,
                     (&mut u, &mut l),
                     &mut self.factorisations,
+                    RESUMED_ITERATIONS,
                 )
                 .map_err(Self::fail)?;
-            // The interior point's iterations replaced the envelope's factor.
+            // The interior point's iterations replaced the envelope's factor; its last iterate
+            // is settled whether or not it reached `RESUMED_TOLERANCE` (the settle decides).
             self.factored = None;
             result = self.settle_rescued(pr, u, l);
             self.resumed_settled += u64::from(result.is_ok());
