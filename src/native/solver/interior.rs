@@ -549,8 +549,8 @@ mod tests {
     }
 
     /// A solve resumed from where it stopped to a smaller tolerance meets the KKT conditions to
-    /// that tolerance, in fewer iterations than a solve to it from the least-squares start; a
-    /// resume out of iterations says so and leaves its last iterate (finite, inside the bounds);
+    /// that tolerance, in fewer factorisations than a solve to it from the least-squares start;
+    /// a resume out of iterations says so and leaves its last iterate (finite, inside the bounds);
     /// a resume with no iterate in hand is refused.
     #[test]
     fn a_resumed_solve_goes_on_to_a_smaller_tolerance() {
