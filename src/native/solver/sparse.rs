@@ -165,7 +165,7 @@ const RESCUE_TOLERANCE: f64 = 1e-8;
 /// 9163 (25 cold retries of 1500 factorisations against 24 resumed rescues of 185).
 const RESUMED_TOLERANCE: f64 = 1e-10;
 /// The interior point's iterations allowed from where a rescue stopped towards
-/// `RESUMED_TOLERANCE`; the last iterate is settled whether it got there or not. Uncapped, 61
+/// `RESUMED_TOLERANCE`; the last iterate is settled whether it got there or not. Uncapped, 47
 /// resumes on the walls of `RESUMED_TOLERANCE` took 3-9 iterations but for three, of 16, 35 and
 /// 60 (the last out of iterations, its `mu` stalled at 1e-19 on a settled end velocity of the
 /// sliding 215-block wall, which the cold retries then solved in 47 factorisations more); with
@@ -321,7 +321,7 @@ pub struct SparseSolver {
     pub rescues: u64,
     /// Problems after a rescue solved from its held rows (see `SparseSolver::solve_step`).
     pub rescues_reused: u64,
-    /// Rescues whose settle failed and whose interior point went on to `RESUMED_TOLERANCE`
+    /// Rescues whose settle failed and whose interior point went on towards `RESUMED_TOLERANCE`
     /// (see `SparseSolver::rescue`), and of them those settled then.
     pub resumed_rescues: u64,
     pub resumed_settled: u64,
@@ -865,9 +865,9 @@ impl SparseSolver {
     ///
     /// A problem with the rows of the last interior-point solve, and its step's length, starts
     /// from that solve's iterate near the central path (`InteriorPoint::solve`). Where the
-    /// settle fails, the interior point goes on from where it stopped to `RESUMED_TOLERANCE`
-    /// and its solution is settled again (`resume_rescues`); what still fails goes on to the
-    /// cold retries.
+    /// settle fails, the interior point goes on from where it stopped towards
+    /// `RESUMED_TOLERANCE` for at most `RESUMED_ITERATIONS`, and its last iterate is settled
+    /// again (`resume_rescues`); what still fails goes on to the cold retries.
     fn rescue(&mut self, pr: &StepProblem) -> Result<StepSolution, SolveFailure> {
         let sc = pr.scaled();
         if self.rows.is_empty() || self.envelope.dofs() != sc.p.len() {
