@@ -262,7 +262,6 @@ pub struct SparseSolver {
     du: Vec<f64>,
     /// `D_i u + r_i - l_i / rho_i`.
     y: Vec<f64>,
-    active: Vec<u64>,
     /// Whether each row is in the Newton matrix (`y_i` below its margin, or held).
     in_matrix: Vec<bool>,
     /// Rows held in the Newton matrix whatever their `y_i` (the interior-point rescue's closed
@@ -303,10 +302,11 @@ pub struct SparseSolver {
     pairs: Vec<(usize, usize)>,
     pairs_now: Vec<(usize, usize)>,
     envelope: Envelope,
-    /// Keys of the rows in the current factor; `None` when there is no usable factor.
-    factored: Option<Vec<u64>>,
+    /// Whether a usable factor is in hand (of this problem's rows while `fresh`, else of an
+    /// earlier problem's).
+    factored: bool,
     /// Which rows are in the current factor, while it is fresh (`in_matrix` when it was built
-    /// or last updated).
+    /// or last updated): the factor is exact when they are the rows now in the Newton matrix.
     factored_in: Vec<bool>,
     /// Whether the factor was built from this step's rows.
     fresh: bool,
@@ -419,7 +419,7 @@ impl SparseSolver {
         self.held.clear();
         self.previous_keys.clear();
         self.previous_lambda.clear();
-        self.factored = None;
+        self.factored = false;
         self.still = false;
     }
 
@@ -445,7 +445,7 @@ impl SparseSolver {
         if self.pairs_now != self.pairs || self.envelope.dofs() != 3 * n_blocks {
             std::mem::swap(&mut self.pairs, &mut self.pairs_now);
             self.envelope = Envelope::new(n_blocks, &self.pairs);
-            self.factored = None;
+            self.factored = false;
         }
     }
 
@@ -463,10 +463,10 @@ impl SparseSolver {
         }
         self.factorisations += 1;
         if !self.envelope.factor() {
-            self.factored = None;
+            self.factored = false;
             return Err(Self::fail("Newton matrix not positive definite".into()));
         }
-        self.factored = Some(self.active.clone());
+        self.factored = true;
         self.factored_in.clone_from(&self.in_matrix);
         self.fresh = true;
         Ok(())
@@ -498,14 +498,14 @@ impl SparseSolver {
                         .envelope
                         .update(sigma, &row.idx[..row.len], &row.coef[..row.len])
                     {
-                        self.factored = None;
+                        self.factored = false;
                         return false;
                     }
                 }
             }
         }
         self.updates += changed as u64;
-        self.factored = Some(self.active.clone());
+        self.factored = true;
         self.factored_in.clone_from(&self.in_matrix);
         true
     }
@@ -519,20 +519,20 @@ impl SparseSolver {
         }
     }
 
-    /// `y` at the current `u`, and the keys of the rows in the Newton matrix.
+    /// Whether the factor in hand is that of this problem's rows now in the Newton matrix.
+    fn factor_is_exact(&self) -> bool {
+        self.fresh && self.factored && self.factored_in == self.in_matrix
+    }
+
+    /// `y` at the current `u`, and which rows are in the Newton matrix.
     fn classify(&mut self) {
         let n = self.rows.len();
         self.y.resize(n, 0.0);
         self.in_matrix.resize(n, false);
-        self.active.clear();
         dots_into(&self.rows, &self.u, &mut self.row_values);
-        for (i, row) in self.rows.iter().enumerate() {
+        for i in 0..n {
             let y = self.row_values[i] + self.r[i] - self.lambda[i] / self.rho[i];
-            let in_matrix = y < self.margin(i) || self.held.get(i).copied().unwrap_or(false);
-            if in_matrix {
-                self.active.push(row.key);
-            }
-            self.in_matrix[i] = in_matrix;
+            self.in_matrix[i] = y < self.margin(i) || self.held.get(i).copied().unwrap_or(false);
             self.y[i] = y;
         }
     }
@@ -637,11 +637,11 @@ impl SparseSolver {
         };
         for it in 1..=max_newton {
             self.classify();
-            let mut exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
-            if !exact && self.update_factors && self.fresh && self.factored.is_some() {
+            let mut exact = self.factor_is_exact();
+            if !exact && self.update_factors && self.fresh && self.factored {
                 exact = self.update_factor();
             }
-            if self.factored.is_none() || (!exact && !trusted) {
+            if !self.factored || (!exact && !trusted) {
                 if refinements > 0 && (self.wide || still) {
                     // On a wide envelope a refinement is never worth a factorisation, nor where
                     // nothing moves: the residual's work is its dot product with `u`. On a
@@ -656,7 +656,7 @@ impl SparseSolver {
                     trusted = true;
                 }
             }
-            let exact = self.fresh && self.factored.as_deref() == Some(&self.active[..]);
+            let exact = self.factor_is_exact();
             self.du.clear();
             self.du
                 .extend((0..p.len()).map(|j| -(p[j] * self.u[j] + q[j])));
@@ -685,7 +685,7 @@ impl SparseSolver {
                 && !self.last_retry
             {
                 self.stalled_warm_starts += 1;
-                self.factored = None;
+                self.factored = false;
                 return Err(Self::fail(format!(
                     "a Newton step cut to {tau:.1e} by the line search on a wide problem"
                 )));
@@ -701,7 +701,7 @@ impl SparseSolver {
             }
             still = size <= STILL_SPEED;
             if !(step.is_finite() && tau.is_finite()) {
-                self.factored = None;
+                self.factored = false;
                 return Err(Self::fail("non-finite Newton step".into()));
             }
             if step <= NEWTON_TOLERANCE * (1.0 + size)
@@ -746,7 +746,7 @@ impl SparseSolver {
             }
             last_step = step;
         }
-        self.factored = None;
+        self.factored = false;
         Err(Self::fail(format!(
             "Newton's iteration did not converge in {max_newton} steps"
         )))
@@ -874,7 +874,7 @@ impl SparseSolver {
             return Err(Self::fail("no rows to rescue".into()));
         }
         self.rescues += 1;
-        self.factored = None;
+        self.factored = false;
         let (mut u, mut l) = (Vec::new(), Vec::new());
         // The interior point's kept iterate is that of the last solve, whatever its outcome.
         let from_path = self.reuse_rescues && pr.dt == self.rescued_dt;
@@ -906,7 +906,7 @@ impl SparseSolver {
                 .map_err(Self::fail)?;
             // The interior point's iterations replaced the envelope's factor; its last iterate
             // is settled whether or not it reached `RESUMED_TOLERANCE` (the settle decides).
-            self.factored = None;
+            self.factored = false;
             result = self.settle_rescued(pr, u, l);
             self.resumed_settled += u64::from(result.is_ok());
         }
@@ -1127,7 +1127,7 @@ impl SparseSolver {
                 for (rho, base) in self.rho.iter_mut().zip(&self.rho_base) {
                     *rho = (*rho * 10.0).min(base * RHO_MAX / RHO);
                 }
-                self.factored = None;
+                self.factored = false;
             }
             last_change = change;
         }
