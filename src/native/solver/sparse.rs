@@ -510,10 +510,11 @@ impl SparseSolver {
         true
     }
 
-    /// Rows with `y_i` below this are in the Newton matrix (see [`CLOSED_MARGIN`]).
-    fn margin(&self, i: usize) -> f64 {
+    /// Rows with `y_i` below `margin (1 + |r_i|)` are in the Newton matrix (see
+    /// [`CLOSED_MARGIN`]).
+    fn margin(&self) -> f64 {
         if self.wide || self.last_retry {
-            CLOSED_MARGIN * (1.0 + self.r[i].abs())
+            CLOSED_MARGIN
         } else {
             0.0
         }
@@ -530,9 +531,11 @@ impl SparseSolver {
         self.y.resize(n, 0.0);
         self.in_matrix.resize(n, false);
         dots_into(&self.rows, &self.u, &mut self.row_values);
+        let margin = self.margin();
         for i in 0..n {
             let y = self.row_values[i] + self.r[i] - self.lambda[i] / self.rho[i];
-            self.in_matrix[i] = y < self.margin(i) || self.held.get(i).copied().unwrap_or(false);
+            self.in_matrix[i] =
+                y < margin * (1.0 + self.r[i].abs()) || self.held.get(i).copied().unwrap_or(false);
             self.y[i] = y;
         }
     }
