@@ -70,8 +70,8 @@ impl EdgeRow {
     }
 }
 
-/// `c · g` for a row on two bodies, `g` its six DOFs' values gathered: the sum of
-/// [`EdgeRow::dot`] and [`EdgeRow::dot_pair`], in one order.
+/// `c · g` for a row on two bodies, `g` its six DOFs' values gathered: the one order of
+/// summation that [`EdgeRow::dot`] and [`EdgeRow::dot_pair`] share.
 #[inline(always)]
 fn two_bodies(c: &[f64; 6], g: [f64; 6]) -> f64 {
     [

@@ -166,7 +166,7 @@ const RESCUE_TOLERANCE: f64 = 1e-8;
 const RESUMED_TOLERANCE: f64 = 1e-10;
 /// The interior point's iterations allowed from where a rescue stopped towards
 /// `RESUMED_TOLERANCE`; the last iterate is settled whether it got there or not. Uncapped, 47
-/// resumes on the walls of `RESUMED_TOLERANCE` took 3-9 iterations but for three, of 16, 35 and
+/// resumes on the walls measured there took 3-9 iterations but for three, of 16, 35 and
 /// 60 (the last out of iterations, its `mu` stalled at 1e-19 on a settled end velocity of the
 /// sliding 215-block wall, which the cold retries then solved in 47 factorisations more); with
 /// the cap every resumed rescue settled.
