@@ -337,13 +337,17 @@ bench-walls-targets: records $(VENV)/.requirements.stamp
 # out/bench-walls-in-motion/{located,step-ends}. The joints of these walls are at their cones'
 # edges (the base slides at the joints' friction) and slip; in one-piece/{located,step-ends} the
 # bottom course's interfaces are at 0.5, and the walls of up to 430 blocks slide as one piece
-# (the 860-block wall's joints still open). About a minute (docs/method.md, "Walls": "Why a
-# sliding wall is the worst case", "A rigidly sliding wall").
+# (the 860-block wall's joints still open). In long/step-ends the walls of 10 courses grow
+# along their length instead (21 / 42 / 84 blocks a course: 215, 425 and 845 blocks), so their
+# envelope keeps its width where the series above widens to a course. About a minute
+# (docs/method.md, "Walls": "Why a sliding wall is the worst case", "A rigidly sliding wall",
+# "Walls grown along their length").
 bench-walls-in-motion:
 	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10 --pulse 0.8 --duration 0.01 --out out/bench-walls-in-motion/located
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --locate-impacts false --out out/bench-walls-in-motion/step-ends
 	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10 --pulse 0.8 --duration 0.01 --ground-friction 0.5 --out out/bench-walls-in-motion/one-piece/located
 	$(CARGO) run --release --example bench_dynamic -- --courses 10,20,40 --pulse 0.8 --duration 0.01 --ground-friction 0.5 --locate-impacts false --out out/bench-walls-in-motion/one-piece/step-ends
+	$(CARGO) run --release --example bench_dynamic -- --courses 10 --lengths 21,42,84 --pulse 0.8 --duration 0.01 --locate-impacts false --out out/bench-walls-in-motion/long/step-ends
 
 # Walls that slide whole (64 / 215 / 430 blocks, bed joints at 0.7 on a ground at 0.5, a 0.8 g
 # pulse for 0.2 s, 0.5 s) against the sliding block's closed form: cost a step and the largest

@@ -24,6 +24,13 @@
 //! series of a frame in motion, which El Centro x2 collapses (docs/method.md, "A colonnade in
 //! motion"). Its CSV's second column is the number of columns.
 //!
+//! `--lengths 21,42,84` runs walls of one length of courses each instead (`--courses` then
+//! names one number of courses): the series of walls that grow along their length at a fixed
+//! height, whose Newton matrices keep the envelope's width (a column of courses) as they grow,
+//! where the default series grows in height at 21 blocks a course and its envelope widens to a
+//! course (docs/method.md, "The factorisation's floor"). Its CSV's second column is the number
+//! of blocks a course.
+//!
 //! `--pulse G` puts the walls in motion from the first step instead: a rectangular pulse of `G`
 //! g (above the friction coefficient, 0.7, the walls slide) for the whole run, in place of the
 //! record; with a short `--duration` (0.01 s: ten steps) the per-step figures are those of a
@@ -74,14 +81,15 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const USAGE: &str = "cargo run --release --example bench_dynamic -- \
-[--courses 2,5,10,20,40 | --gallery N,... | --colonnade N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
+[--courses 2,5,10,20,40 [--lengths 21,...] | --gallery N,... | --colonnade N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
 [--ground-friction 0.5] [--engines native,rapier] [--sleep false] [--island-impacts true] \
 [--locate-impacts true] [--locate-speed 0] [--native-dt 1e-3] [--budget 600] \
 [--instructions false] [--out out/bench-dynamic]";
 
 /// The flags of `USAGE`, each followed by its value.
-const FLAGS: [&str; 16] = [
+const FLAGS: [&str; 17] = [
     "--courses",
+    "--lengths",
     "--gallery",
     "--colonnade",
     "--duration",
@@ -294,6 +302,20 @@ fn benchmark() -> anyhow::Result<()> {
     if gallery.is_some() && colonnade.is_some() {
         bail!("--gallery and --colonnade: one series at a time");
     }
+    let lengths = args
+        .iter()
+        .any(|a| a == "--lengths")
+        .then(|| list("--lengths", ""))
+        .transpose()?;
+    if lengths.is_some() && (gallery.is_some() || colonnade.is_some()) {
+        bail!("--lengths: walls only, not with --gallery or --colonnade");
+    }
+    if lengths.is_some() && courses.len() != 1 {
+        bail!("--lengths: give one number of courses (--courses N), not {courses:?}");
+    }
+    if let Some(&l) = lengths.iter().flatten().find(|&&l| l < 2) {
+        bail!("--lengths: a course of {l} blocks; at least 2");
+    }
     // Walls: the static collapse acceleration of each, and the pulse and ground options.
     let walls = gallery.is_none() && colonnade.is_none();
     let duration = number(&args, "--duration", 5.0)?;
@@ -360,6 +382,8 @@ fn benchmark() -> anyhow::Result<()> {
         ("pairs", "Galleries")
     } else if colonnade.is_some() {
         ("columns", "Colonnades")
+    } else if lengths.is_some() {
+        ("length", "Walls in motion, grown along their length")
     } else {
         ("courses", "Walls in motion")
     };
@@ -407,10 +431,17 @@ fn benchmark() -> anyhow::Result<()> {
                 (g.n_blocks(), n, format!("gallery-{n}.toml"), g.to_toml())
             })
             .collect(),
-        (None, None) => courses
-            .iter()
-            .map(|&c| {
-                let mut w = WallSpec::running_bond(c, 21);
+        (None, None) => {
+            // (courses, blocks a course) of each wall; the series' second column is the
+            // one that varies.
+            let walls: Vec<(usize, usize, usize)> = match &lengths {
+                Some(ls) => ls.iter().map(|&l| (courses[0], l, l)).collect(),
+                None => courses.iter().map(|&c| (c, 21, c)).collect(),
+            };
+            walls
+            .into_iter()
+            .map(|(c, per_course, column)| {
+                let mut w = WallSpec::running_bond(c, per_course);
                 w.duration = duration;
                 let n = w.n_blocks();
                 let mut text = match pulse {
@@ -431,9 +462,10 @@ fn benchmark() -> anyhow::Result<()> {
                         }
                     }
                 }
-                (n, c, format!("wall-{n}.toml"), text)
+                (n, column, format!("wall-{n}.toml"), text)
             })
-            .collect(),
+            .collect()
+        }
     };
     // every finished run, for the growth section
     let mut measured: Vec<Finished> = Vec::new();

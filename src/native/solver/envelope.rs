@@ -959,7 +959,8 @@ mod tests {
 
     /// A wall taller than it is long keeps its course-by-course order (rows about one course
     /// wide: 66.4 DOFs on 40 courses of 21, where RCM's diagonal levels give 75.2), and a long
-    /// low wall gets RCM's order, about one column of courses wide (31.5 DOFs on 10 courses).
+    /// low wall gets RCM's order, about one column of courses wide (31.5 DOFs on 10 courses),
+    /// which it keeps as it grows longer.
     #[test]
     fn a_wall_gets_the_narrower_of_its_course_order_and_rcm() {
         let mean_width = |courses: usize, length: usize| {
@@ -973,6 +974,13 @@ mod tests {
         assert!(tall <= 3.0 * 23.0, "40 courses of 21: mean width {tall}");
         let low = mean_width(10, 21);
         assert!(low <= 3.0 * 12.0, "10 courses of 21: mean width {low}");
+        // Grown along its length, the low wall keeps that width (33.9 DOFs on 10 courses of
+        // 84), so its factorisation's work grows as its blocks do.
+        let long = mean_width(10, 84);
+        assert!(
+            long <= 3.0 * 12.0 && long < 1.1 * low,
+            "10 courses of 84: mean width {long}, against {low} on 10 courses of 21"
+        );
     }
 
     #[test]
