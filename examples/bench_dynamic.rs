@@ -24,9 +24,9 @@
 //! series of a frame in motion, which El Centro x2 collapses (docs/method.md, "A colonnade in
 //! motion"). Its CSV's second column is the number of columns.
 //!
-//! `--lengths 21,42,84` runs walls of one length of courses each instead (`--courses` then
-//! names one number of courses): the series of walls that grow along their length at a fixed
-//! height, whose Newton matrices keep the envelope's width (a column of courses) as they grow,
+//! `--lengths 21,42,84` runs walls of these numbers of blocks a course instead, all of the one
+//! number of courses `--courses` then names: the series of walls that grow along their length
+//! at a fixed height, whose Newton matrices keep the envelope's width (a column of courses),
 //! where the default series grows in height at 21 blocks a course and its envelope widens to a
 //! course (docs/method.md, "The factorisation's floor"). Its CSV's second column is the number
 //! of blocks a course.
