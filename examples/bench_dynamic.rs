@@ -432,15 +432,16 @@ fn benchmark() -> anyhow::Result<()> {
             })
             .collect(),
         (None, None) => {
-            // (courses, blocks a course) of each wall; the series' second column is the
-            // one that varies.
-            let walls: Vec<(usize, usize, usize)> = match &lengths {
-                Some(ls) => ls.iter().map(|&l| (courses[0], l, l)).collect(),
-                None => courses.iter().map(|&c| (c, 21, c)).collect(),
+            // (courses, blocks a course) of each wall.
+            let walls: Vec<(usize, usize)> = match &lengths {
+                Some(ls) => ls.iter().map(|&l| (courses[0], l)).collect(),
+                None => courses.iter().map(|&c| (c, 21)).collect(),
             };
             walls
             .into_iter()
-            .map(|(c, per_course, column)| {
+            .map(|(c, per_course)| {
+                // The series' second column: what varies along it.
+                let column = if lengths.is_some() { per_course } else { c };
                 let mut w = WallSpec::running_bond(c, per_course);
                 w.duration = duration;
                 let n = w.n_blocks();
