@@ -58,7 +58,7 @@ enum Command {
     Animate(animate::AnimateArgs),
     /// Overturning spectra of a block (or stack) under pulse families: minimum overturning
     /// amplitude per frequency ratio and the overturn/safe map, every engine; writes
-    /// DIR/minimum.csv, map.csv, spectrum-<pulse>.svg and spectrum.json.
+    /// DIR/minimum.csv, map.csv, `spectrum-<pulse>.svg` and spectrum.json.
     Spectrum(spectrum::SpectrumArgs),
     /// Fragility study (STUDY.toml): scenes x record suite x intensity levels x engines, by
     /// stripes and IDA, fitted curves with bootstrap intervals; writes DIR/report.html,

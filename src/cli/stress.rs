@@ -19,7 +19,7 @@ pub struct StressArgs {
     /// reported as skipped.
     #[arg(long, value_delimiter = ',', long_help = engines_help())]
     engines: Vec<String>,
-    /// Output directory: stress.csv, <engine>.csv, <engine>.html, stress.json.
+    /// Output directory: stress.csv, `<engine>.csv`, `<engine>.html`, stress.json.
     #[arg(long, default_value = "out/stress")]
     out: PathBuf,
     /// Known, explained violations and failures.
