@@ -12,7 +12,7 @@ VPY := $(VENV)/bin/python
 RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
-	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-targets bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
+	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-ipm-rows bench-walls-targets bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
 	stress proptest proptest-assemblies fuzz fmt clippy doc clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
@@ -317,6 +317,15 @@ bench-walls-external-qp: $(VENV)/.requirements.stamp wall-problems
 # "How many rows a moving wall's step changes, and what an exact solve of it costs").
 bench-walls-closed-rows: $(VENV)/.requirements.stamp wall-problems
 	$(VPY) benches/walls/closed_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-closed-rows/closed-rows.md
+
+# What sets an interior point's iteration count on the sliding walls' problems (wall-problems):
+# Clarabel (python/requirements-qp.txt) on each problem whole, without its closed rows that carry
+# no force, without its open rows, with its loaded rows alone, and with its interfaces lifted;
+# out/bench-walls-ipm-rows/ipm-rows.{md,json}. About 4 minutes (docs/method.md, "Walls": "What
+# sets the interior point's count on a sliding wall").
+bench-walls-ipm-rows: $(VENV)/.requirements.stamp wall-problems
+	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
+	$(VPY) benches/walls/ipm_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-ipm-rows/ipm-rows.md
 
 # The walls against issue 14's targets in one command (docs/method.md, "Walls"): the 215-block
 # wall under El Centro x2 for 5 s, the walls of 43 to 860 blocks standing over the record's first

@@ -69,6 +69,8 @@ class Step:
     p_csc: sp.csc_matrix
     r: np.ndarray
     keys: np.ndarray
+    #: Each contact point's friction coefficient (its rows are `2 k` and `2 k + 1`).
+    mu: np.ndarray
     dt: float
     s: float
     native_u: np.ndarray
@@ -135,6 +137,7 @@ def load_step(path: Path) -> Step:
         p_csc=sp.diags(p, format="csc"),
         r=np.asarray(r),
         keys=np.asarray(keys, dtype=np.uint64),
+        mu=mus,
         dt=dt,
         s=s,
         native_u=np.asarray(native["dq"], float) / dt,
