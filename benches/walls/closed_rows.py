@@ -22,7 +22,6 @@ walls' ten pulse steps.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -31,7 +30,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from external_qp import fail, load_step, origins_list, provenance  # noqa: E402
+from external_qp import fail, load_step, origins_list, provenance, write_table  # noqa: E402
 
 #: A row is closed when the step leaves it within this of its bound, m, relative to
 #: `1 + |r dt|`; the native back-end settles its rows to 1e-11 m.
@@ -164,19 +163,11 @@ def main(argv: list[str] | None = None) -> int:
         "bound; each step's first displacement problem, solved by the native back-end.\n\n"
         + origins_list(origins)
     )
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    json_out = args.out.with_suffix(".json")
-    json_partial = json_out.with_suffix(".json.partial")
-    md_partial = args.out.with_suffix(".md.partial")
-    json_partial.write_text(
-        json.dumps(
-            {"closed": CLOSED, "problems": origins, "rows": [asdict(c) for c in rows]}, indent=1
-        )
+    write_table(
+        args.out,
+        header + table(rows),
+        {"closed": CLOSED, "problems": origins, "rows": [asdict(c) for c in rows]},
     )
-    md_partial.write_text(header + table(rows))
-    json_partial.rename(json_out)
-    md_partial.rename(args.out)
-    print(args.out.read_text())
     return 0
 
 

@@ -466,6 +466,20 @@ def row(
     }
 
 
+def write_table(out: Path, markdown: str, record: dict[str, Any]) -> None:
+    """`out` (markdown) and the JSON beside it, each written whole under a `.partial` name and
+    then renamed, so an interrupted run leaves no half-written table; the table is printed."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    json_out = out.with_suffix(".json")
+    json_partial = json_out.with_suffix(".json.partial")
+    md_partial = out.with_suffix(".md.partial")
+    json_partial.write_text(json.dumps(record, indent=1))
+    md_partial.write_text(markdown)
+    json_partial.rename(json_out)
+    md_partial.rename(out)
+    print(out.read_text())
+
+
 def provenance(directory: Path) -> dict[str, Any]:
     """What produced a directory's problems (`wall_problems`' `provenance.json`: its command,
     versions and machine, the scene and the native settings)."""
@@ -623,19 +637,11 @@ def main(argv: list[str] | None = None) -> int:
         + "\n\n"
         + origins_list(origins)
     )
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    partial = args.out.with_suffix(".md.partial")
-    partial.write_text(header + table(rows))
-    json_out = args.out.with_suffix(".json")
-    json_out.with_suffix(".json.partial").write_text(
-        json.dumps(
-            {"versions": versions, "tolerance": TOLERANCE, "problems": origins, "rows": rows},
-            indent=1,
-        )
+    write_table(
+        args.out,
+        header + table(rows),
+        {"versions": versions, "tolerance": TOLERANCE, "problems": origins, "rows": rows},
     )
-    json_out.with_suffix(".json.partial").rename(json_out)
-    partial.rename(args.out)
-    print(args.out.read_text())
     return 0
 
 

@@ -28,7 +28,6 @@ problem's rows. `make bench-walls-ipm-rows` runs it on the sliding walls' ten pu
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -39,7 +38,14 @@ import numpy as np
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from external_qp import Step, fail, load_step, origins_list, provenance  # noqa: E402
+from external_qp import (  # noqa: E402
+    Step,
+    fail,
+    load_step,
+    origins_list,
+    provenance,
+    write_table,
+)
 
 #: The tolerance of the solve whose solution classifies the rows (Clarabel's gap and
 #: feasibility tolerances on the scaled problem).
@@ -291,26 +297,17 @@ def main(argv: list[str] | None = None) -> int:
         f"the multiplier, loaded where the multiplier is above {LOADED:g} of the largest.\n\n"
         + origins_list(origins)
     )
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    json_out = args.out.with_suffix(".json")
-    json_partial = json_out.with_suffix(".json.partial")
-    md_partial = args.out.with_suffix(".md.partial")
-    json_partial.write_text(
-        json.dumps(
-            {
-                "tight": TIGHT,
-                "tolerances": TOLERANCES,
-                "loaded": LOADED,
-                "problems": origins,
-                "rows": [asdict(r) for r in rows],
-            },
-            indent=1,
-        )
+    write_table(
+        args.out,
+        header + table(rows),
+        {
+            "tight": TIGHT,
+            "tolerances": TOLERANCES,
+            "loaded": LOADED,
+            "problems": origins,
+            "rows": [asdict(r) for r in rows],
+        },
     )
-    md_partial.write_text(header + table(rows))
-    json_partial.rename(json_out)
-    md_partial.rename(args.out)
-    print(args.out.read_text())
     return 0
 
 
