@@ -21,7 +21,6 @@ walls' ten pulse steps.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -30,7 +29,8 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from external_qp import fail, load_step, origins_list, provenance, write_table  # noqa: E402
+from external_qp import fail, load_step, origins_list, provenance  # noqa: E402
+from external_qp import problems_parser, write_table  # noqa: E402
 
 #: A row is closed when the step leaves it within this of its bound, m, relative to
 #: `1 + |r dt|`; the native back-end settles its rows to 1e-11 m.
@@ -151,10 +151,7 @@ def table(rows: list[Change]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("dirs", nargs="+", type=Path, help="directories of step-KKKK.json")
-    ap.add_argument("--out", type=Path, required=True, help="the markdown table (and .json beside)")
-    args = ap.parse_args(argv)
+    args = problems_parser(__doc__).parse_args(argv)
     origins = {str(d): provenance(d) for d in args.dirs}
     rows = [c for d in args.dirs for c in changes(d)]
     header = (

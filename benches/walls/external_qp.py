@@ -466,6 +466,14 @@ def row(
     }
 
 
+def problems_parser(doc: str) -> argparse.ArgumentParser:
+    """The command line the wall-problem benchmarks share: directories of problems, `--out`."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("dirs", nargs="+", type=Path, help="directories of step-KKKK.json")
+    ap.add_argument("--out", type=Path, required=True, help="the markdown table (and .json beside)")
+    return ap
+
+
 def write_table(out: Path, markdown: str, record: dict[str, Any]) -> None:
     """`out` (markdown) and the JSON beside it, each written whole under a `.partial` name and
     then renamed, so an interrupted run leaves no half-written table; the table is printed."""
@@ -607,9 +615,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("dirs", nargs="+", type=Path, help="directories of step-KKKK.json")
-    ap.add_argument("--out", type=Path, required=True, help="the markdown table (and .json beside)")
+    ap = problems_parser(__doc__)
     ap.add_argument("--solvers", help="comma-separated names (default: all; empty: none)")
     args = ap.parse_args(argv)
     # `--solvers ""`: none, the native solutions alone.

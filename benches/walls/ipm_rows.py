@@ -27,7 +27,6 @@ problem's rows. `make bench-walls-ipm-rows` runs it on the sliding walls' ten pu
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -43,6 +42,7 @@ from external_qp import (  # noqa: E402
     fail,
     load_step,
     origins_list,
+    problems_parser,
     provenance,
     write_table,
 )
@@ -280,10 +280,7 @@ def table(rows: list[Row]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("dirs", nargs="+", type=Path, help="directories of step-KKKK.json")
-    ap.add_argument("--out", type=Path, required=True, help="the markdown table (and .json beside)")
-    args = ap.parse_args(argv)
+    args = problems_parser(__doc__).parse_args(argv)
     origins = {str(d): provenance(d) for d in args.dirs}
     rows: list[Row] = []
     for d in args.dirs:
