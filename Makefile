@@ -9,7 +9,7 @@ BIN := target/release/rockbench
 PYTHON311 ?= python3.11
 VENV := .venv
 VPY := $(VENV)/bin/python
-RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock
+RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock build.rs
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-ipm-rows bench-walls-targets bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \

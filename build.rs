@@ -1,9 +1,27 @@
 //! Records the versions of the numerical dependencies (from Cargo.lock) as `RB_VERSION_<NAME>`
-//! environment variables, so every output can name them.
+//! environment variables, and the build's own identity (`RB_SOURCE_HASH`, `RB_GIT_COMMIT`), so
+//! every output can name them.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The files and directories whose changes make another program: the build script reruns when
+/// any of them changes, and `RB_GIT_COMMIT` is marked modified when any differs from the commit.
+const BUILD_INPUTS: [&str; 6] = [
+    "src",
+    "build.rs",
+    "Cargo.toml",
+    "Cargo.lock",
+    "python/rockbench/worker.py",
+    "python/rockbench/engines",
+];
+
 fn main() {
     println!("cargo:rerun-if-changed=Cargo.lock");
+    println!("cargo:rerun-if-changed=Cargo.toml");
+    println!("cargo:rerun-if-changed=build.rs");
     source_hash();
     worker_hash();
+    git_commit();
     let lock = std::fs::read_to_string("Cargo.lock").unwrap_or_default();
     let mut found = Vec::new();
     let mut name: Option<String> = None;
@@ -32,7 +50,7 @@ fn main() {
 fn source_hash() {
     println!("cargo:rerun-if-changed=src");
     let mut files = Vec::new();
-    let mut stack = vec![std::path::PathBuf::from("src")];
+    let mut stack = vec![PathBuf::from("src")];
     while let Some(d) = stack.pop() {
         let Ok(rd) = std::fs::read_dir(&d) else {
             continue;
@@ -54,7 +72,7 @@ fn source_hash() {
 /// (python/rockbench/worker.py and python/rockbench/engines/*.py), part of the run cache's
 /// keys of those engines.
 fn worker_hash() {
-    let mut files = vec![std::path::PathBuf::from("python/rockbench/worker.py")];
+    let mut files = vec![PathBuf::from("python/rockbench/worker.py")];
     println!("cargo:rerun-if-changed=python/rockbench/engines");
     if let Ok(rd) = std::fs::read_dir("python/rockbench/engines") {
         for e in rd.flatten() {
@@ -70,8 +88,42 @@ fn worker_hash() {
     println!("cargo:rustc-env=RB_WORKER_HASH={}", fnv(files));
 }
 
+/// `RB_GIT_COMMIT`: the commit the program was built from (`git rev-parse HEAD` in the package's
+/// directory at build time), with ` (modified)` when a build input differs from it, or `unknown
+/// (not built from a git checkout)`. The script reruns when HEAD or the branch it names moves.
+fn git_commit() {
+    let git = |args: &[&str]| -> Option<String> {
+        let out = Command::new("git").args(args).output().ok()?;
+        out.status
+            .success()
+            .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+    };
+    let commit = git(&["rev-parse", "--verify", "HEAD"]).filter(|c| !c.is_empty());
+    let Some(commit) = commit else {
+        println!("cargo:rustc-env=RB_GIT_COMMIT=unknown (not built from a git checkout)");
+        return;
+    };
+    // HEAD, the branch's loose ref and the packed refs: whichever exist (a path that does not
+    // exist would rerun the script on every build).
+    let mut watched = vec![git(&["rev-parse", "--git-path", "HEAD"])];
+    if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
+        watched.push(git(&["rev-parse", "--git-path", &branch]));
+    }
+    watched.push(git(&["rev-parse", "--git-path", "packed-refs"]));
+    for path in watched.into_iter().flatten() {
+        if Path::new(&path).exists() {
+            println!("cargo:rerun-if-changed={path}");
+        }
+    }
+    let mut status = vec!["status", "--porcelain", "--"];
+    status.extend(BUILD_INPUTS);
+    let modified = git(&status).is_none_or(|s| !s.is_empty());
+    let suffix = if modified { " (modified)" } else { "" };
+    println!("cargo:rustc-env=RB_GIT_COMMIT={commit}{suffix}");
+}
+
 /// FNV-1a of the files' paths and contents, in sorted order.
-fn fnv(mut files: Vec<std::path::PathBuf>) -> String {
+fn fnv(mut files: Vec<PathBuf>) -> String {
     files.sort();
     let mut h: u64 = 0xcbf29ce484222325;
     for f in files {

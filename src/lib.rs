@@ -30,6 +30,7 @@
 
 pub mod allocator;
 pub mod bench;
+pub mod build_info;
 pub mod cli;
 pub mod colonnade;
 pub mod compare;

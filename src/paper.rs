@@ -167,9 +167,10 @@ impl PaperDir {
         }
         let _ = write!(
             readme,
-            "\n## Provenance\n\n- rockbench {}\n- git commit: {}\n- machine: {} ({}, {} cores), {}\n- date: {}\n- command: `{}`\n",
+            "\n## Provenance\n\n- rockbench {}\n- git commit: {}\n- sources: {}\n- machine: {} ({}, {} cores), {}\n- date: {}\n- command: `{}`\n",
             prov.rockbench_version,
             prov.git_commit,
+            prov.source_hash,
             prov.hostname,
             prov.cpu,
             prov.cores,

@@ -218,11 +218,12 @@ impl Study {
             .with_context(|| format!("cannot read {}", self.scene.display()))?;
         let (key, value) = &self.perturb;
         Ok(format!(
-            "# sensitivity: scene {:016x}, {key} = {value:?} x (1 + k {:e}), sets [{}], rockbench {}",
+            "# sensitivity: scene {:016x}, {key} = {value:?} x (1 + k {:e}), sets [{}], rockbench {} (sources {})",
             text_hash(&text),
             self.epsilon,
             self.sets.join(" "),
-            env!("CARGO_PKG_VERSION")
+            crate::build_info::VERSION,
+            crate::build_info::SOURCE_HASH
         ))
     }
 

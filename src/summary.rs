@@ -41,6 +41,14 @@ pub struct BlockSummary {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     pub rockbench_version: String,
+    /// The commit the program was built from ([`crate::build_info::GIT_COMMIT`]); empty in
+    /// summaries written before it was recorded.
+    #[serde(default)]
+    pub rockbench_git_commit: String,
+    /// The hash of the program's sources ([`crate::build_info::SOURCE_HASH`]); empty in
+    /// summaries written before it was recorded.
+    #[serde(default)]
+    pub rockbench_source_hash: String,
     pub engine: String,
     pub engine_version: String,
     pub scene: String,
@@ -126,7 +134,9 @@ impl Summary {
             })
             .collect();
         Summary {
-            rockbench_version: env!("CARGO_PKG_VERSION").to_string(),
+            rockbench_version: crate::build_info::VERSION.to_string(),
+            rockbench_git_commit: crate::build_info::GIT_COMMIT.to_string(),
+            rockbench_source_hash: crate::build_info::SOURCE_HASH.to_string(),
             engine: engine.to_string(),
             engine_version: out.engine_version.clone(),
             scene: scene.name.clone(),

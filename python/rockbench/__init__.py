@@ -10,6 +10,8 @@ harness as worker processes (``python -m rockbench.worker``).
 from rockbench._native import (
     Run,
     Scene,
+    __git_commit__,
+    __source_hash__,
     __version__,
     engine_names,
     fragility_is_python_worker,
@@ -58,6 +60,8 @@ __all__ = [
     "FragilityResult",
     "Run",
     "Scene",
+    "__git_commit__",
+    "__source_hash__",
     "__version__",
     "compare",
     "engine_names",

@@ -7,8 +7,14 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+#: The commit the extension was built from (`` (modified)`` when its build inputs differed).
+__git_commit__: str
+#: The hash of the extension's Rust sources (``src/``), as ``rockbench --version`` prints it.
+__source_hash__: str
 __all__ = [
     "__version__",
+    "__git_commit__",
+    "__source_hash__",
     "Scene",
     "Run",
     "load_scene",

@@ -20,7 +20,7 @@ use clap::{Parser, Subcommand};
 #[derive(Parser)]
 #[command(
     name = "rockbench",
-    version,
+    version = crate::build_info::LONG_VERSION,
     about = "Rigid-block rocking: native theta-method QP solver and cross-validation harness"
 )]
 pub struct Cli {

@@ -77,7 +77,9 @@ pub fn stress(a: StressArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let meta = serde_json::json!({
-        "rockbench": env!("CARGO_PKG_VERSION"),
+        "rockbench": crate::build_info::VERSION,
+        "rockbench_git_commit": crate::build_info::GIT_COMMIT,
+        "rockbench_source_hash": crate::build_info::SOURCE_HASH,
         "command": std::env::args().collect::<Vec<_>>().join(" "),
         "grid": if a.quick { "quick" } else { "full" },
         "design": format!("one factor at a time around the base case: {}", crate::stress::BASE_CASE),

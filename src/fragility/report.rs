@@ -155,7 +155,9 @@ pub fn differences_csv(res: &Results) -> String {
 pub fn json(study: &Study, res: &Results, command: &str) -> serde_json::Value {
     serde_json::json!({
         "command": command,
-        "rockbench_version": env!("CARGO_PKG_VERSION"),
+        "rockbench_version": crate::build_info::VERSION,
+        "rockbench_git_commit": crate::build_info::GIT_COMMIT,
+        "rockbench_source_hash": crate::build_info::SOURCE_HASH,
         "study": study.file,
         "study_file": study.path.display().to_string(),
         "limit_states": study.limit_states,

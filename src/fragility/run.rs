@@ -129,10 +129,10 @@ impl RunSpec {
 }
 
 /// The running program's identity in cache keys: the version and the source's content (the
-/// package's `src/` as compiled, through `RB_SOURCE_HASH`), so a changed engine never reuses
-/// an old outcome.
+/// package's `src/` as compiled, [`crate::build_info::SOURCE_HASH`]), so a changed engine never
+/// reuses an old outcome.
 fn build_id() -> &'static str {
-    env!("RB_SOURCE_HASH")
+    crate::build_info::SOURCE_HASH
 }
 
 /// The Python worker's sources (`RB_WORKER_HASH`) for the engines it runs, as compiled with

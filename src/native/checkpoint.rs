@@ -73,7 +73,7 @@ pub fn remove(path: &Path) -> Result<(), String> {
 
 /// This build's identity in a checkpoint.
 pub fn this_build() -> String {
-    env!("RB_SOURCE_HASH").to_string()
+    crate::build_info::SOURCE_HASH.to_string()
 }
 
 impl Checkpoint {

@@ -529,7 +529,9 @@ fn engine_names() -> Vec<&'static str> {
 #[pymodule]
 #[pyo3(name = "_native")]
 fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("__version__", crate::build_info::VERSION)?;
+    m.add("__git_commit__", crate::build_info::GIT_COMMIT)?;
+    m.add("__source_hash__", crate::build_info::SOURCE_HASH)?;
     m.add_class::<PyScene>()?;
     m.add_class::<PyRun>()?;
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;

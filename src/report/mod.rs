@@ -1340,6 +1340,7 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
     let mut versions: Vec<Vec<String>> = vec![
         vec!["rockbench".into(), prov.rockbench_version.clone()],
         vec!["git commit".into(), prov.git_commit.clone()],
+        vec!["sources".into(), prov.source_hash.clone()],
     ];
     for r in c.ok_runs() {
         if let Some(s) = &r.summary {

@@ -1,14 +1,17 @@
-//! Provenance of a report: versions, machine, the command.
+//! Provenance of a report: the program (version, commit, sources), the machine, the command.
 
+use crate::build_info;
 use serde::Serialize;
 use std::process::Command;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Provenance {
     pub rockbench_version: String,
-    /// `git rev-parse HEAD` of the working directory, with ` (modified)` when the work tree
-    /// has uncommitted changes; `unknown` outside a git checkout.
+    /// The commit the program was built from ([`build_info::GIT_COMMIT`]), not that of the
+    /// directory it runs in.
     pub git_commit: String,
+    /// The hash of the program's sources ([`build_info::SOURCE_HASH`]).
+    pub source_hash: String,
     pub hostname: String,
     pub cpu: String,
     pub cores: usize,
@@ -27,14 +30,6 @@ fn cmd(program: &str, args: &[&str]) -> Option<String> {
 
 impl Provenance {
     pub fn collect(command: &str) -> Provenance {
-        let git_commit = match cmd("git", &["rev-parse", "HEAD"]) {
-            Some(h) if !h.is_empty() => {
-                let dirty = cmd("git", &["status", "--porcelain", "--untracked-files=no"])
-                    .is_some_and(|s| !s.is_empty());
-                if dirty { format!("{h} (modified)") } else { h }
-            }
-            _ => "unknown (not a git checkout)".into(),
-        };
         let hostname = std::fs::read_to_string("/proc/sys/kernel/hostname")
             .or_else(|_| std::fs::read_to_string("/etc/hostname"))
             .map(|s| s.trim().to_string())
@@ -60,8 +55,9 @@ impl Provenance {
             .unwrap_or_else(|| std::env::consts::OS.to_string());
         let kernel = cmd("uname", &["-r"]).map(|k| format!(", kernel {k}"));
         Provenance {
-            rockbench_version: env!("CARGO_PKG_VERSION").to_string(),
-            git_commit,
+            rockbench_version: build_info::VERSION.to_string(),
+            git_commit: build_info::GIT_COMMIT.to_string(),
+            source_hash: build_info::SOURCE_HASH.to_string(),
             hostname,
             cpu,
             cores: std::thread::available_parallelism()

@@ -505,7 +505,7 @@ pub fn render(
     d.h(1, "rockbench validation report");
     d.p(&format!(
         "The validation cases of VALIDATION.md on the engines {}, with their accuracy gates. \
-         Generated {} by rockbench {} (commit {}). Command: `{}`.",
+         Generated {} by rockbench {} (commit {}, sources {}). Command: `{}`.",
         engines
             .iter()
             .map(|e| format!("`{e}`"))
@@ -514,6 +514,7 @@ pub fn render(
         prov.date,
         prov.rockbench_version,
         prov.git_commit,
+        prov.source_hash,
         prov.command
     ));
     d.h(2, "Summary matrix");

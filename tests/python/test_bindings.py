@@ -25,6 +25,8 @@ def test_public_names_come_from_the_native_module() -> None:
         "FragilityResult",
         "Run",
         "Scene",
+        "__git_commit__",
+        "__source_hash__",
         "__version__",
         "compare",
         "engine_names",
@@ -63,6 +65,10 @@ def test_run_native_returns_arrays_equal_to_the_cli_output(
     assert s["engine"] == "native" and s["samples"] == len(r.t)
     assert s["settings"]["dt"] > 0
     assert len(s["blocks"][0]["impacts"]) >= 3
+    # The summary names the program that made it.
+    assert s["rockbench_git_commit"] == rockbench.__git_commit__
+    assert s["rockbench_source_hash"] == rockbench.__source_hash__
+    assert len(rockbench.__source_hash__) == 16
     # The same run through the command line writes the same numbers.
     out = tmp_path / "cli"
     subprocess.run(
