@@ -9,6 +9,7 @@ use crate::compare::{ReferenceSpec, Status, classify, run_of};
 use crate::engines::registry::load_scene_with_overrides;
 use crate::engines::{engine_by_name, run_timed};
 use crate::metrics::{Cost, MetricRow, MetricSettings, Run, compare_runs};
+use crate::report::provenance::Provenance;
 use crate::report::svg::{Curve, Marker, Plot};
 use crate::scene::Scene;
 use crate::trajectory::Trajectory;
@@ -56,7 +57,7 @@ pub struct BenchOptions {
 }
 
 /// One line of `work_precision.csv`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct BenchRow {
     pub scene: String,
     pub engine: String,
@@ -78,6 +79,8 @@ pub struct BenchRow {
     pub first_impact_diff: Option<f64>,
     /// Relative error of the bottom block's amplitude after its first impact.
     pub amplitude_1_rel_error: Option<f64>,
+    /// The engine's version as its run reported it (`None` where it did not run).
+    pub engine_version: Option<String>,
 }
 
 /// The median of `v` (NaN for none): the wall time of repeated runs.
@@ -177,6 +180,7 @@ pub fn bench(
                     rms_error_to_impact_1: None,
                     first_impact_diff: None,
                     amplitude_1_rel_error: None,
+                    engine_version: None,
                 };
                 let outcome = load_scene_with_overrides(scene_path, &set)
                     .map_err(|e| e.to_string())
@@ -206,6 +210,7 @@ pub fn bench(
                         row.median_wall_s = Some(wall);
                         row.steps = Some(s.steps);
                         row.us_per_step = (s.steps > 0).then(|| 1e6 * wall / s.steps as f64);
+                        row.engine_version = Some(out.engine_version.clone());
                         let run = run_of(engine, &out, &s);
                         match compare_runs(&scene, &run, &reference, &MetricSettings::default()) {
                             Ok(m) => errors(&scene, &m, &mut row),
@@ -228,6 +233,29 @@ pub fn bench(
         }
     }
     Ok(rows)
+}
+
+/// What made the timings: the program, each engine's version, the machine and the date.
+fn provenance_md(rows: &[BenchRow], prov: &Provenance) -> String {
+    let mut md = format!(
+        "\n## Provenance\n\n- rockbench {} (commit {}, sources {})\n",
+        prov.rockbench_version, prov.git_commit, prov.source_hash
+    );
+    let mut engines: Vec<(&str, &str)> = rows
+        .iter()
+        .filter_map(|r| Some((r.engine.as_str(), r.engine_version.as_deref()?)))
+        .collect();
+    engines.sort_unstable();
+    engines.dedup();
+    for (engine, version) in engines {
+        let _ = writeln!(md, "- engine `{engine}`: {version}");
+    }
+    let _ = writeln!(
+        md,
+        "- machine: {} ({}, {} cores), {}\n- date (UTC): {}",
+        prov.hostname, prov.cpu, prov.cores, prov.os, prov.date
+    );
+    md
 }
 
 fn opt(x: Option<f64>) -> String {
@@ -295,6 +323,7 @@ pub fn write(dir: &Path, rows: &[BenchRow], command: &str) -> Result<(), String>
                 .unwrap_or_default()
         );
     }
+    md += &provenance_md(rows, &Provenance::collect(command));
     w("work_precision.md", &md)?;
     w("work_precision.svg", &plot(rows).render())?;
     Ok(())
@@ -423,8 +452,53 @@ pub fn configs_plot(title: &str, x_label: &str, y_label: &str, points: &[ConfigP
 
 #[cfg(test)]
 mod tests {
-    use super::{ConfigPoint, configs_plot, curve_name, median};
+    use super::{BenchRow, ConfigPoint, Provenance, configs_plot, curve_name, median};
+    use super::{provenance_md, write};
+    use crate::build_info::{GIT_COMMIT, SOURCE_HASH};
     use crate::sensitivity::Config;
+
+    #[test]
+    fn the_table_names_the_program_each_engine_s_version_and_the_machine() {
+        let row = |engine: &str, dt: f64, version: Option<&str>| BenchRow {
+            scene: "s".into(),
+            engine: engine.into(),
+            variant: "default".into(),
+            dt: Some(dt),
+            status: if version.is_some() { "ok" } else { "failed" }.into(),
+            engine_version: version.map(String::from),
+            ..Default::default()
+        };
+        let rows = [
+            row("rapier", 1e-3, Some("rapier2d-f64 0.1")),
+            row("rapier", 5e-4, Some("rapier2d-f64 0.1")),
+            row("native", 1e-3, Some("rockbench native")),
+            row("mujoco", 1e-3, None),
+        ];
+        let prov = Provenance::collect("rockbench bench s.toml");
+        let md = provenance_md(&rows, &prov);
+        assert!(
+            md.contains(&format!("(commit {GIT_COMMIT}, sources {SOURCE_HASH})")),
+            "{md}"
+        );
+        // Each engine that ran once, in order; the one that did not run has no version.
+        let engines: Vec<&str> = md.lines().filter(|l| l.starts_with("- engine")).collect();
+        assert_eq!(
+            engines,
+            [
+                "- engine `native`: rockbench native",
+                "- engine `rapier`: rapier2d-f64 0.1"
+            ]
+        );
+        assert!(md.contains(&format!("{} cores", prov.cores)) && md.contains(&prov.date));
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), &rows, "rockbench bench s.toml").unwrap();
+        let written = std::fs::read_to_string(dir.path().join("work_precision.md")).unwrap();
+        // The file ends with the provenance (its date taken again when written).
+        let before_machine = &md[..md.find("- machine").unwrap()];
+        assert!(written.contains(before_machine), "{written}");
+        let last = written.lines().last().unwrap();
+        assert!(last.starts_with("- date (UTC): 20"), "{last}");
+    }
 
     #[test]
     fn configurations_at_several_steps_make_one_curve_in_order_of_cost() {

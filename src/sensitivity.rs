@@ -330,6 +330,19 @@ impl Study {
                 );
             }
         }
+        let prov = crate::report::provenance::Provenance::collect("");
+        let _ = writeln!(
+            md,
+            "\nRuns by rockbench {} (commit {}, sources {}; a study resumes only on the same \
+             sources) on {} ({}, {} cores), {}.",
+            prov.rockbench_version,
+            prov.git_commit,
+            prov.source_hash,
+            prov.hostname,
+            prov.cpu,
+            prov.cores,
+            prov.os
+        );
         Ok(md)
     }
 }
@@ -354,7 +367,24 @@ fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<V
         Err(e) => bail!("cannot read {}: {e}", path.display()),
     };
     let mut lines = text.lines();
-    if lines.next() != Some(parameters) {
+    let first = lines.next();
+    if first != Some(parameters) {
+        // The same study made by another program: its line differs only after `rockbench`.
+        let study_and_program = |line: &str| {
+            line.rsplit_once(", rockbench ")
+                .map(|(s, p)| (s.to_string(), p.to_string()))
+        };
+        if let (Some((study, program)), Some((this_study, this_program))) = (
+            first.and_then(study_and_program),
+            study_and_program(parameters),
+        ) && study == this_study
+        {
+            bail!(
+                "{}: holds runs made by another build, rockbench {program}, which this one \
+                 (rockbench {this_program}) does not resume: remove it or give another --out",
+                path.display()
+            );
+        }
         bail!(
             "{}: holds the runs of another study (its first line is not {parameters:?}): remove \
              it or give another --out",

@@ -70,6 +70,19 @@ fn impossible_tolerance_fails_names_the_gate_and_the_rerun_is_cached() {
         .filter(|n| n.has_tag_name("testcase"))
         .collect();
     assert_eq!(cases.len(), 2);
+    let property = |name: &str| {
+        doc.descendants()
+            .find(|n| n.has_tag_name("property") && n.attribute("name") == Some(name))
+            .and_then(|n| n.attribute("value"))
+    };
+    assert_eq!(
+        property("rockbench_git_commit"),
+        Some(rockbench::build_info::GIT_COMMIT)
+    );
+    assert_eq!(
+        property("rockbench_source_hash"),
+        Some(rockbench::build_info::SOURCE_HASH)
+    );
     let failing: Vec<&str> = cases
         .iter()
         .filter(|c| c.children().any(|n| n.has_tag_name("failure")))

@@ -3,6 +3,7 @@
 mod common;
 
 use common::{bin, root, tmp};
+use rockbench::build_info::{GIT_COMMIT, SOURCE_HASH};
 use std::path::Path;
 use std::process::Output;
 
@@ -65,6 +66,12 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
     let runs = std::fs::read_to_string(out.join("runs.csv")).unwrap();
     assert_eq!(runs.lines().count(), 2 + 4, "{runs}");
     assert!(runs.starts_with("# sensitivity: scene "));
+    assert!(
+        runs.lines()
+            .next()
+            .unwrap()
+            .ends_with(&format!("(sources {SOURCE_HASH})"))
+    );
     let md = std::fs::read_to_string(out.join("sensitivity.md")).unwrap();
     let (spread, largest) = spread_of(&md, "native");
     assert!(spread > 0.0 && largest >= spread, "{md}");
@@ -74,6 +81,10 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
     );
     // The block overturns in every member.
     assert!(md.contains("| 1 / 1 | - |"), "{md}");
+    assert!(
+        md.contains(&format!("(commit {GIT_COMMIT}, sources {SOURCE_HASH};")),
+        "{md}"
+    );
 
     // Run again: every run is there, none is run, the tables are the same.
     let again = study(&out, &["--epsilon", "1e-6"]);
@@ -96,6 +107,27 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
     assert!(e.contains("runs.csv") && e.contains("another study"), "{e}");
     assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
     assert_eq!(std::fs::read_to_string(out.join("runs.csv")).unwrap(), runs);
+
+    // The same study's runs made by other sources are not resumed.
+    let older = runs.replacen(
+        &format!("sources {SOURCE_HASH}"),
+        "sources 0123456789abcdef",
+        1,
+    );
+    assert_ne!(older, runs);
+    std::fs::write(out.join("runs.csv"), &older).unwrap();
+    let rebuilt = study(&out, &["--epsilon", "1e-6"]);
+    assert!(!rebuilt.status.success());
+    let e = stderr(&rebuilt);
+    assert!(
+        e.contains("another build") && e.contains("0123456789abcdef"),
+        "{e}"
+    );
+    assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("runs.csv")).unwrap(),
+        older
+    );
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! JUnit XML of a gate run (one `<testcase>` per gate): failures for failing gates and for
-//! known failures that now pass, `<skipped>` for known failures that still fail.
+//! known failures that now pass, `<skipped>` for known failures that still fail; the suite's
+//! properties name the program (version, commit, sources).
 
 use super::{GateResult, Outcome};
 use std::fmt::Write;
@@ -31,6 +32,20 @@ pub fn junit_xml(results: &[GateResult], suite: &str) -> String {
         attr(suite),
         results.len()
     );
+    // The program that judged the gates.
+    let _ = writeln!(x, "    <properties>");
+    for (name, value) in [
+        ("rockbench_version", crate::build_info::VERSION),
+        ("rockbench_git_commit", crate::build_info::GIT_COMMIT),
+        ("rockbench_source_hash", crate::build_info::SOURCE_HASH),
+    ] {
+        let _ = writeln!(
+            x,
+            "      <property name=\"{name}\" value=\"{}\"/>",
+            attr(value)
+        );
+    }
+    let _ = writeln!(x, "    </properties>");
     for r in results {
         let g = &r.gate;
         let _ = write!(
