@@ -237,10 +237,7 @@ pub fn bench(
 
 /// What made the timings: the program, each engine's version, the machine and the date.
 fn provenance_md(rows: &[BenchRow], prov: &Provenance) -> String {
-    let mut md = format!(
-        "\n## Provenance\n\n- rockbench {} (commit {}, sources {})\n",
-        prov.rockbench_version, prov.git_commit, prov.source_hash
-    );
+    let mut md = format!("\n## Provenance\n\n- {}\n", prov.program());
     let mut engines: Vec<(&str, &str)> = rows
         .iter()
         .filter_map(|r| Some((r.engine.as_str(), r.engine_version.as_deref()?)))
@@ -252,8 +249,9 @@ fn provenance_md(rows: &[BenchRow], prov: &Provenance) -> String {
     }
     let _ = writeln!(
         md,
-        "- machine: {} ({}, {} cores), {}\n- date (UTC): {}",
-        prov.hostname, prov.cpu, prov.cores, prov.os, prov.date
+        "- machine: {}\n- date (UTC): {}",
+        prov.machine(),
+        prov.date
     );
     md
 }

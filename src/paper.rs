@@ -167,14 +167,9 @@ impl PaperDir {
         }
         let _ = write!(
             readme,
-            "\n## Provenance\n\n- rockbench {}\n- git commit: {}\n- sources: {}\n- machine: {} ({}, {} cores), {}\n- date: {}\n- command: `{}`\n",
-            prov.rockbench_version,
-            prov.git_commit,
-            prov.source_hash,
-            prov.hostname,
-            prov.cpu,
-            prov.cores,
-            prov.os,
+            "\n## Provenance\n\n- {}\n- machine: {}\n- date: {}\n- command: `{}`\n",
+            prov.program(),
+            prov.machine(),
             prov.date,
             prov.command
         );

@@ -333,15 +333,9 @@ impl Study {
         let prov = crate::report::provenance::Provenance::collect("");
         let _ = writeln!(
             md,
-            "\nRuns by rockbench {} (commit {}, sources {}; a study resumes only on the same \
-             sources) on {} ({}, {} cores), {}.",
-            prov.rockbench_version,
-            prov.git_commit,
-            prov.source_hash,
-            prov.hostname,
-            prov.cpu,
-            prov.cores,
-            prov.os
+            "\nRuns by {} on {}; a study resumes only with the same sources.",
+            prov.program(),
+            prov.machine()
         );
         Ok(md)
     }

@@ -98,6 +98,8 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
     for text in [&md, &html] {
         assert!(text.contains(concat!("rockbench ", env!("CARGO_PKG_VERSION"))));
         assert!(text.contains("git commit") && text.contains("CPU") && text.contains("OS"));
+        assert!(text.contains(rockbench::build_info::GIT_COMMIT));
+        assert!(text.contains(rockbench::build_info::SOURCE_HASH));
         assert!(text.contains("--engines native,rapier,mujoco,pybullet,housner"));
     }
     // Every plot in the Markdown twin exists as a file.

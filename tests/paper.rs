@@ -63,7 +63,12 @@ fn check_paper(paper: &Path) {
     assert!(paper.join("README.md").is_file());
     let readme = std::fs::read_to_string(paper.join("README.md")).unwrap();
     assert!(
-        readme.contains("--paper") && readme.contains("git commit"),
+        readme.contains("--paper")
+            && readme.contains(&format!(
+                "(commit {}, sources {})",
+                rockbench::build_info::GIT_COMMIT,
+                rockbench::build_info::SOURCE_HASH
+            )),
         "{readme}"
     );
     let mut doc = String::from(

@@ -82,7 +82,7 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
     // The block overturns in every member.
     assert!(md.contains("| 1 / 1 | - |"), "{md}");
     assert!(
-        md.contains(&format!("(commit {GIT_COMMIT}, sources {SOURCE_HASH};")),
+        md.contains(&format!("(commit {GIT_COMMIT}, sources {SOURCE_HASH}) on ")),
         "{md}"
     );
 

@@ -29,6 +29,22 @@ fn cmd(program: &str, args: &[&str]) -> Option<String> {
 }
 
 impl Provenance {
+    /// `rockbench VERSION (commit C, sources S)`.
+    pub fn program(&self) -> String {
+        format!(
+            "rockbench {} (commit {}, sources {})",
+            self.rockbench_version, self.git_commit, self.source_hash
+        )
+    }
+
+    /// `HOST (CPU, N cores), OS`.
+    pub fn machine(&self) -> String {
+        format!(
+            "{} ({}, {} cores), {}",
+            self.hostname, self.cpu, self.cores, self.os
+        )
+    }
+
     pub fn collect(command: &str) -> Provenance {
         let hostname = std::fs::read_to_string("/proc/sys/kernel/hostname")
             .or_else(|_| std::fs::read_to_string("/etc/hostname"))

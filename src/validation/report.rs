@@ -505,16 +505,14 @@ pub fn render(
     d.h(1, "rockbench validation report");
     d.p(&format!(
         "The validation cases of VALIDATION.md on the engines {}, with their accuracy gates. \
-         Generated {} by rockbench {} (commit {}, sources {}). Command: `{}`.",
+         Generated {} by {}. Command: `{}`.",
         engines
             .iter()
             .map(|e| format!("`{e}`"))
             .collect::<Vec<_>>()
             .join(", "),
         prov.date,
-        prov.rockbench_version,
-        prov.git_commit,
-        prov.source_hash,
+        prov.program(),
         prov.command
     ));
     d.h(2, "Summary matrix");
