@@ -478,7 +478,7 @@ mod tests {
             md.contains(&format!("(commit {GIT_COMMIT}, sources {SOURCE_HASH})")),
             "{md}"
         );
-        // Each engine that ran once, in order; the one that did not run has no version.
+        // Each engine that ran, once, in order of name; the one that did not run has no version.
         let engines: Vec<&str> = md.lines().filter(|l| l.starts_with("- engine")).collect();
         assert_eq!(
             engines,
