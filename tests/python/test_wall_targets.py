@@ -39,10 +39,18 @@ def series(
 
 
 def bench(
-    root: Path, wall_215: float, rapier_215: float, standing: float, moving: float, wall_860: float
+    root: Path,
+    wall_215: float,
+    rapier_215: float,
+    standing: float,
+    moving: float,
+    wall_860: float,
+    long: float | None = None,
+    wall_845: float | None = None,
 ) -> Path:
-    """The three series, with the 215-block wall's steps, the standing series' slope, the
-    moving series' slope and the 860-block wall's step given."""
+    """The four series, with the 215-block wall's steps, the standing series' slope, the
+    moving series' slope and the 860-block wall's step given, and the walls grown along their
+    length with their slope and the 845-block wall's step (the moving series' by default)."""
     series(
         root / "wall-215",
         [(215, "native", wall_215, "0"), (215, "rapier", rapier_215, "-")],
@@ -53,15 +61,19 @@ def bench(
         [(43, "native", 0.1, "0"), (43, "rapier", 0.2, "-")],
         [("native", "blocks", standing), ("rapier", "blocks", 1.05)],
     )
-    series(
-        root / "sliding",
-        [(860, "native", wall_860, "0"), (860, "rapier", 8.0, "-")],
-        [
-            ("native", "blocks in motion", moving),
-            ("native", "blocks", moving),
-            ("rapier", "blocks", 1.0),
-        ],
-    )
+    for name, blocks, slope, ms in (
+        ("sliding", 860, moving, wall_860),
+        ("long", 845, moving if long is None else long, wall_860 if wall_845 is None else wall_845),
+    ):
+        series(
+            root / name,
+            [(blocks, "native", ms, "0"), (blocks, "rapier", 8.0, "-")],
+            [
+                ("native", "blocks in motion", slope),
+                ("native", "blocks", slope),
+                ("rapier", "blocks", 1.0),
+            ],
+        )
     return root
 
 
@@ -71,12 +83,27 @@ def verdicts(root: Path) -> list[str]:
 
 def test_each_target_is_judged_against_its_threshold(tmp_path: Path) -> None:
     met = bench(tmp_path / "met", 0.95, 1.5, 1.2, 1.19, 4.9)
-    assert verdicts(met) == ["met"] * 6
+    assert verdicts(met) == ["met"] * 8
     missed = bench(tmp_path / "missed", 1.05, 1.0, 1.21, 1.8, 280.0)
-    assert verdicts(missed) == ["not met", "not met", "met", "not met", "not met", "not met"]
+    assert verdicts(missed) == ["not met", "not met", "met"] + ["not met"] * 5
     rows = targets.targets(missed)
     assert rows[1][1] == "1.05 of rapier's 1.000 ms"
     assert rows[5][1] == "280.0 ms (rapier 8.00)"
+
+
+def test_the_walls_grown_along_their_length_are_judged_on_their_own_series(
+    tmp_path: Path,
+) -> None:
+    root = bench(tmp_path / "b", 0.9, 1.5, 1.1, 1.8, 200.0, long=0.95, wall_845=90.0)
+    rows = targets.targets(root)
+    assert [v for _, _, v in rows[4:]] == ["not met", "not met", "met", "not met"]
+    assert rows[6][0].startswith("the same pulse on walls grown along their length")
+    assert rows[6][1] == "0.950 +- 0.010 (rapier 1.000 in the blocks)"
+    assert rows[7] == (
+        "the 845-block wall in motion: at most 5 ms a step",
+        "90.0 ms (rapier 8.00)",
+        "not met",
+    )
 
 
 def test_a_fallback_misses_its_target(tmp_path: Path) -> None:
@@ -98,7 +125,7 @@ def test_the_table_is_written_beside_the_series(
     assert targets.main([str(root)]) == 0
     written = (root / "targets.md").read_text()
     assert written == capsys.readouterr().out
-    assert written.count("| met |") == 6
+    assert written.count("| met |") == 8
 
 
 @pytest.mark.parametrize(
@@ -121,6 +148,10 @@ def test_the_table_is_written_beside_the_series(
         (
             lambda r: (r / "wall-215" / "dynamic.csv").write_text(RUNS_HEADER + "\n"),
             "wall-215/dynamic.csv: no row of native on the 215-block wall",
+        ),
+        (
+            lambda r: (r / "long" / "dynamic.csv").unlink(),
+            "long/dynamic.csv: No such file or directory",
         ),
     ],
 )
