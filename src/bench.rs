@@ -126,12 +126,17 @@ pub fn reference_run(spec: &ReferenceSpec, scene: &Scene) -> Result<Run, String>
                 .map_err(|e| format!("--reference {name} did not run: {e}"))?;
             run_of(name, &out, &s)
         }
-        ReferenceSpec::File(p) => Run {
-            name: p.display().to_string(),
-            trajectory: Trajectory::read_csv(p).map_err(|e| format!("--reference: {e}"))?,
-            exact_impacts: None,
-            cost: Cost::default(),
-        },
+        ReferenceSpec::File(p) => {
+            let run = Run {
+                name: p.display().to_string(),
+                trajectory: Trajectory::read_csv(p).map_err(|e| format!("--reference: {e}"))?,
+                exact_impacts: None,
+                cost: Cost::default(),
+            };
+            crate::metrics::check_reference_file(scene, &run)
+                .map_err(|e| format!("--reference: {e}"))?;
+            run
+        }
     })
 }
 

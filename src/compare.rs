@@ -253,19 +253,17 @@ pub fn compare_with(
                 file: p.display().to_string(),
                 message,
             };
-            let tr = Trajectory::read_csv(p).map_err(|m| {
-                err(m
-                    .strip_prefix(&format!("{}: ", p.display()))
-                    .unwrap_or(&m)
-                    .to_string())
-            })?;
+            // The messages name the file; `err` names it once.
+            let prefix = format!("{}: ", p.display());
+            let unprefixed = |m: String| m.strip_prefix(&prefix).unwrap_or(&m).to_string();
+            let tr = Trajectory::read_csv(p).map_err(|m| err(unprefixed(m)))?;
             let run = Run {
                 name: p.display().to_string(),
                 trajectory: tr,
                 exact_impacts: None,
                 cost: Cost::default(),
             };
-            metrics::check_run(scene, &run).map_err(|e| err(e.to_string()))?;
+            metrics::check_reference_file(scene, &run).map_err(|e| err(unprefixed(e.to_string())))?;
             Some(run)
         }
         ReferenceSpec::Engine(_) => None,

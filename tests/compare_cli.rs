@@ -143,35 +143,69 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
     assert!((t1 - 0.615).abs() < 0.01, "{t1}");
 }
 
+/// A reference file or a setting that cannot give a comparison is one line naming it, exit 1,
+/// nothing written: a file that is not a trajectory, one sample, a value that is not finite, a
+/// window outside the run, a window of one time, no job or no timing run.
 #[test]
-fn bad_reference_file_is_one_line_naming_it() {
+fn bad_reference_file_or_setting_is_one_line_naming_it() {
     let out = tmp("badref");
-    let bad = out.join("bad.csv");
-    std::fs::write(&bad, "t,block_x\n0,1\n").unwrap();
-    let o = bin()
-        .args([
+    let header = "t,block_x,block_z,block_phi,block_vx,block_vz,block_omega\n";
+    let sample = |t: f64, phi: &str| format!("{t},0,1.25,{phi},0,0,0\n");
+    let files = [
+        ("bad.csv", "t,block_x\n0,1\n".to_string(), "header must be"),
+        (
+            "single.csv",
+            format!("{header}{}", sample(0.0, "0.05")),
+            "1 sample(s); a reference needs at least two",
+        ),
+        (
+            "nan.csv",
+            format!("{header}{}{}", sample(0.0, "0.05"), sample(1e-3, "nan")),
+            "`block_phi` is not finite at sample 1",
+        ),
+    ];
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let compare = |extra: &[&str], o: &Path| {
+        let mut args = vec![
             "compare",
-            root()
-                .join("validation/scenes/housner-slender.toml")
-                .to_str()
-                .unwrap(),
+            scene.to_str().unwrap(),
             "--engines",
             "native",
-            "--reference",
-            bad.to_str().unwrap(),
             "--quiet",
             "--out",
-            out.join("o").to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(
-        err.contains("--reference") && err.contains("bad.csv"),
-        "{err}"
-    );
+            o.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        bin().args(args).output().unwrap()
+    };
+    let mut cases: Vec<(Vec<String>, String)> = Vec::new();
+    for (name, text, message) in files {
+        let path = out.join(name);
+        std::fs::write(&path, text).unwrap();
+        let path = path.to_str().unwrap().to_string();
+        cases.push((
+            vec!["--reference".into(), path.clone()],
+            format!("--reference {path}: {message}"),
+        ));
+    }
+    for (setting, message) in [
+        (["--window", "5,9"], "--window: 5,9 s lies outside the scene's run"),
+        (["--window", "0.5"], "--window: two times T0,T1 (got 1 value(s))"),
+        (["--jobs", "0"], "--jobs: at least 1 (got 0)"),
+        (["--timing-runs", "0"], "--timing-runs: at least 1 (got 0)"),
+    ] {
+        cases.push((setting.map(String::from).to_vec(), message.to_string()));
+    }
+    for (k, (extra, message)) in cases.iter().enumerate() {
+        let o = out.join(format!("o{k}"));
+        let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
+        let r = compare(&extra, &o);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{extra:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(message.as_str()), "{extra:?}: {err}");
+        assert!(!o.exists(), "{extra:?} wrote {}", o.display());
+    }
 }
 
 /// Slender block, native against Housner: the rows carry Housner's exact first impact as

@@ -36,7 +36,7 @@ pub struct CompareArgs {
     #[arg(long, value_delimiter = ',', default_value = "1,3")]
     up_to_impacts: Vec<usize>,
     /// Compare only on this window, s (`T0,T1`).
-    #[arg(long, value_delimiter = ',', num_args = 2, value_name = "T0,T1")]
+    #[arg(long, value_delimiter = ',', value_name = "T0,T1")]
     window: Option<Vec<f64>>,
     /// Engines run at once (default: the number of cores, at most 2). Use 1 for wall times
     /// that are not disturbed by another engine running.
@@ -79,18 +79,29 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     opts.metrics.grid_dt = a.grid_dt;
     opts.metrics.up_to_impacts = a.up_to_impacts.clone();
     if let Some(w) = &a.window {
-        if w[1] <= w[0] || w.iter().any(|x| !x.is_finite()) {
+        let &[t0, t1] = w.as_slice() else {
+            bail!("--window: two times T0,T1 (got {} value(s))", w.len());
+        };
+        if t1 <= t0 || !t0.is_finite() || !t1.is_finite() {
+            bail!("--window: T1 must be greater than T0 (got {t0},{t1})");
+        }
+        if t1 <= 0.0 || t0 >= scene.duration {
             bail!(
-                "--window: T1 must be greater than T0 (got {},{})",
-                w[0],
-                w[1]
+                "--window: {t0},{t1} s lies outside the scene's run, 0 to {} s",
+                scene.duration
             );
         }
-        opts.metrics.window = Some((w[0], w[1]));
+        opts.metrics.window = Some((t0, t1));
     }
-    opts.jobs = a.jobs.unwrap_or_else(default_jobs).max(1);
+    if a.jobs == Some(0) {
+        bail!("--jobs: at least 1 (got 0)");
+    }
+    if a.timing_runs == 0 {
+        bail!("--timing-runs: at least 1 (got 0)");
+    }
+    opts.jobs = a.jobs.unwrap_or_else(default_jobs);
     opts.progress = !a.quiet;
-    opts.timing_runs = a.timing_runs.max(1);
+    opts.timing_runs = a.timing_runs;
     let c = compare(&scene, &opts)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     write_comparison(&a.out, &c, &command).map_err(anyhow::Error::msg)?;

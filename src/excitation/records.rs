@@ -13,23 +13,25 @@ pub struct Samples {
 }
 
 /// Two columns `time, value` separated by a comma, semicolon, tab or spaces. One header line
-/// and `#` comment lines are skipped.
+/// (the first line that is not blank or a `#` comment, its first field not a number) and `#`
+/// comment lines are skipped; any other line that is not two numbers is an error, never dropped.
 pub fn parse_two_column(text: &str) -> Result<Samples, String> {
     let mut t = Vec::new();
     let mut v = Vec::new();
-    let mut seen_data = false;
+    let mut first = true;
     for (ln, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
+        let may_be_header = std::mem::replace(&mut first, false);
         let cols: Vec<&str> = line
             .split([',', ';', '\t', ' '])
             .filter(|s| !s.is_empty())
             .collect();
         let nums: Result<Vec<f64>, _> = cols.iter().map(|c| c.parse::<f64>()).collect();
         match nums {
-            Err(_) if !seen_data && t.is_empty() => continue, // header line
+            Err(_) if may_be_header && cols[0].parse::<f64>().is_err() => continue, // header
             Err(_) => return Err(format!("line {}: not two numbers: `{line}`", ln + 1)),
             Ok(n) if n.len() != 2 => {
                 return Err(format!(
@@ -39,7 +41,6 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
                 ));
             }
             Ok(n) => {
-                seen_data = true;
                 if !n[0].is_finite() || !n[1].is_finite() {
                     return Err(format!("line {}: value is not finite", ln + 1));
                 }
@@ -192,6 +193,16 @@ mod tests {
         let s = parse_two_column("# comment\ntime,acc\n0,0\n0.1,1.5\n0.2,-1\n").unwrap();
         assert_eq!(s.t, vec![0.0, 0.1, 0.2]);
         assert_eq!(s.v, vec![0.0, 1.5, -1.0]);
+    }
+
+    /// Only the first line may be a header: a first sample with a unit (`5.0g`) is an error
+    /// naming its line, not a second header dropped with its acceleration.
+    #[test]
+    fn csv_only_the_first_line_is_a_header() {
+        let e = parse_two_column("0.00,5.0g\n0.05,6.0g\n0.10,0\n").unwrap_err();
+        assert_eq!(e, "line 1: not two numbers: `0.00,5.0g`");
+        let e = parse_two_column("time,acc\ns,m/s2\n0,0\n0.1,1\n").unwrap_err();
+        assert!(e.starts_with("line 2: not two numbers"), "{e}");
     }
 
     #[test]

@@ -300,6 +300,14 @@ pub enum MetricsError {
     Times { run: String, index: usize },
     #[error("grid spacing must be a positive number of seconds (got {0})")]
     Grid(f64),
+    #[error("{run}: {samples} sample(s); a reference needs at least two")]
+    TooShort { run: String, samples: usize },
+    #[error("{run}: `{column}` is not finite at sample {index}")]
+    NotFinite {
+        run: String,
+        column: String,
+        index: usize,
+    },
 }
 
 /// Check that a run can be compared on this scene.
@@ -328,6 +336,43 @@ pub fn check_run(scene: &Scene, run: &Run) -> Result<(), MetricsError> {
             run: run.name.clone(),
             index: k + 1,
         });
+    }
+    Ok(())
+}
+
+/// Check that a trajectory read from a file can serve as the reference of runs of this scene:
+/// the scene's blocks, times that do not decrease, at least two samples and every value finite
+/// (an engine's own run is judged by its contracts instead; a file is data to be checked).
+pub fn check_reference_file(scene: &Scene, run: &Run) -> Result<(), MetricsError> {
+    check_run(scene, run)?;
+    let tr = &run.trajectory;
+    if tr.t.len() < 2 {
+        return Err(MetricsError::TooShort {
+            run: run.name.clone(),
+            samples: tr.t.len(),
+        });
+    }
+    let not_finite = |column: String, index: usize| MetricsError::NotFinite {
+        run: run.name.clone(),
+        column,
+        index,
+    };
+    if let Some(k) = tr.t.iter().position(|t| !t.is_finite()) {
+        return Err(not_finite("t".into(), k));
+    }
+    for b in &tr.blocks {
+        for (field, values) in [
+            ("x", &b.x),
+            ("z", &b.z),
+            ("phi", &b.phi),
+            ("vx", &b.vx),
+            ("vz", &b.vz),
+            ("omega", &b.omega),
+        ] {
+            if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+                return Err(not_finite(format!("{}_{field}", b.name), k));
+            }
+        }
     }
     Ok(())
 }

@@ -559,3 +559,27 @@ fn known_metric_names() {
         assert!(!is_known_metric(m), "{m}");
     }
 }
+
+/// A reference read from a file is checked as data: its blocks, at least two samples and every
+/// value finite; a good one passes.
+#[test]
+fn a_reference_file_needs_two_finite_samples_of_the_scenes_blocks() {
+    let sc = scene(ONE_BLOCK);
+    let good = synthetic("ref.csv", &["block"], &[0.0, 1e-3], &[vec![0.1, 0.1]]);
+    assert_eq!(check_reference_file(&sc, &good), Ok(()));
+    let one = synthetic("ref.csv", &["block"], &[0.0], &[vec![0.1]]);
+    assert_eq!(
+        check_reference_file(&sc, &one).unwrap_err().to_string(),
+        "ref.csv: 1 sample(s); a reference needs at least two"
+    );
+    let nan = synthetic("ref.csv", &["block"], &[0.0, 1e-3], &[vec![0.1, f64::NAN]]);
+    assert_eq!(
+        check_reference_file(&sc, &nan).unwrap_err().to_string(),
+        "ref.csv: `block_phi` is not finite at sample 1"
+    );
+    let other = synthetic("ref.csv", &["statue"], &[0.0, 1e-3], &[vec![0.1, 0.1]]);
+    assert!(matches!(
+        check_reference_file(&sc, &other),
+        Err(MetricsError::Blocks { .. })
+    ));
+}
