@@ -117,6 +117,32 @@ fn errors(scene: &Scene, rows: &[MetricRow], row: &mut BenchRow) {
         bottom("peak_amplitude_1").and_then(|r| Some(r.value? / r.reference? - 1.0));
 }
 
+/// The engines and step sizes of a series checked before anything runs: every name in the
+/// registry, every step a positive time no longer than the scene (one that is has no step to
+/// take, and every cell of it would fail), none given twice.
+pub fn check_engines_and_steps(
+    scene: &Scene,
+    engines: &[String],
+    dts: &[f64],
+) -> Result<(), String> {
+    crate::engines::registry::check_names("--engines", engines.iter().map(String::as_str))?;
+    for (k, &dt) in dts.iter().enumerate() {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(format!("--dt: step sizes must be positive (got {dt})"));
+        }
+        if dt > scene.duration {
+            return Err(format!(
+                "--dt: {dt} s is longer than the scene's run, {} s",
+                scene.duration
+            ));
+        }
+        if dts[..k].contains(&dt) {
+            return Err(format!("--dt: {dt} s is given twice"));
+        }
+    }
+    Ok(())
+}
+
 /// The reference run: an engine run on `scene`, or a trajectory file.
 pub fn reference_run(spec: &ReferenceSpec, scene: &Scene) -> Result<Run, String> {
     Ok(match spec {
@@ -147,6 +173,7 @@ pub fn bench(
     progress: &dyn Fn(&BenchRow),
 ) -> Result<Vec<BenchRow>, String> {
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
+    check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
     let reference = reference_run(&opts.reference, &base)?;
     let mut rows = Vec::new();
     for engine in &opts.engines {

@@ -177,6 +177,9 @@ impl Comparison {
 pub enum CompareError {
     #[error("--engines: {0}")]
     Engines(String),
+    /// An engine name that is not in the registry, with the option that gave it.
+    #[error("{0}")]
+    Name(String),
     #[error("--reference {file}: {message}")]
     ReferenceFile { file: String, message: String },
     #[error("reference engine `{engine}` did not run: {reason}")]
@@ -219,6 +222,11 @@ pub fn classify(e: &EngineError) -> Status {
 
 /// Run the engines and compare them with the reference.
 pub fn compare(scene: &Scene, opts: &CompareOptions) -> Result<Comparison, CompareError> {
+    use crate::engines::registry::check_names;
+    check_names("--engines", opts.engines.iter().map(|e| e.trim())).map_err(CompareError::Name)?;
+    if let ReferenceSpec::Engine(r) = &opts.reference {
+        check_names("--reference", [r.as_str()]).map_err(CompareError::Name)?;
+    }
     compare_with(scene, opts, &run_engine)
 }
 
@@ -263,7 +271,8 @@ pub fn compare_with(
                 exact_impacts: None,
                 cost: Cost::default(),
             };
-            metrics::check_reference_file(scene, &run).map_err(|e| err(unprefixed(e.to_string())))?;
+            metrics::check_reference_file(scene, &run)
+                .map_err(|e| err(unprefixed(e.to_string())))?;
             Some(run)
         }
         ReferenceSpec::Engine(_) => None,

@@ -169,6 +169,7 @@ pub fn converge(
     progress: &dyn Fn(&ConvergeRun),
 ) -> Result<Convergence, String> {
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
+    crate::bench::check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
     let common = match &opts.reference {
         ConvergeReference::Common(spec) => Some(reference_run(spec, &base)?),
         ConvergeReference::Finest => None,

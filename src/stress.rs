@@ -494,8 +494,10 @@ impl KnownList {
     pub fn load(path: &Path) -> Result<KnownList, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        toml::from_str(&text)
-            .map_err(|e| format!("{}: {}", path.display(), e.message().replace('\n', " ")))
+        toml::from_str(&text).map_err(|e| {
+            let (line, message) = crate::scene::toml_error_at(&text, &e, "(file)");
+            format!("{}: {line}: {message}", path.display())
+        })
     }
     fn explain(&self, engine: &str, factor: &str, label: &str, check: &str) -> Option<String> {
         self.known

@@ -189,8 +189,14 @@ fn bad_reference_file_or_setting_is_one_line_naming_it() {
         ));
     }
     for (setting, message) in [
-        (["--window", "5,9"], "--window: 5,9 s lies outside the scene's run"),
-        (["--window", "0.5"], "--window: two times T0,T1 (got 1 value(s))"),
+        (
+            ["--window", "5,9"],
+            "--window: 5,9 s lies outside the scene's run",
+        ),
+        (
+            ["--window", "0.5"],
+            "--window: two times T0,T1 (got 1 value(s))",
+        ),
         (["--jobs", "0"], "--jobs: at least 1 (got 0)"),
         (["--timing-runs", "0"], "--timing-runs: at least 1 (got 0)"),
     ] {

@@ -182,6 +182,21 @@ fn bad_gate_files_are_one_line_naming_the_field() {
             "native.dt",
         ),
         ("[[gate]\n".to_string(), "line 1"),
+        (
+            gate_toml(
+                "a",
+                "impact_time_1",
+                1e-3,
+                "expect = \"known-failure\"\nreason = \"r\"",
+            )
+            .replace("engine = \"native\"", "engine = \"bogus\""),
+            "gate[0] (a).engine: unknown engine `bogus`",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "")
+                .replace("reference = \"housner\"", "reference = \"bogusref\""),
+            "gate[0] (a).reference: unknown engine `bogusref`",
+        ),
     ];
     for (text, field) in cases {
         let (o, so, se) = gate(&dir, &text);

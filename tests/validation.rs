@@ -376,6 +376,39 @@ fn a_bad_suite_is_one_clear_line() {
     let (ok, _, se) = run(bin().args(["validate", p.to_str().unwrap(), "--quiet"]));
     assert!(!ok);
     assert!(se.contains("bogus"), "{se}");
+    // A reference that is neither a trajectory file nor an engine of the registry.
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "[[case]]\nname = \"x\"\ntitle = \"t\"\nreference = \"housnr\"\n[[case.run]]\nlabel = \"a\"\nscene = \"{}\"\n",
+            scene.display()
+        ),
+    )
+    .unwrap();
+    let (ok, _, se) = run(bin().args(["validate", p.to_str().unwrap(), "--quiet"]));
+    assert!(!ok);
+    assert_eq!(se.trim().lines().count(), 1, "{se}");
+    assert!(
+        se.contains("suite.toml") && se.contains("case[0] (x).reference: unknown engine `housnr`"),
+        "{se}"
+    );
+    // An engine of --engines that is not in the registry.
+    let (ok, _, se) = run(bin().args([
+        "validate",
+        root().join("validation/suite.toml").to_str().unwrap(),
+        "--engines",
+        "native,bogus",
+        "--quiet",
+    ]));
+    assert!(!ok);
+    assert_eq!(
+        se.trim(),
+        format!(
+            "error: --engines: unknown engine `bogus` (known: {})",
+            rockbench::engines::registry::names().join(", ")
+        )
+    );
 }
 
 /// The suite and both gate files load; every gate belongs to a case; every case has its

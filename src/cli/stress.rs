@@ -22,9 +22,10 @@ pub struct StressArgs {
     /// Output directory: stress.csv, `<engine>.csv`, `<engine>.html`, stress.json.
     #[arg(long, default_value = "out/stress")]
     out: PathBuf,
-    /// Known, explained violations and failures.
-    #[arg(long, default_value = "validation/stress-known.toml")]
-    known: PathBuf,
+    /// Known, explained violations and failures (default: validation/stress-known.toml where
+    /// it exists; a file given here must exist).
+    #[arg(long)]
+    known: Option<PathBuf>,
     /// A run longer than this (s) is abandoned and counted as failed.
     #[arg(long, default_value_t = 600.0)]
     timeout: f64,
@@ -36,6 +37,9 @@ pub struct StressArgs {
     #[arg(long = "contract", value_name = "ENGINE.CHECK=LIMIT")]
     contract: Vec<String>,
 }
+
+/// The list of known violations read when `--known` is not given, where it exists.
+const DEFAULT_KNOWN: &str = "validation/stress-known.toml";
 
 fn engines_help() -> String {
     super::engines_help(&format!(
@@ -60,10 +64,15 @@ pub fn stress(a: StressArgs) -> Result<()> {
             a.timeout
         );
     }
-    let known = if a.known.exists() {
-        KnownList::load(&a.known).map_err(anyhow::Error::msg)?
-    } else {
-        KnownList::default()
+    registry::check_names("--engines", engines.iter().map(String::as_str))
+        .map_err(anyhow::Error::msg)?;
+    let known_path = match &a.known {
+        Some(p) => Some(p.clone()),
+        None => Some(PathBuf::from(DEFAULT_KNOWN)).filter(|p| p.exists()),
+    };
+    let known = match &known_path {
+        Some(p) => KnownList::load(p).map_err(anyhow::Error::msg)?,
+        None => KnownList::default(),
     };
     let contracts = Contracts::with_changes(&a.contract).map_err(anyhow::Error::msg)?;
     let judge = Judge { contracts, known };
@@ -86,7 +95,7 @@ pub fn stress(a: StressArgs) -> Result<()> {
         "factors": crate::stress::FACTORS.iter().map(|(f, d)| serde_json::json!({"factor": f, "varies": d})).collect::<Vec<_>>(),
         "tolerances": tol,
         "timeout_s": a.timeout,
-        "known": a.known.display().to_string(),
+        "known": known_path.as_ref().map(|p| p.display().to_string()),
         "engines": engines,
         "contracts": engines.iter().map(|e| judge.contracts.of(e)).collect::<Vec<_>>(),
     });

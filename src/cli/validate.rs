@@ -50,6 +50,8 @@ fn shown(path: &Path) -> String {
 }
 
 pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
+    crate::engines::registry::check_names("--engines", a.engines.iter().map(String::as_str))
+        .map_err(anyhow::Error::msg)?;
     let mut cases = load_suite(&a.suite)?;
     if !a.cases.is_empty() {
         for c in &a.cases {

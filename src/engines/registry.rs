@@ -251,6 +251,21 @@ pub fn find(name: &str) -> Option<&'static EngineInfo> {
     ENGINES.iter().find(|e| e.name == name)
 }
 
+/// Check a command's engine names against the registry before anything runs: an engine this
+/// build leaves out is known (its runs are reported as skipped), a misspelt one is an error
+/// naming `what` (the option or field that gave it).
+pub fn check_names<'a>(what: &str, names: impl IntoIterator<Item = &'a str>) -> Result<(), String> {
+    for name in names {
+        if find(name).is_none() {
+            return Err(format!(
+                "{what}: {}",
+                EngineError::Unknown(name.to_string())
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The listed engines compiled into this binary, in order.
 pub fn names() -> Vec<&'static str> {
     ENGINES

@@ -223,16 +223,21 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "study", format!("cannot read the study: {e}")))?;
-    let de = toml::Deserializer::new(&text);
-    let f: StudyFile = serde_path_to_error::deserialize(de).map_err(|e| {
-        let field = e.path().to_string();
-        let msg = e.into_inner().message().to_string();
-        SceneError::new(
-            &file,
-            if field == "." { "study".into() } else { field },
-            msg,
-        )
+    // Syntax first (an error names its line), then the fields (an error names its field).
+    let table: toml::Table = toml::from_str(&text).map_err(|e| {
+        let (line, message) = crate::scene::toml_error_at(&text, &e, "study");
+        SceneError::new(&file, line, message)
     })?;
+    let f: StudyFile =
+        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+            let field = e.path().to_string();
+            let message = e.into_inner().message().trim().replace('\n', " ");
+            SceneError::new(
+                &file,
+                if field == "." { "study".into() } else { field },
+                message,
+            )
+        })?;
     let err = |field: &str, msg: String| SceneError::new(&file, field, msg);
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     if f.scenes.is_empty() {

@@ -148,19 +148,8 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
     let text = std::fs::read_to_string(path)
         .map_err(|e| err("(file)".into(), format!("cannot read: {e}")))?;
     let table: toml::Table = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| {
-                format!(
-                    "line {}",
-                    text[..s.start.min(text.len())].lines().count().max(1)
-                )
-            })
-            .unwrap_or_else(|| "(file)".into());
-        err(
-            line,
-            format!("invalid TOML: {}", e.message().replace('\n', " ")),
-        )
+        let (line, message) = crate::scene::toml_error_at(&text, &e, "(file)");
+        err(line, message)
     })?;
     let raw: GateFileRaw =
         serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
@@ -208,6 +197,12 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
         }
         if g.engine.trim().is_empty() {
             return Err(err(at("engine"), "must not be empty".into()));
+        }
+        if crate::engines::registry::find(&g.engine).is_none() {
+            return Err(err(
+                at("engine"),
+                crate::engines::EngineError::Unknown(g.engine.clone()).to_string(),
+            ));
         }
         if !metrics::is_known_metric(&g.metric) {
             return Err(err(
@@ -287,6 +282,11 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
                 ReferenceSpec::File(p)
             } else if g.reference.trim().is_empty() {
                 return Err(err(at("reference"), "must not be empty".into()));
+            } else if crate::engines::registry::find(&g.reference).is_none() {
+                return Err(err(
+                    at("reference"),
+                    crate::engines::EngineError::Unknown(g.reference.clone()).to_string(),
+                ));
             } else {
                 ReferenceSpec::Engine(g.reference.clone())
             }

@@ -162,15 +162,21 @@ fn engine_tables(value: &mut serde_json::Value) -> super::EngineTables {
 }
 
 fn toml_syntax_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
+    let (line, message) = toml_error_at(text, e, "(file)");
+    SceneError::new(file, line, message)
+}
+
+/// Where a TOML syntax error is in `text` (`line L`, or `fallback` where the error has no
+/// place) and its message on one line, for the one-line errors of every file read as TOML.
+pub(crate) fn toml_error_at(text: &str, e: &toml::de::Error, fallback: &str) -> (String, String) {
     let line = e
         .span()
         .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
         .map(|l| format!("line {l}"))
-        .unwrap_or_else(|| "(file)".to_string());
-    SceneError::new(
-        file,
+        .unwrap_or_else(|| fallback.to_string());
+    (
         line,
-        format!("invalid TOML: {}", e.message().replace('\n', " ")),
+        format!("invalid TOML: {}", e.message().trim().replace('\n', " ")),
     )
 }
 

@@ -17,6 +17,7 @@ mod load;
 mod validate;
 
 pub use layout::{BlockState, Layout};
+pub(crate) use load::toml_error_at;
 pub use load::{
     apply_override, check_scene_str, check_scene_str_checked, load_scene, load_scene_checked,
     load_scene_with_overrides, parse_scene_str,

@@ -152,6 +152,11 @@ pub fn load_suite(path: &Path) -> Result<Vec<Case>, SuiteError> {
                 ));
             }
             ReferenceSpec::File(p)
+        } else if crate::engines::registry::find(&c.reference).is_none() {
+            return Err(err(
+                at("reference"),
+                crate::engines::EngineError::Unknown(c.reference.clone()).to_string(),
+            ));
         } else {
             ReferenceSpec::Engine(c.reference.clone())
         };

@@ -1,0 +1,83 @@
+//! Settings of the commands that run series of engines (`bench`, `converge`, `stress`): an
+//! engine name the registry does not know, a step size that no run can take, a list of known
+//! violations that is not there. Each is one line naming the option, exit 1, before anything
+//! runs and with nothing written.
+
+mod common;
+
+use common::{bin, root};
+
+#[test]
+fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
+    let dir = common::tmp("rb-settings", "series");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let scene = scene.to_str().unwrap();
+    let known = rockbench::engines::registry::names().join(", ");
+    let bogus = format!("--engines: unknown engine `bogus` (known: {known})");
+    let cases: Vec<(Vec<&str>, String)> = vec![
+        (
+            vec!["bench", scene, "--engines", "native,bogus", "--dt", "1e-3"],
+            bogus.clone(),
+        ),
+        (
+            vec![
+                "bench",
+                scene,
+                "--engines",
+                "native",
+                "--dt",
+                "1e-3",
+                "--dt",
+                "10",
+            ],
+            "--dt: 10 s is longer than the scene's run, 4 s".into(),
+        ),
+        (
+            vec!["converge", scene, "--engines", "bogus", "--dt", "1e-3,5e-4"],
+            bogus.clone(),
+        ),
+        (
+            vec![
+                "converge",
+                scene,
+                "--engines",
+                "native",
+                "--dt",
+                "1e-3,1e-3",
+            ],
+            "--dt: 0.001 s is given twice".into(),
+        ),
+        (
+            vec!["stress", "--quick", "--engines", "bogus"],
+            bogus.clone(),
+        ),
+        (
+            vec![
+                "stress",
+                "--quick",
+                "--engines",
+                "native",
+                "--known",
+                "nowhere.toml",
+            ],
+            "nowhere.toml: cannot read".into(),
+        ),
+    ];
+    for (k, (args, message)) in cases.iter().enumerate() {
+        let out = dir.join(format!("o{k}"));
+        let o = bin()
+            .args(args)
+            .args(["--out", out.to_str().unwrap()])
+            .current_dir(root())
+            .output()
+            .unwrap();
+        let se = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {se}");
+        assert_eq!(se.trim().lines().count(), 1, "{args:?}: {se}");
+        assert!(
+            se.contains(message.as_str()),
+            "{args:?}: want {message}: {se}"
+        );
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+}
