@@ -371,6 +371,27 @@ fn animate_draws_runs_made_with_run() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("nope/summary.json"), "{err}");
+    // A video of a kind it cannot write: refused before the page is written.
+    let other = out.join("other.html");
+    let o = bin()
+        .args([
+            "animate",
+            out.join("housner").to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+            "--video",
+            out.join("a.avi").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("a.avi: a video is .mp4 or .gif (got `avi`)"),
+        "{err}"
+    );
+    assert!(!other.exists(), "the page was written");
     let o = bin()
         .args([
             "compare",

@@ -81,3 +81,64 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
         assert!(!out.exists(), "{args:?} wrote {}", out.display());
     }
 }
+
+/// `--out` naming a file: refused in one line before anything runs, by every command that
+/// writes a directory.
+#[test]
+fn an_out_that_is_a_file_is_refused_before_any_run() {
+    let dir = common::tmp("rb-settings", "out-file");
+    let file = dir.join("taken");
+    std::fs::write(&file, "a file\n").unwrap();
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let scene = scene.to_str().unwrap();
+    let study = root().join("validation/studies/statue-demo.toml");
+    let study = study.to_str().unwrap();
+    for args in [
+        vec!["run", scene],
+        vec![
+            "compare",
+            scene,
+            "--engines",
+            "native",
+            "--reference",
+            "housner",
+        ],
+        vec!["bench", scene, "--engines", "native", "--dt", "1e-3"],
+        vec![
+            "converge",
+            scene,
+            "--engines",
+            "native",
+            "--dt",
+            "2e-3,1e-3",
+        ],
+        vec!["spectrum", "0.2x4", "--ratios", "2", "--engines", "housner"],
+        vec!["stress", "--quick", "--engines", "housner"],
+        vec!["sensitivity", scene, "--perturb", "initial.tilt=0.1"],
+        vec!["validate", "validation/suite.toml"],
+        vec!["fragility", study],
+    ] {
+        let o = bin()
+            .args(&args)
+            .args(["--out", file.to_str().unwrap()])
+            .current_dir(root())
+            .output()
+            .unwrap();
+        let se = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {se}");
+        assert_eq!(
+            se.trim(),
+            format!(
+                "error: --out: {} is a file, not a directory",
+                file.display()
+            ),
+            "{args:?}"
+        );
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "a file\n");
+    }
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        1,
+        "something else was written"
+    );
+}

@@ -158,6 +158,41 @@ fn bad_studies_stop_before_running_with_one_line() {
     .unwrap();
     fails_with(&study, &out, &["limit_state[0].block", "ground"]);
 
+    // An engine that cannot model a scene's blocks: Housner under a stack.
+    std::fs::write(
+        d.join("stack.toml"),
+        "name = \"stack\"\nduration = 1.0\n\n[[blocks]]\nname = \"base\"\nwidth = 1.0\nheight = 0.5\n\n[[blocks]]\nname = \"block\"\nwidth = 0.3\nheight = 1.5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        &study,
+        text.replace("[\"block.toml\"]", "[\"block.toml\", \"stack.toml\"]")
+            .replace(
+                "engines = [\"native\"]",
+                "engines = [\"native\", \"housner\"]",
+            ),
+    )
+    .unwrap();
+    fails_with(
+        &study,
+        &out,
+        &[
+            "engines[1]",
+            "`housner` cannot run scenes[1] (`stack`)",
+            "single block",
+        ],
+    );
+
+    // A hunt that would start above its highest level.
+    std::fs::write(&study, text.clone() + "\n[ida]\nstart = 10\nmax = 1\n").unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["ida.start", "starts at 10", "below the highest level"],
+    );
+    std::fs::write(&study, text.clone() + "\n[ida]\nstart = 6\n").unwrap();
+    fails_with(&study, &out, &["ida.start", "no higher than 5.5"]);
+
     // And the fixture itself is good.
     std::fs::write(&study, &text).unwrap();
     let o = run_ok(bin().args(["fragility", "--check"]).arg(&study));

@@ -55,6 +55,9 @@ fn scene_of(a: &AnimateArgs, first: &Path, summary: &Summary) -> Result<Scene> {
 }
 
 pub fn animate(a: AnimateArgs) -> Result<()> {
+    if let Some(v) = &a.video {
+        crate::report::animate::video_kind(v).map_err(anyhow::Error::msg)?;
+    }
     let runs: Vec<(PathBuf, Summary, Trajectory)> = a
         .runs
         .iter()

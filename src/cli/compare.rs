@@ -59,6 +59,7 @@ pub struct CompareArgs {
 }
 
 pub fn compare_cmd(a: CompareArgs) -> Result<()> {
+    super::check_out_dir(&a.out)?;
     if !(a.grid_dt > 0.0 && a.grid_dt.is_finite()) {
         bail!(
             "--grid-dt: must be a positive number of seconds (got {})",

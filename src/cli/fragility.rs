@@ -27,6 +27,7 @@ pub struct FragilityArgs {
 }
 
 pub fn run(a: FragilityArgs) -> Result<()> {
+    super::check_out_dir(&a.out)?;
     let st = study::load_study(&a.study).map_err(|e| anyhow!("{e}"))?;
     if a.check {
         println!(

@@ -109,6 +109,15 @@ pub(crate) fn engines_help(first: &str) -> String {
     format!("{first}\n\n{}", crate::engines::registry::help())
 }
 
+/// `--out` checked before any work: a path that exists and is not a directory cannot take
+/// the command's files, and saying so after the runs would waste them.
+pub(crate) fn check_out_dir(out: &std::path::Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        anyhow::bail!("--out: {} is a file, not a directory", out.display());
+    }
+    Ok(())
+}
+
 /// Parse the command line and run it.
 pub fn main() -> Result<()> {
     let cli = Cli::parse();

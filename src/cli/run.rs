@@ -130,6 +130,7 @@ fn seconds(flag: &str, value: f64) -> Result<Duration> {
 }
 
 pub fn run(a: RunArgs) -> Result<()> {
+    super::check_out_dir(&a.out)?;
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
     let e = engine_by_name(&a.engine)?;
     let line = ProgressLine::new(

@@ -65,6 +65,7 @@ pub struct SpectrumArgs {
 }
 
 pub fn run(a: SpectrumArgs) -> Result<()> {
+    super::check_out_dir(&a.out)?;
     let pulses = a
         .pulse
         .iter()

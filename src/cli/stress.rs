@@ -50,6 +50,7 @@ fn engines_help() -> String {
 }
 
 pub fn stress(a: StressArgs) -> Result<()> {
+    super::check_out_dir(&a.out)?;
     let engines: Vec<String> = if a.engines.is_empty() {
         registry::stress_defaults()
             .iter()

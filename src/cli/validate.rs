@@ -50,6 +50,7 @@ fn shown(path: &Path) -> String {
 }
 
 pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
+    super::check_out_dir(&a.out)?;
     crate::engines::registry::check_names("--engines", a.engines.iter().map(String::as_str))
         .map_err(anyhow::Error::msg)?;
     let mut cases = load_suite(&a.suite)?;

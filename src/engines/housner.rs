@@ -372,6 +372,20 @@ impl Engine for HousnerEngine {
         "housner"
     }
 
+    fn cannot_model(&self, scene: &Scene) -> Option<String> {
+        if scene.blocks.len() != 1 {
+            return Some(format!(
+                "the Housner model is a single block on a rigid base; this scene has {} blocks",
+                scene.blocks.len()
+            ));
+        }
+        let st = scene.layout().blocks[0];
+        if st.vx != 0.0 || scene.initial.blocks.values().any(|s| s.vx != 0.0) {
+            return Some("the Housner model does not slide; initial vx must be 0".into());
+        }
+        None
+    }
+
     fn run_reporting(
         &self,
         scene: &Scene,
@@ -382,11 +396,8 @@ impl Engine for HousnerEngine {
             scene: scene.name.clone(),
             reason,
         };
-        if scene.blocks.len() != 1 {
-            return Err(refuse(format!(
-                "the Housner model is a single block on a rigid base; this scene has {} blocks",
-                scene.blocks.len()
-            )));
+        if let Some(reason) = self.cannot_model(scene) {
+            return Err(refuse(reason));
         }
         let gm = GroundMotion::from_scene(scene)?;
         if gm.any_displacement_defined() {
@@ -395,13 +406,7 @@ impl Engine for HousnerEngine {
             ));
         }
         let b = &scene.blocks[0];
-        let layout = scene.layout();
-        let st = layout.blocks[0];
-        if st.vx != 0.0 || scene.initial.blocks.values().any(|s| s.vx != 0.0) {
-            return Err(refuse(
-                "the Housner model does not slide; initial vx must be 0".into(),
-            ));
-        }
+        let st = scene.layout().blocks[0];
         let hs = &HousnerSettings::of(scene)?;
         let blk = HousnerBlock::new(b.width, b.height, scene.gravity, hs.restitution);
         let step = housner_step(&blk, hs);

@@ -65,6 +65,12 @@ pub trait Engine: Send + Sync {
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
         self.run_reporting(scene, &|_| {})
     }
+    /// Why this engine cannot model the scene's blocks and their initial state, whatever the
+    /// loading (`None`: it can). A study asks before any of its runs starts; a run refuses with
+    /// the same reason.
+    fn cannot_model(&self, _scene: &Scene) -> Option<String> {
+        None
+    }
 }
 
 /// The engine named `name` ([`registry::engine`]).

@@ -469,7 +469,10 @@ pub fn write_all(
         write_paper(&tmp.join("paper"), study, res, command)?;
     }
     let _ = std::fs::remove_dir_all(out);
-    std::fs::rename(&tmp, out).map_err(|e| format!("{}: {e}", out.display()))
+    std::fs::rename(&tmp, out).map_err(|e| {
+        let _ = std::fs::remove_dir_all(&tmp);
+        format!("{}: {e}", out.display())
+    })
 }
 
 /// `paper/`: the fits and the differences as booktabs tables, one figure per scene, method

@@ -3,6 +3,7 @@
 //! suite and each of its records) before anything runs; a problem is one line
 //! `file: field: problem`. The format is in docs/fragility.md.
 
+use crate::engines::engine_by_name;
 use crate::excitation::suite::{Suite, load_suite};
 use crate::scene::{Scene, SceneError, load_scene, num};
 use serde::{Deserialize, Serialize};
@@ -297,6 +298,30 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                 return Err(err(name, format!("must be > 0 (got {})", num(v))));
             }
         }
+        // The hunt starts below its highest level (each defaults to the stripes' ends).
+        let lowest = f
+            .intensity
+            .levels
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        let highest = f.intensity.levels.iter().copied().fold(0.0, f64::max);
+        let (start, max) = (ida.start.unwrap_or(lowest), ida.max.unwrap_or(highest));
+        if start >= max {
+            let field = if ida.start.is_some() {
+                "ida.start"
+            } else {
+                "ida.max"
+            };
+            return Err(err(
+                field,
+                format!(
+                    "the hunt starts at {} and may go no higher than {}: the start must be below the highest level",
+                    num(start),
+                    num(max)
+                ),
+            ));
+        }
     }
     if f.fit.bootstrap == 1 {
         return Err(err(
@@ -313,6 +338,17 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                 format!("{}: {}: {}", e.file, e.field, e.message),
             )
         })?;
+        for (j, e) in f.engines.iter().enumerate() {
+            let reason = engine_by_name(e)
+                .ok()
+                .and_then(|engine| engine.cannot_model(&sc));
+            if let Some(reason) = reason {
+                return Err(err(
+                    &format!("engines[{j}]"),
+                    format!("`{e}` cannot run scenes[{k}] (`{}`): {reason}", sc.name),
+                ));
+            }
+        }
         scenes.push(sc);
     }
     let suite = load_suite(&base.join(&f.suite))

@@ -120,6 +120,24 @@ fn nice_step(raw: f64) -> f64 {
         .unwrap_or(10.0 * mag)
 }
 
+/// The kind of video `path` asks for by its extension: `mp4` or `gif` (checked before any
+/// file is written).
+pub fn video_kind(path: &Path) -> Result<&'static str, String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "mp4" => Ok("mp4"),
+        "gif" => Ok("gif"),
+        _ => Err(format!(
+            "{}: a video is .mp4 or .gif (got `{ext}`)",
+            path.display()
+        )),
+    }
+}
+
 impl Animation {
     /// Frames at up to 50 per second (fewer for long runs or many blocks, at least 10), for
     /// the scene's duration.
@@ -555,12 +573,8 @@ impl Animation {
     /// MP4 (H.264) or GIF, by the extension of `path`. The reference is solid, the engines are
     /// outlined in their colours; a bar along the bottom shows the time.
     pub fn write_video(&self, path: &Path) -> Result<(), String> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
-        let codec: Vec<&str> = match ext.as_str() {
+        let ext = video_kind(path)?;
+        let codec: Vec<&str> = match ext {
             "mp4" => vec![
                 "-c:v",
                 "libx264",
@@ -573,12 +587,7 @@ impl Animation {
                 "-vf",
                 "split[a][b];[a]palettegen=max_colors=64[p];[b][p]paletteuse",
             ],
-            _ => {
-                return Err(format!(
-                    "{}: a video is .mp4 or .gif (got `{ext}`)",
-                    path.display()
-                ));
-            }
+            _ => unreachable!("video_kind gives mp4 or gif"),
         };
         let vfps = self.fps.min(if ext == "gif" { 20.0 } else { 25.0 });
         let scale = 640.0 / WIDTH;
