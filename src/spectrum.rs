@@ -709,7 +709,7 @@ pub fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
         return Err(format!("{what}: empty list"));
     }
     if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
-        return Err(format!("{what} must be > 0 (got {x})"));
+        return Err(format!("{what} must be finite and > 0 (got {x})"));
     }
     Ok(v)
 }
@@ -1181,7 +1181,7 @@ mod tests {
         let e = Pulse::parse("triangle").unwrap_err();
         assert!(e.contains("unknown pulse `triangle`") && !e.contains('\n'));
         let e = parse_list("1,0,2", "--ratios").unwrap_err();
-        assert_eq!(e, "--ratios must be > 0 (got 0)");
+        assert_eq!(e, "--ratios must be finite and > 0 (got 0)");
         assert!(parse_list("1,-2", "--ratios").is_err());
         assert!(parse_list("1,x", "--ratios").unwrap_err().contains("`x`"));
         assert_eq!(parse_list("1:3:3", "r").unwrap(), vec![1.0, 2.0, 3.0]);

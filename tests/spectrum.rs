@@ -246,7 +246,7 @@ fn spectrum_bad_input_one_line_errors() {
         ),
         (
             vec!["0.2x4", "--ratios", "1,0"],
-            "--ratios must be > 0 (got 0)",
+            "--ratios must be finite and > 0 (got 0)",
         ),
         (vec!["0.2x4", "--ratios", "-1"], "--ratios must be > 0"),
         (

@@ -298,7 +298,12 @@ pub fn apply_override(root: &mut serde_json::Value, assignment: &str) -> Result<
     let segs = parse_key(key)?;
     let parsed: serde_json::Value =
         match toml::from_str::<toml::Table>(&format!("v = {}", raw.trim())) {
-            Ok(t) => serde_json::to_value(&t["v"]).map_err(|e| e.to_string())?,
+            Ok(t) => {
+                // JSON has no NaN or infinity: caught here, as in a scene file.
+                reject_non_finite(&t["v"], key.to_string(), "--set")
+                    .map_err(|e| format!("`{key}`: {}", e.message))?;
+                serde_json::to_value(&t["v"]).map_err(|e| e.to_string())?
+            }
             Err(_) => serde_json::Value::String(raw.trim().to_string()),
         };
     let mut node = root;

@@ -267,6 +267,37 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                 }
             }
         }
+        // A pulse acts from its `start` on: one that starts before the run would be cut (the
+        // ground's motion before 0 s missing), one that starts after it would never act.
+        for (comp, m) in [("horizontal", &exc.horizontal), ("vertical", &exc.vertical)] {
+            let start = match m {
+                Some(
+                    MotionSpec::HalfSine { start, .. }
+                    | MotionSpec::OneSine { start, .. }
+                    | MotionSpec::OneCosine { start, .. }
+                    | MotionSpec::Ricker { start, .. }
+                    | MotionSpec::Rectangular { start, .. },
+                ) => *start,
+                _ => continue,
+            };
+            let field = format!("excitation.{comp}.start");
+            if start < 0.0 {
+                return err(
+                    field,
+                    format!("must be >= 0: the run starts at 0 s (got {})", num(start)),
+                );
+            }
+            if start >= scene.duration {
+                return err(
+                    field,
+                    format!(
+                        "the pulse starts at {} s, when the run of {} s has ended",
+                        num(start),
+                        num(scene.duration)
+                    ),
+                );
+            }
+        }
         // Loading checks the record files themselves.
         crate::excitation::GroundMotion::from_scene(scene)?;
     }

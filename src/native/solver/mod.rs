@@ -113,7 +113,14 @@ impl<'de> serde::Deserialize<'de> for Blob {
 
 /// A `T` from the CBOR of [`to_bytes`]; the error names `what`.
 pub fn from_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T, String> {
-    ciborium::from_reader(bytes).map_err(|e| format!("{what}: {e}"))
+    use ciborium::de::Error;
+    ciborium::from_reader(bytes).map_err(|e| match e {
+        Error::Io(e) => format!("{what}: cannot read: {e}"),
+        Error::Syntax(at) => format!("{what}: not CBOR at byte {at}"),
+        Error::Semantic(Some(at), m) => format!("{what}: {m} at byte {at}"),
+        Error::Semantic(None, m) => format!("{what}: {m}"),
+        Error::RecursionLimitExceeded => format!("{what}: nested too deeply"),
+    })
 }
 
 /// A fast back-end with Clarabel behind it: a step the primary cannot solve is solved by
