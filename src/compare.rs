@@ -590,9 +590,40 @@ mod tests {
 
     #[test]
     fn a_failing_reference_engine_stops_the_comparison_with_its_reason() {
+        // `native` fails in this runner; `compare` itself refuses a name it does not know.
+        let runner = |name: &str, sc: &Scene| {
+            if name == "native" {
+                EngineRun {
+                    engine: name.into(),
+                    status: classify(&EngineError::Failed {
+                        engine: "native",
+                        message: "diverged at step 7".into(),
+                    }),
+                    output: None,
+                    summary: None,
+                    cached: false,
+                }
+            } else {
+                run_engine(name, sc)
+            }
+        };
+        let opts = CompareOptions::new(
+            vec!["housner".into()],
+            ReferenceSpec::Engine("native".into()),
+        );
+        let e = compare_with(&scene(), &opts, &runner).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("reference engine `native` did not run")
+                && e.to_string().contains("diverged at step 7"),
+            "{e}"
+        );
         let opts = CompareOptions::new(vec!["housner".into()], ReferenceSpec::Engine("x".into()));
         let e = compare(&scene(), &opts).unwrap_err();
-        assert!(e.to_string().contains("reference engine `x`"), "{e}");
+        assert!(
+            e.to_string().starts_with("--reference: unknown engine `x`"),
+            "{e}"
+        );
     }
 
     #[test]

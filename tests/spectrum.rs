@@ -248,7 +248,14 @@ fn spectrum_bad_input_one_line_errors() {
             vec!["0.2x4", "--ratios", "1,0"],
             "--ratios must be finite and > 0 (got 0)",
         ),
-        (vec!["0.2x4", "--ratios", "-1"], "--ratios must be > 0"),
+        (
+            vec!["0.2x4", "--ratios", "-1"],
+            "--ratios must be finite and > 0",
+        ),
+        (
+            vec!["0.2x4", "--ratios", "1e999"],
+            "--ratios must be finite and > 0 (got inf)",
+        ),
         (
             vec!["0.2x4", "--amplitudes", "1,x"],
             "`x` is not a positive number",
