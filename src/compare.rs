@@ -549,15 +549,14 @@ mod tests {
         parse_scene_str(SLENDER, false, "s.toml", &[]).unwrap()
     }
 
-    #[test]
-    fn failing_and_unknown_engines_are_listed_and_the_rest_compared() {
-        // A runner in which `broken` fails; `nosuch` is not an engine at all.
-        let runner = |name: &str, sc: &Scene| {
-            if name == "broken" {
+    /// A runner in which engine `failing` fails, "diverged at step 7", and the others run.
+    fn failing_runner(failing: &'static str) -> impl Fn(&str, &Scene) -> EngineRun + Sync {
+        move |name: &str, sc: &Scene| {
+            if name == failing {
                 EngineRun {
                     engine: name.into(),
                     status: classify(&EngineError::Failed {
-                        engine: "broken",
+                        engine: failing,
                         message: "diverged at step 7".into(),
                     }),
                     output: None,
@@ -567,7 +566,13 @@ mod tests {
             } else {
                 run_engine(name, sc)
             }
-        };
+        }
+    }
+
+    #[test]
+    fn failing_and_unknown_engines_are_listed_and_the_rest_compared() {
+        // `broken` fails; `nosuch` is not an engine at all.
+        let runner = failing_runner("broken");
         let opts = CompareOptions::new(
             vec!["broken".into(), "nosuch".into(), "housner".into()],
             ReferenceSpec::Engine("housner".into()),
@@ -591,22 +596,7 @@ mod tests {
     #[test]
     fn a_failing_reference_engine_stops_the_comparison_with_its_reason() {
         // `native` fails in this runner; `compare` itself refuses a name it does not know.
-        let runner = |name: &str, sc: &Scene| {
-            if name == "native" {
-                EngineRun {
-                    engine: name.into(),
-                    status: classify(&EngineError::Failed {
-                        engine: "native",
-                        message: "diverged at step 7".into(),
-                    }),
-                    output: None,
-                    summary: None,
-                    cached: false,
-                }
-            } else {
-                run_engine(name, sc)
-            }
-        };
+        let runner = failing_runner("native");
         let opts = CompareOptions::new(
             vec!["housner".into()],
             ReferenceSpec::Engine("native".into()),

@@ -6,6 +6,22 @@
 mod common;
 
 use common::{bin, root};
+use std::path::Path;
+
+/// Run `args` with `--out out` from the project's root: it must exit 1 with one line on stderr,
+/// which is returned.
+fn refused(args: &[&str], out: &Path) -> String {
+    let o = bin()
+        .args(args)
+        .args(["--out", out.to_str().unwrap()])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let se = String::from_utf8_lossy(&o.stderr).trim().to_string();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {se}");
+    assert_eq!(se.lines().count(), 1, "{args:?}: {se}");
+    se
+}
 
 #[test]
 fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
@@ -65,15 +81,7 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
     ];
     for (k, (args, message)) in cases.iter().enumerate() {
         let out = dir.join(format!("o{k}"));
-        let o = bin()
-            .args(args)
-            .args(["--out", out.to_str().unwrap()])
-            .current_dir(root())
-            .output()
-            .unwrap();
-        let se = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{args:?}: {se}");
-        assert_eq!(se.trim().lines().count(), 1, "{args:?}: {se}");
+        let se = refused(args, &out);
         assert!(
             se.contains(message.as_str()),
             "{args:?}: want {message}: {se}"
@@ -118,16 +126,9 @@ fn an_out_that_is_a_file_is_refused_before_any_run() {
         vec!["validate", "validation/suite.toml"],
         vec!["fragility", study],
     ] {
-        let o = bin()
-            .args(&args)
-            .args(["--out", file.to_str().unwrap()])
-            .current_dir(root())
-            .output()
-            .unwrap();
-        let se = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{args:?}: {se}");
+        let se = refused(&args, &file);
         assert_eq!(
-            se.trim(),
+            se,
             format!(
                 "error: --out: {} is a file, not a directory",
                 file.display()

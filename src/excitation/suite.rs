@@ -135,21 +135,7 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "suite", format!("cannot read the manifest: {e}")))?;
-    // Syntax first (an error names its line), then the fields (an error names its field).
-    let table: toml::Table = toml::from_str(&text).map_err(|e| {
-        let (line, message) = crate::scene::toml_error_at(&text, &e, "suite");
-        SceneError::new(&file, line, message)
-    })?;
-    let m: ManifestFile =
-        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
-            let field = e.path().to_string();
-            let message = e.into_inner().message().trim().replace('\n', " ");
-            SceneError::new(
-                &file,
-                if field == "." { "suite".into() } else { field },
-                message,
-            )
-        })?;
+    let m: ManifestFile = crate::scene::toml_fields(&file, &text, "suite")?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     if m.suite.name.trim().is_empty() {
         return Err(SceneError::new(&file, "suite.name", "must not be empty"));

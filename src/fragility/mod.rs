@@ -509,9 +509,7 @@ fn ida_record(
     let Some(ida) = &f.ida else {
         return Ok((Vec::new(), Vec::new()));
     };
-    let levels = &f.intensity.levels;
-    let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = levels.iter().copied().fold(0.0, f64::max);
+    let (lo, hi) = f.intensity.range();
     let (start_l, max_l) = (
         ida.start.unwrap_or(lo),
         ida.max.unwrap_or(hi).max(ida.start.unwrap_or(lo)),
@@ -661,13 +659,7 @@ type FitOut = (Vec<Fit>, Vec<Difference>, Vec<f64>);
 /// differences of medians against the first engine.
 fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
     let f = &study.file;
-    let lo = f
-        .intensity
-        .levels
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min);
-    let hi = f.intensity.levels.iter().copied().fold(0.0, f64::max);
+    let (lo, hi) = f.intensity.range();
     let (glo, ghi) = (lo / 2.0, hi * 1.5);
     let grid: Vec<f64> = (0..60)
         .map(|k| glo * (ghi / glo).powf(k as f64 / 59.0))

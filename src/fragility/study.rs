@@ -71,6 +71,15 @@ pub struct LimitState {
     pub block: Option<String>,
 }
 
+impl IntensitySpec {
+    /// The lowest and the highest stripe level.
+    pub fn range(&self) -> (f64, f64) {
+        let lowest = self.levels.iter().copied().fold(f64::INFINITY, f64::min);
+        let highest = self.levels.iter().copied().fold(0.0, f64::max);
+        (lowest, highest)
+    }
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IntensitySpec {
@@ -224,21 +233,7 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "study", format!("cannot read the study: {e}")))?;
-    // Syntax first (an error names its line), then the fields (an error names its field).
-    let table: toml::Table = toml::from_str(&text).map_err(|e| {
-        let (line, message) = crate::scene::toml_error_at(&text, &e, "study");
-        SceneError::new(&file, line, message)
-    })?;
-    let f: StudyFile =
-        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
-            let field = e.path().to_string();
-            let message = e.into_inner().message().trim().replace('\n', " ");
-            SceneError::new(
-                &file,
-                if field == "." { "study".into() } else { field },
-                message,
-            )
-        })?;
+    let f: StudyFile = crate::scene::toml_fields(&file, &text, "study")?;
     let err = |field: &str, msg: String| SceneError::new(&file, field, msg);
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     if f.scenes.is_empty() {
@@ -299,13 +294,7 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
             }
         }
         // The hunt starts below its highest level (each defaults to the stripes' ends).
-        let lowest = f
-            .intensity
-            .levels
-            .iter()
-            .copied()
-            .fold(f64::INFINITY, f64::min);
-        let highest = f.intensity.levels.iter().copied().fold(0.0, f64::max);
+        let (lowest, highest) = f.intensity.range();
         let (start, max) = (ida.start.unwrap_or(lowest), ida.max.unwrap_or(highest));
         if start >= max {
             let field = if ida.start.is_some() {

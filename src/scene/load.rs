@@ -166,6 +166,28 @@ fn toml_syntax_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError 
     SceneError::new(file, line, message)
 }
 
+/// A TOML file's fields: its syntax first (an error names its line), then the fields (an error
+/// names its field; `whole` where it concerns the file as a whole, e.g. a missing field).
+pub(crate) fn toml_fields<T: serde::de::DeserializeOwned>(
+    file: &str,
+    text: &str,
+    whole: &str,
+) -> Result<T, SceneError> {
+    let table: toml::Table = toml::from_str(text).map_err(|e| {
+        let (line, message) = toml_error_at(text, &e, whole);
+        SceneError::new(file, line, message)
+    })?;
+    serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+        let field = e.path().to_string();
+        let message = e.into_inner().message().trim().replace('\n', " ");
+        SceneError::new(
+            file,
+            if field == "." { whole.into() } else { field },
+            message,
+        )
+    })
+}
+
 /// Where a TOML syntax error is in `text` (`line L`, or `fallback` where the error has no
 /// place) and its message on one line, for the one-line errors of every file read as TOML.
 pub(crate) fn toml_error_at(text: &str, e: &toml::de::Error, fallback: &str) -> (String, String) {

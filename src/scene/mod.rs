@@ -17,11 +17,11 @@ mod load;
 mod validate;
 
 pub use layout::{BlockState, Layout};
-pub(crate) use load::toml_error_at;
 pub use load::{
     apply_override, check_scene_str, check_scene_str_checked, load_scene, load_scene_checked,
     load_scene_with_overrides, parse_scene_str,
 };
+pub(crate) use load::{toml_error_at, toml_fields};
 pub(crate) use validate::num;
 pub use validate::{MAX_STEPS, MIN_EVENT_TOLERANCE_REL, check_samples, check_step};
 
