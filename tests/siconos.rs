@@ -202,12 +202,24 @@ fn walls_are_unsupported_not_failed() {
         &["duration=0.05".into()],
     )
     .unwrap();
-    match engine_by_name("siconos").unwrap().run(&scene) {
+    let siconos = engine_by_name("siconos").unwrap();
+    let known = siconos
+        .cannot_model(&scene)
+        .expect("a wall is known to be beyond the worker");
+    match siconos.run(&scene) {
         Err(EngineError::Unsupported { reason, .. }) => {
-            assert!(reason.contains("walls"), "{reason}")
+            assert!(reason.contains("walls"), "{reason}");
+            assert_eq!(reason, known);
         }
         other => panic!("expected unsupported, got {other:?}"),
     }
+    // A stack is within it.
+    let stack = load_scene_with_overrides(
+        Path::new(&root().join("validation/scenes/two-block-free-rocking.toml")),
+        &[],
+    )
+    .unwrap();
+    assert_eq!(siconos.cannot_model(&stack), None);
 }
 
 #[test]

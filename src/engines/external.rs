@@ -65,6 +65,8 @@ pub struct WorkerSpec {
     pub env: &'static [(&'static str, &'static str)],
     /// The exit code by which the worker says it cannot model the scene (its stderr says why).
     pub unsupported_exit: Option<i32>,
+    /// What the harness knows the worker cannot model ([`Engine::cannot_model`]).
+    pub cannot_model: Option<fn(&Scene) -> Option<String>>,
 }
 
 /// MuJoCo (`python/rockbench/engines/mujoco_engine.py`).
@@ -85,6 +87,7 @@ impl WorkerSpec {
             check: None,
             env: &[],
             unsupported_exit: None,
+            cannot_model: None,
         }
     }
 }
@@ -502,6 +505,10 @@ fn temp_dir(engine: &str) -> std::io::Result<PathBuf> {
 impl Engine for ExternalEngine {
     fn name(&self) -> &'static str {
         self.engine
+    }
+
+    fn cannot_model(&self, scene: &Scene) -> Option<String> {
+        self.spec.cannot_model.and_then(|f| f(scene))
     }
 
     fn run_reporting(

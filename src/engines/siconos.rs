@@ -42,7 +42,19 @@ pub static WORKER: WorkerSpec = WorkerSpec {
     // One BLAS thread: the problems are tiny and threads only contend on 2 cores.
     env: &[("OPENBLAS_NUM_THREADS", "1")],
     unsupported_exit: Some(5),
+    cannot_model: Some(cannot_model),
 };
+
+/// Walls (blocks placed by absolute `x`) are beyond the worker: it models single blocks and
+/// stacks.
+fn cannot_model(scene: &Scene) -> Option<String> {
+    scene.blocks.iter().find(|b| b.x.is_some()).map(|b| {
+        format!(
+            "block `{}` is placed by absolute `x` (walls): only single blocks and stacks are modelled",
+            b.name
+        )
+    })
+}
 
 fn scene_error(e: EngineError) -> SceneError {
     match e {
@@ -68,18 +80,12 @@ pub fn step(scene: &Scene) -> Result<f64, EngineError> {
 
 /// What the Siconos worker reads: the scene and what only this crate computes.
 pub fn input(scene: &Scene) -> Result<serde_json::Value, EngineError> {
-    for b in &scene.blocks {
-        if b.x.is_some() {
-            return Err(EngineError::Unsupported {
-                engine: "siconos",
-                scene: scene.name.clone(),
-                reason: format!(
-                    "block `{}` is placed by absolute `x` (walls): only single blocks and \
-                     stacks are modelled",
-                    b.name
-                ),
-            });
-        }
+    if let Some(reason) = cannot_model(scene) {
+        return Err(EngineError::Unsupported {
+            engine: "siconos",
+            scene: scene.name.clone(),
+            reason,
+        });
     }
     let layout = scene.layout();
     let blocks: Vec<serde_json::Value> = layout
