@@ -193,6 +193,32 @@ fn bad_studies_stop_before_running_with_one_line() {
     std::fs::write(&study, text.clone() + "\n[ida]\nstart = 6\n").unwrap();
     fails_with(&study, &out, &["ida.start", "no higher than 5.5"]);
 
+    // An --out whose files the outputs would replace: the working directory, or a folder of
+    // other files. Refused before anything runs, the files kept.
+    std::fs::write(&study, &text).unwrap();
+    let mine = d.join("mine");
+    std::fs::create_dir_all(mine.join("sub")).unwrap();
+    std::fs::write(mine.join("canary.txt"), "precious").unwrap();
+    for (cwd, out, message) in [
+        (mine.clone(), ".", "is the working directory or holds it"),
+        (d.to_path_buf(), "mine", "holds files and no fragility.json"),
+    ] {
+        let o = bin()
+            .args(["fragility"])
+            .arg(&study)
+            .args(["--out", out])
+            .current_dir(cwd)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(message), "{err}");
+        assert_eq!(std::fs::read_to_string(mine.join("canary.txt")).unwrap(), "precious");
+        assert!(mine.join("sub").is_dir());
+        assert!(!d.join("cache").exists(), "ran something");
+    }
+
     // And the fixture itself is good.
     std::fs::write(&study, &text).unwrap();
     let o = run_ok(bin().args(["fragility", "--check"]).arg(&study));

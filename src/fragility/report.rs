@@ -10,7 +10,7 @@ use crate::paper::{PaperDir, booktabs, latex_escape, tex_num};
 use crate::report::svg::{Curve, Marker, Plot};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 const COLORS: [&str; 6] = [
     "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
@@ -440,8 +440,43 @@ pub fn html(study: &Study, res: &Results, command: &str) -> String {
     s
 }
 
+/// The file that marks a folder as a study's output, which a new run may replace whole.
+const MARKER: &str = "fragility.json";
+
+/// Check that `out` can take a study's outputs, before the study runs: the outputs replace the
+/// folder whole, so it must be new, empty or a study's output (it holds `fragility.json`), and
+/// neither the working directory nor one that holds it. Gives `out` made absolute.
+pub fn replaceable_out(out: &Path) -> Result<PathBuf, String> {
+    let abs = std::path::absolute(out).map_err(|e| format!("--out: {}: {e}", out.display()))?;
+    if !abs.exists() {
+        return Ok(abs);
+    }
+    let shown = out.display();
+    if !abs.is_dir() {
+        return Err(format!("--out: {shown} is a file, not a directory"));
+    }
+    let real = abs.canonicalize().map_err(|e| format!("--out: {shown}: {e}"))?;
+    if let Ok(cwd) = std::env::current_dir().and_then(|c| c.canonicalize())
+        && cwd.starts_with(&real)
+    {
+        return Err(format!(
+            "--out: {shown} is the working directory or holds it; the outputs replace their folder whole"
+        ));
+    }
+    let empty = std::fs::read_dir(&real)
+        .map_err(|e| format!("--out: {shown}: {e}"))?
+        .next()
+        .is_none();
+    if !empty && !real.join(MARKER).is_file() {
+        return Err(format!(
+            "--out: {shown} holds files and no {MARKER}: not a study's output, which would replace it whole; give a new or empty folder"
+        ));
+    }
+    Ok(abs)
+}
+
 /// Write every output into `out` (a temporary folder renamed at the end: an interrupted or
-/// failed write leaves the old folder or none).
+/// failed write leaves the old folder or none). `out` must pass [`replaceable_out`].
 pub fn write_all(
     out: &Path,
     study: &Study,
@@ -449,7 +484,9 @@ pub fn write_all(
     command: &str,
     paper: bool,
 ) -> Result<(), String> {
-    let tmp = out.with_extension("partial");
+    let out = &replaceable_out(out)?;
+    let name = out.file_name().ok_or_else(|| format!("--out: {}: no folder name", out.display()))?;
+    let tmp = out.with_file_name(format!("{}.partial", name.to_string_lossy()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
     let w = |name: &str, text: String| {
@@ -461,7 +498,7 @@ pub fn write_all(
     w("fits.csv", fits_csv(res))?;
     w("differences.csv", differences_csv(res))?;
     w(
-        "fragility.json",
+        MARKER,
         serde_json::to_string_pretty(&json(study, res, command)).expect("serialises") + "\n",
     )?;
     w("report.html", html(study, res, command))?;

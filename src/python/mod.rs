@@ -337,6 +337,9 @@ fn fragility_study(
     if let Some(c) = cache {
         st.cache_dir = c;
     }
+    if let Some(dir) = &out {
+        crate::fragility::report::replaceable_out(dir).map_err(PyValueError::new_err)?;
+    }
     let res = py
         .detach(|| crate::fragility::run_study(&st, quiet))
         .map_err(PyRuntimeError::new_err)?;
