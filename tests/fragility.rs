@@ -183,6 +183,22 @@ fn bad_studies_stop_before_running_with_one_line() {
         ],
     );
 
+    // A stripe or a scene listed twice (counted twice in the fit), resamples beyond memory.
+    edit("levels = [1.2, 1.6,", "levels = [1.2, 1.2,");
+    fails_with(
+        &study,
+        &out,
+        &["intensity.levels[1]", "1.2 is listed twice"],
+    );
+    edit("[\"block.toml\"]", "[\"block.toml\", \"block.toml\"]");
+    fails_with(&study, &out, &["scenes[1]", "`block.toml` is listed twice"]);
+    edit("bootstrap = 200", "bootstrap = 10000000000000");
+    fails_with(
+        &study,
+        &out,
+        &["fit.bootstrap", "at most 1000000 resamples"],
+    );
+
     // A hunt that would start above its highest level.
     std::fs::write(&study, text.clone() + "\n[ida]\nstart = 10\nmax = 1\n").unwrap();
     fails_with(
@@ -214,7 +230,10 @@ fn bad_studies_stop_before_running_with_one_line() {
         assert_eq!(o.status.code(), Some(1), "{err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(err.contains(message), "{err}");
-        assert_eq!(std::fs::read_to_string(mine.join("canary.txt")).unwrap(), "precious");
+        assert_eq!(
+            std::fs::read_to_string(mine.join("canary.txt")).unwrap(),
+            "precious"
+        );
         assert!(mine.join("sub").is_dir());
         assert!(!d.join("cache").exists(), "ran something");
     }

@@ -230,13 +230,23 @@ pub struct Results {
     pub engine_versions: BTreeMap<String, String>,
 }
 
-/// Where the outcome of the run with content hash `key` is stored in the cache `dir`.
+/// Whether `key` is a run's content hash: 64 hexadecimal digits.
+pub fn is_run_key(key: &str) -> bool {
+    key.len() == 64 && key.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
+/// Where the outcome of the run with content hash `key` ([`is_run_key`]) is stored in the
+/// cache `dir`.
 pub fn cache_path(dir: &Path, key: &str) -> PathBuf {
     dir.join(&key[..2]).join(format!("{key}.json"))
 }
 
-/// The stored outcome of the run with content hash `key`, if the cache has a whole one.
+/// The stored outcome of the run with content hash `key`, if the cache has a whole one (none
+/// for a string that is not a run key).
 pub fn cache_load(dir: &Path, key: &str) -> Option<RunOutcome> {
+    if !is_run_key(key) {
+        return None;
+    }
     let text = std::fs::read_to_string(cache_path(dir, key)).ok()?;
     serde_json::from_str::<RunOutcome>(&text).ok()
 }
@@ -299,7 +309,9 @@ impl Runner {
     /// interrupted study leaves whole entries only).
     pub fn get(&self, spec: &RunSpec) -> Result<(RunOutcome, bool), String> {
         let key = spec.key();
-        if let Some(o) = cache_load(&self.dir, &key) {
+        // An entry that cannot be this run's (another block count, a value not finite) is run
+        // again and replaced.
+        if let Some(o) = cache_load(&self.dir, &key).filter(|o| o.fits(spec.scene.blocks.len())) {
             self.cached.fetch_add(1, Ordering::Relaxed);
             self.tick(o.stop);
             return Ok((o, true));
@@ -311,7 +323,8 @@ impl Runner {
             )
         })?;
         *self.run_wall.lock().expect("not poisoned") += o.wall_s;
-        let _ = cache_store(&self.dir, &key, &o);
+        // A run that cannot be stored would leave a study that cannot resume: an error.
+        cache_store(&self.dir, &key, &o).map_err(|e| format!("the run cache: {e}"))?;
         self.made_runs
             .lock()
             .expect("not poisoned")

@@ -455,7 +455,9 @@ pub fn replaceable_out(out: &Path) -> Result<PathBuf, String> {
     if !abs.is_dir() {
         return Err(format!("--out: {shown} is a file, not a directory"));
     }
-    let real = abs.canonicalize().map_err(|e| format!("--out: {shown}: {e}"))?;
+    let real = abs
+        .canonicalize()
+        .map_err(|e| format!("--out: {shown}: {e}"))?;
     if let Ok(cwd) = std::env::current_dir().and_then(|c| c.canonicalize())
         && cwd.starts_with(&real)
     {
@@ -485,7 +487,9 @@ pub fn write_all(
     paper: bool,
 ) -> Result<(), String> {
     let out = &replaceable_out(out)?;
-    let name = out.file_name().ok_or_else(|| format!("--out: {}: no folder name", out.display()))?;
+    let name = out
+        .file_name()
+        .ok_or_else(|| format!("--out: {}: no folder name", out.display()))?;
     let tmp = out.with_file_name(format!("{}.partial", name.to_string_lossy()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;

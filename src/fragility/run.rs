@@ -69,6 +69,10 @@ fn scene_with_tables<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Scene, D:
     let mut scene: Scene =
         serde_json::from_value(serde_json::Value::Object(v)).map_err(serde::de::Error::custom)?;
     scene.engines = engines;
+    // A spec is data that may come from elsewhere (a Dask task, a file): its scene is checked
+    // as a scene file is, never run as given.
+    scene.source = "the run spec's scene".into();
+    crate::engines::registry::check(&scene).map_err(serde::de::Error::custom)?;
     Ok(scene)
 }
 
@@ -96,6 +100,17 @@ pub struct RunOutcome {
 impl RunOutcome {
     pub fn any_overturned(&self) -> bool {
         self.overturned.iter().any(|&o| o)
+    }
+
+    /// Whether this outcome can be a run of a scene of `blocks` blocks: one rotation, one
+    /// overturning flag and one sliding value per block, finite where given.
+    pub fn fits(&self, blocks: usize) -> bool {
+        self.rotation.len() == blocks
+            && self.overturned.len() == blocks
+            && self.sliding.len() == blocks
+            && self.rotation.iter().all(|r| r.is_finite())
+            && self.sliding.iter().flatten().all(|s| s.is_finite())
+            && self.t_end.is_finite()
     }
 }
 

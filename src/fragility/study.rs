@@ -228,6 +228,10 @@ pub fn default_limit_states() -> Vec<LimitState> {
     ]
 }
 
+/// Most bootstrap resamples a study may ask for (the 95 % intervals settle within a few
+/// thousand; a million already holds some 20 MB of fits a curve).
+pub const MAX_BOOTSTRAP: usize = 1_000_000;
+
 /// Read and check a study and everything it names.
 pub fn load_study(path: &Path) -> Result<Study, SceneError> {
     let file = path.display().to_string();
@@ -261,6 +265,13 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
             return Err(err(
                 &format!("intensity.levels[{k}]"),
                 format!("an intensity level must be > 0 (got {})", num(*l)),
+            ));
+        }
+        // A stripe run twice would count its records twice in the fit.
+        if f.intensity.levels[..k].contains(l) {
+            return Err(err(
+                &format!("intensity.levels[{k}]"),
+                format!("{} is listed twice", num(*l)),
             ));
         }
     }
@@ -318,8 +329,23 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
             "one resample gives no interval: use 0 or >= 2".into(),
         ));
     }
+    if f.fit.bootstrap > MAX_BOOTSTRAP {
+        return Err(err(
+            "fit.bootstrap",
+            format!(
+                "at most {MAX_BOOTSTRAP} resamples (got {}): each keeps its fit in memory",
+                f.fit.bootstrap
+            ),
+        ));
+    }
     let mut scenes = Vec::new();
     for (k, s) in f.scenes.iter().enumerate() {
+        if f.scenes[..k].contains(s) {
+            return Err(err(
+                &format!("scenes[{k}]"),
+                format!("`{s}` is listed twice"),
+            ));
+        }
         let p = base.join(s);
         let sc = load_scene(&p).map_err(|e| {
             err(

@@ -405,7 +405,7 @@ fn fragility_ida_batch(
 fn fragility_store(cache: PathBuf, runs: Vec<(String, String)>) -> PyResult<usize> {
     let mut new = 0;
     for (key, text) in runs {
-        if key.len() != 64 || !key.bytes().all(|b| b.is_ascii_hexdigit()) {
+        if !crate::fragility::is_run_key(&key) {
             return Err(PyValueError::new_err(format!("not a run key: {key:?}")));
         }
         let o: crate::fragility::run::RunOutcome = serde_json::from_str(&text)
@@ -451,7 +451,7 @@ fn fragility_run_batch(
 fn fragility_cache_has(py: Python<'_>, cache: PathBuf, keys: Vec<String>) -> Vec<bool> {
     py.detach(|| {
         keys.iter()
-            .map(|k| k.len() > 2 && crate::fragility::cache_load(&cache, k).is_some())
+            .map(|k| crate::fragility::cache_load(&cache, k).is_some())
             .collect()
     })
 }

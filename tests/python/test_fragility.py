@@ -141,3 +141,36 @@ def test_bindings_run_the_same_unit_of_work(tmp_path: Path, study: dict) -> None
         bad.write_text(path.read_text().replace("levels = [1.1,", "levels = [0,"))
         (tmp_path / "block.toml").write_text((path.parent / "block.toml").read_text())
         rockbench.fragility_study(bad)
+
+
+def test_specs_keys_and_cache_entries_from_elsewhere_are_checked(
+    tmp_path: Path,
+    study: dict,  # type: ignore[type-arg]
+) -> None:
+    """A run spec, a run key or a cache entry may come from another process (a Dask task, a
+    shared folder): a spec's scene is checked as a scene file is, a string that is not a run key
+    has no entry, and an entry that cannot be its run's (another block count) is run again."""
+    import rockbench
+
+    path = Path(study["study_file"])
+    key, spec = rockbench.fragility_run_specs(path)[3]
+    s = json.loads(spec)
+    s["scene"]["blocks"] = []
+    with pytest.raises(ValueError, match="blocks"):
+        rockbench.fragility_run(json.dumps(s))
+    s = json.loads(spec)
+    s["scene"]["gravity"] = 0.0
+    with pytest.raises(ValueError, match="gravity"):
+        rockbench.fragility_run(json.dumps(s))
+    from rockbench import _native
+
+    cache = tmp_path / "cache"
+    assert _native.fragility_cache_has(str(cache), ["a\u00e90000", "", key]) == [False] * 3
+    good = json.loads(rockbench.fragility_run(spec))
+    wrong = dict(good, rotation=[], overturned=[], sliding=[])
+    assert _native.fragility_store(str(cache), [(key, json.dumps(wrong))]) == 1
+    ((k, made, text),) = _native.fragility_run_batch([spec], str(cache))
+    assert k == key and made, "an entry of another block count was taken as the run"
+    assert json.loads(text)["rotation"] == good["rotation"]
+    ((_, made, _),) = _native.fragility_run_batch([spec], str(cache))
+    assert not made, "the run made again was not stored"
