@@ -114,6 +114,18 @@ impl Study {
         if self.configs.is_empty() {
             bail!("--configs: none given");
         }
+        // A configuration that sets the perturbed value gives every member the same scene.
+        for c in &self.configs {
+            if c.sets
+                .iter()
+                .any(|s| s.split_once('=').map(|(k, _)| k.trim()) == Some(key))
+            {
+                bail!(
+                    "--configs: {:?} sets {key}, the perturbed value: its members would not be perturbed",
+                    c.label
+                );
+            }
+        }
         for c in &self.configs {
             load_scene_with_overrides(&self.scene, &self.run_sets(c, 0))
                 .with_context(|| c.label.clone())?;
@@ -121,6 +133,12 @@ impl Study {
         let base = load_scene_with_overrides(&self.scene, &self.sets)?;
         let names: Vec<String> = base.blocks.iter().map(|b| b.name.clone()).collect();
         let runs = read_runs(&out.join("runs.csv"), &self.parameters()?, names.len())?;
+        // Runs of members or configurations this study does not ask for stay in the file
+        // but not in its ensembles.
+        let runs = runs
+            .into_iter()
+            .filter(|r| r.member < self.members && self.configs.iter().any(|c| c.label == r.config))
+            .collect();
         Ok((names, runs))
     }
 
@@ -130,7 +148,8 @@ impl Study {
         let (names, mut runs) = self.check(out)?;
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         let runs_path = out.join("runs.csv");
-        if runs.is_empty() {
+        drop_unfinished_line(&runs_path)?;
+        if std::fs::metadata(&runs_path).map_or(true, |m| m.len() == 0) {
             let header: String = names.iter().map(|n| format!(",{n}")).collect();
             std::fs::write(
                 &runs_path,
@@ -172,16 +191,18 @@ impl Study {
                 let overturned: Vec<String> =
                     run.overturned.iter().map(|i| i.to_string()).collect();
                 let dx: String = run.final_dx.iter().map(|x| format!(",{x:?}")).collect();
-                writeln!(
-                    file,
-                    "{},{},{},{},{},{}{dx}",
+                // One write a line: an interruption leaves whole lines and at most one
+                // unfinished last line, which the next run drops.
+                let line = format!(
+                    "{},{},{},{},{},{}{dx}\n",
                     run.config,
                     run.member,
                     run.wall_s,
                     run.steps,
                     run.engine_version,
                     overturned.join(";")
-                )?;
+                );
+                file.write_all(line.as_bytes())?;
                 file.flush()?;
                 runs.push(run);
                 progress(&format!(
@@ -353,7 +374,26 @@ fn difference_cells(a: &Ensemble, b: &Ensemble) -> anyhow::Result<String> {
     Ok(format!("{:.3} ({:.3}) | {ratio}", 1e3 * d.rms, 1e3 * d.max))
 }
 
-/// The runs already in `path` (made with `parameters`, for `n_blocks` blocks).
+/// Cut an unfinished last line (a run interrupted while it was written) from `path`, so that
+/// the next run's line starts on a line of its own. Its run is made again.
+fn drop_unfinished_line(path: &Path) -> anyhow::Result<()> {
+    let Ok(text) = std::fs::read(path) else {
+        return Ok(());
+    };
+    if text.is_empty() || text.ends_with(b"\n") {
+        return Ok(());
+    }
+    let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .and_then(|f| f.set_len(whole as u64))
+        .with_context(|| format!("cannot cut the unfinished last line of {}", path.display()))
+}
+
+/// The runs already in `path` (made with `parameters`, for `n_blocks` blocks). An unfinished
+/// last line (no line end) is not a run; a run given twice, a block index beyond the scene's or
+/// a displacement that is not finite is an error naming the line.
 fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<Vec<Run>> {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
@@ -386,8 +426,16 @@ fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<V
         );
     }
     lines.next(); // The header.
-    let mut runs = Vec::new();
+    let mut runs: Vec<Run> = Vec::new();
+    let finished = if text.ends_with('\n') {
+        usize::MAX
+    } else {
+        text.lines().count().saturating_sub(3)
+    };
     for (k, line) in lines.enumerate() {
+        if k >= finished {
+            break;
+        }
         let bad = || {
             format!(
                 "{}: line {}: not a run of this study",
@@ -410,7 +458,20 @@ fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<V
             .map(|x| x.parse::<f64>())
             .collect::<Result<Vec<_>, _>>()
             .with_context(bad)?;
-        runs.push(Run {
+        let at = |what: String| format!("{}: line {}: {what}", path.display(), k + 3);
+        if let Some(i) = overturned.iter().find(|&&i| i >= n_blocks) {
+            bail!(
+                "{}",
+                at(format!("overturned block {i} of a scene of {n_blocks}"))
+            );
+        }
+        if let Some(i) = final_dx.iter().position(|x| !x.is_finite()) {
+            bail!(
+                "{}",
+                at(format!("the final displacement of block {i} is not finite"))
+            );
+        }
+        let run = Run {
             config: f[0].to_string(),
             member: f[1].parse().with_context(bad)?,
             wall_s: f[2].parse().with_context(bad)?,
@@ -418,7 +479,20 @@ fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<V
             engine_version: f[4].to_string(),
             overturned,
             final_dx,
-        });
+        };
+        if runs
+            .iter()
+            .any(|r| r.config == run.config && r.member == run.member)
+        {
+            bail!(
+                "{}",
+                at(format!(
+                    "a second run of {}, member {}",
+                    run.config, run.member
+                ))
+            );
+        }
+        runs.push(run);
     }
     Ok(runs)
 }

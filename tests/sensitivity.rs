@@ -100,6 +100,64 @@ fn a_study_runs_its_members_resumes_and_compares_its_configurations() {
         md
     );
 
+    // A run interrupted while its line was written: the unfinished line is cut and its run
+    // made again, to the same line.
+    let last = runs.lines().last().unwrap();
+    let cut = &runs[..runs.len() - last.len() / 2 - 1];
+    std::fs::write(out.join("runs.csv"), cut).unwrap();
+    let resumed = study(&out, &["--epsilon", "1e-6"]);
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    assert_eq!(
+        stderr(&resumed).matches("member").count(),
+        1,
+        "{}",
+        stderr(&resumed)
+    );
+    let rerun = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    let fields = |l: &str| {
+        let f: Vec<String> = l.split(',').map(String::from).collect();
+        [&f[..2], &f[3..]].concat()
+    };
+    assert_eq!(rerun.lines().count(), runs.lines().count(), "{rerun}");
+    assert_eq!(fields(rerun.lines().last().unwrap()), fields(last));
+
+    // A run of a member the study does not ask for (a study of more members in the same
+    // folder) stays in the file and out of the ensembles.
+    let two = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    let wild = two
+        .lines()
+        .nth(2)
+        .unwrap()
+        .replacen("native,0,", "native,5,", 1);
+    let (head, _) = wild.rsplit_once(',').unwrap();
+    let more = format!("{two}{head},-0.5\n");
+    std::fs::write(out.join("runs.csv"), &more).unwrap();
+    let o = study(&out, &["--epsilon", "1e-6"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(out.join("sensitivity.md")).unwrap(),
+        md
+    );
+    assert_eq!(std::fs::read_to_string(out.join("runs.csv")).unwrap(), more);
+
+    // A run given twice is one line naming it; nothing is rewritten.
+    let doubled = format!("{two}{}\n", two.lines().nth(2).unwrap());
+    std::fs::write(out.join("runs.csv"), &doubled).unwrap();
+    let o = study(&out, &["--epsilon", "1e-6"]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("line 7: a second run of native, member 0"),
+        "{e}"
+    );
+    assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("runs.csv")).unwrap(),
+        doubled
+    );
+    std::fs::write(out.join("runs.csv"), &two).unwrap();
+    let runs = two;
+
     // Another study in the same directory is refused, and the runs stay as they were.
     let other = study(&out, &["--epsilon", "1e-9"]);
     assert!(!other.status.success());
@@ -143,6 +201,13 @@ fn bad_studies_say_what_is_wrong_and_write_nothing() {
             "amplitud",
         ),
         (&["--perturb", "amplitude"][..], "KEY=VALUE"),
+        (
+            &[
+                "--configs",
+                "native,native:excitation.horizontal.amplitude=3",
+            ][..],
+            "sets excitation.horizontal.amplitude, the perturbed value",
+        ),
     ] {
         let out = dir.join(expected.replace(['-', ' '], "_"));
         let o = study(&out, extra);
