@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Bumped when the layout of a cache entry changes.
-const CACHE_FORMAT: u32 = 1;
+const CACHE_FORMAT: u32 = 2;
 
 pub struct RunCache {
     dir: Option<PathBuf>,
@@ -109,7 +109,13 @@ impl RunCache {
 fn load(entry: &Path, engine: &str) -> Option<EngineRun> {
     let summary: Summary =
         serde_json::from_str(&std::fs::read_to_string(entry.join("summary.json")).ok()?).ok()?;
-    let trajectory = Trajectory::read_csv(&entry.join("trajectory.csv")).ok()?;
+    // The trajectory as it was stored, to the byte (a cut or altered file is not served).
+    let csv = std::fs::read(entry.join("trajectory.csv")).ok()?;
+    let digest = std::fs::read_to_string(entry.join("trajectory.sha256")).ok()?;
+    if digest.trim() != hex(&Sha256::digest(&csv)) {
+        return None;
+    }
+    let trajectory = Trajectory::parse_csv(std::str::from_utf8(&csv).ok()?).ok()?;
     let exact_impacts: Option<Vec<Vec<f64>>> =
         serde_json::from_str(&std::fs::read_to_string(entry.join("exact_impacts.json")).ok()?)
             .ok()?;
@@ -143,7 +149,13 @@ fn store(entry: &Path, engine: &str, scene: &Scene, r: &EngineRun) -> std::io::R
     ));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp)?;
-    out.trajectory.write_csv(&tmp.join("trajectory.csv"))?;
+    let mut csv = Vec::new();
+    out.trajectory.write_csv_to(&mut csv)?;
+    std::fs::write(tmp.join("trajectory.csv"), &csv)?;
+    std::fs::write(
+        tmp.join("trajectory.sha256"),
+        hex(&Sha256::digest(&csv)) + "\n",
+    )?;
     std::fs::write(
         tmp.join("summary.json"),
         serde_json::to_string_pretty(summary).expect("summaries serialise"),
@@ -156,6 +168,10 @@ fn store(entry: &Path, engine: &str, scene: &Scene, r: &EngineRun) -> std::io::R
         tmp.join("key.json"),
         serde_json::to_string_pretty(&key_json(engine, scene)).expect("keys serialise"),
     )?;
+    // An entry here that cannot be loaded (cut, altered) is replaced.
+    if entry.is_dir() && load(entry, engine).is_none() {
+        let _ = std::fs::remove_dir_all(entry);
+    }
     match std::fs::rename(&tmp, entry) {
         Ok(()) => Ok(()),
         Err(e) => {
@@ -209,5 +225,22 @@ mod tests {
         assert_eq!(a.trajectory, b.trajectory);
         assert_eq!(a.exact_impacts, b.exact_impacts);
         assert_eq!(first.summary, again.summary);
+
+        // A stored trajectory cut short, or with a value changed, is run again.
+        let csv = dir.join(run_key("housner", &scene)).join("trajectory.csv");
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let cut = lines[..lines.len() / 2].join("\n") + "\n";
+        let mut fields: Vec<&str> = lines[3].split(',').collect();
+        fields[1] = "nan";
+        let nan = text.replacen(lines[3], &fields.join(","), 1);
+        for (k, damaged) in [cut, nan].into_iter().enumerate() {
+            assert_ne!(damaged, text);
+            std::fs::write(&csv, damaged).unwrap();
+            let r = cache.run("housner", &scene);
+            assert!(!r.cached, "damage {k} was served from the cache");
+            assert_eq!(r.output.unwrap().trajectory, b.trajectory);
+            assert_eq!(std::fs::read_to_string(&csv).unwrap(), text, "not replaced");
+        }
     }
 }
