@@ -250,6 +250,9 @@ fn run(
     let scene = scene_from(scene, &overrides)?;
     let eng = engine_by_name(engine).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let result = py.detach(move || run_timed(eng.as_ref(), &scene));
+    // A Ctrl-C during the run (which the run does not see) is raised here, before NumPy's API,
+    // which a pending KeyboardInterrupt would turn into a panic.
+    py.check_signals()?;
     let (out, summary) = result.map_err(|e| match e {
         EngineError::Failed { .. } | EngineError::Io(_) => PyRuntimeError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),

@@ -224,3 +224,32 @@ def test_the_package_type_checks() -> None:
         capture_output=True, text=True, cwd=ROOT,
     )
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_ctrl_c_during_a_run_raises_keyboard_interrupt(tmp_path: Path) -> None:
+    """A SIGINT while `run` works (GIL released) is raised as KeyboardInterrupt when the run
+    returns, not as a panic of NumPy's API."""
+    scene = tmp_path / "long.toml"
+    scene.write_text(
+        'name = "long"\nduration = 60.0\n[[blocks]]\nname = "b"\nwidth = 0.4\nheight = 1.0\n'
+        "[initial]\ntilt = 0.05\n[native]\ndt = 1e-4\n"
+    )
+    code = (
+        "import sys, rockbench\n"
+        "print('started', flush=True)\n"
+        "try:\n"
+        f"    rockbench.run({str(scene)!r})\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', flush=True)\n"
+        "    sys.exit(3)\n"
+    )
+    p = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert p.stdout is not None
+    assert p.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    p.send_signal(2)
+    out, err = p.communicate(timeout=300)
+    assert p.returncode == 3, f"{out}\n{err}"
+    assert "interrupted" in out and "PanicException" not in err, err
