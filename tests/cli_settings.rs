@@ -64,6 +64,14 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
             "--dt: 0.001 s is given twice".into(),
         ),
         (
+            vec!["compare", scene, "--engines", "native", "--jobs", "100000"],
+            "--jobs: at most 256 (got 100000)".into(),
+        ),
+        (
+            vec!["validate", "validation/suite.toml", "--jobs", "0"],
+            "--jobs: at least 1 (got 0)".into(),
+        ),
+        (
             vec!["stress", "--quick", "--engines", "bogus"],
             bogus.clone(),
         ),

@@ -94,9 +94,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
         }
         opts.metrics.window = Some((t0, t1));
     }
-    if a.jobs == Some(0) {
-        bail!("--jobs: at least 1 (got 0)");
-    }
+    super::check_jobs(a.jobs)?;
     if a.timing_runs == 0 {
         bail!("--timing-runs: at least 1 (got 0)");
     }

@@ -43,6 +43,7 @@ pub fn run(a: FragilityArgs) -> Result<()> {
         return Ok(());
     }
     report::replaceable_out(&a.out).map_err(|e| anyhow!(e))?;
+    super::check_jobs(a.jobs)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.jobs.unwrap_or(0))

@@ -92,11 +92,10 @@ impl RunCacheArgs {
     pub(crate) fn cache_dir(&self) -> Option<std::path::PathBuf> {
         (!self.no_cache).then(|| self.cache_dir.clone())
     }
-    /// Engines run at once, at least one.
-    pub(crate) fn jobs(&self) -> usize {
-        self.jobs
-            .unwrap_or_else(crate::compare::default_jobs)
-            .max(1)
+    /// Engines run at once ([`check_jobs`] first).
+    pub(crate) fn jobs(&self) -> Result<usize> {
+        check_jobs(self.jobs)?;
+        Ok(self.jobs.unwrap_or_else(crate::compare::default_jobs))
     }
     pub(crate) fn progress(&self) -> bool {
         !self.quiet
@@ -107,6 +106,19 @@ impl RunCacheArgs {
 /// whether it runs here.
 pub(crate) fn engines_help(first: &str) -> String {
     format!("{first}\n\n{}", crate::engines::registry::help())
+}
+
+/// Most parallel runs `--jobs` may ask for: each is a thread with its own engine, and far more
+/// threads than cores only cost memory and time.
+const MAX_JOBS: usize = 256;
+
+/// `--jobs` checked before any work: at least 1, at most [`MAX_JOBS`].
+pub(crate) fn check_jobs(jobs: Option<usize>) -> Result<()> {
+    match jobs {
+        Some(0) => anyhow::bail!("--jobs: at least 1 (got 0)"),
+        Some(j) if j > MAX_JOBS => anyhow::bail!("--jobs: at most {MAX_JOBS} (got {j})"),
+        _ => Ok(()),
+    }
 }
 
 /// `--out` checked before any work: a path that exists and is not a directory cannot take

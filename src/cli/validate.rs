@@ -79,7 +79,7 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
     let opts = ValidateOptions {
         engines: a.engines.clone(),
         cache_dir: a.run_cache.cache_dir(),
-        jobs: a.run_cache.jobs(),
+        jobs: a.run_cache.jobs()?,
         progress: a.run_cache.progress(),
     };
     let (results, stats) = validate(&cases, &gates, &opts).map_err(anyhow::Error::msg)?;
