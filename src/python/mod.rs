@@ -195,6 +195,33 @@ impl PyRun {
     }
 }
 
+/// The first float of a scene dict that is not finite: its field (`a.b[2].c`) and value.
+fn non_finite(obj: &Bound<'_, PyAny>, at: String) -> Option<(String, f64)> {
+    let join = |key: String| {
+        if at.is_empty() {
+            key
+        } else {
+            format!("{at}.{key}")
+        }
+    };
+    if let Ok(d) = obj.cast::<PyDict>() {
+        return d
+            .iter()
+            .find_map(|(k, v)| non_finite(&v, join(k.str().ok()?.to_string())));
+    }
+    if let Ok(l) = obj.cast::<pyo3::types::PyList>() {
+        return l
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| non_finite(&v, format!("{at}[{i}]")));
+    }
+    if let Ok(f) = obj.cast::<pyo3::types::PyFloat>() {
+        let x = f.value();
+        return (!x.is_finite()).then_some((at, x));
+    }
+    None
+}
+
 /// A scene from a path (str or os.PathLike) or a dict (same fields as the TOML file).
 fn scene_from(obj: &Bound<'_, PyAny>, overrides: &[String]) -> PyResult<CoreScene> {
     if let Ok(s) = obj.cast::<PyScene>() {
@@ -207,6 +234,12 @@ fn scene_from(obj: &Bound<'_, PyAny>, overrides: &[String]) -> PyResult<CoreScen
     }
     let err = |e: scene::SceneError| PyValueError::new_err(e.to_string());
     if obj.cast::<PyDict>().is_ok() {
+        // JSON has no NaN or infinity: named here, as a scene file names them.
+        if let Some((field, x)) = non_finite(obj, String::new()) {
+            return Err(PyValueError::new_err(format!(
+                "<dict>: {field}: must be a finite number (got {x})"
+            )));
+        }
         let json: String = obj
             .py()
             .import("json")?

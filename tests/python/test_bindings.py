@@ -109,6 +109,11 @@ def test_a_bad_scene_raises_value_error_with_one_line_naming_the_field(tmp_path:
     with pytest.raises(ValueError) as e:
         rockbench.load_scene(d)
     assert str(e.value) == "<dict>: duration: must be a positive number (got -1)"
+    d["duration"] = 1.0
+    d["blocks"][0]["width"] = float("nan")
+    with pytest.raises(ValueError) as e:
+        rockbench.load_scene(d)
+    assert str(e.value) == "<dict>: blocks[0].width: must be a finite number (got NaN)"
     p = tmp_path / "bad.toml"
     p.write_text('name = "b"\nduration = 1\n[[blocks]]\nname = "a"\nwidth = "wide"\nheight = 1\n')
     with pytest.raises(ValueError) as e:
