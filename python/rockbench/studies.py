@@ -400,7 +400,10 @@ def run_many(
     - A study file: its stripes' runs (scene x engine x record x level) through the run cache;
       one row per run (scene, engine, record, scale, key, made, then the outcome's columns).
       `engines` is ignored: the study names them.
-    - Scenes (paths, dicts or Scenes): one run per scene and engine; one row per block."""
+    - Scenes (paths, dicts or Scenes): one run per scene and engine; one row per block.
+      `engines` is one engine's name or a sequence of names (a name is not read as its letters)."""
+    if isinstance(engines, str):
+        engines = [engines]
     if _is_study(scenes_or_study):
         assert isinstance(scenes_or_study, (str, os.PathLike))
         path, cache_dir = _paths(scenes_or_study, cache)
@@ -471,7 +474,9 @@ def main(argv: list[str] | None = None) -> int:
     if not os.path.isfile(a.study):
         print(f"{a.study}: no such study file", file=sys.stderr)
         return 2
-    if a.task_seconds <= 0 or (a.runs_per_task is not None and a.runs_per_task < 1):
+    if not (math.isfinite(a.task_seconds) and a.task_seconds > 0) or (
+        a.runs_per_task is not None and a.runs_per_task < 1
+    ):
         print("--task-seconds must be positive and --runs-per-task at least 1", file=sys.stderr)
         return 2
     try:

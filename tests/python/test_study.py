@@ -238,6 +238,9 @@ def test_run_many_gives_the_stripes_as_a_table(study: Path, client: Client, tmp_
         [str(ROOT / "validation/scenes/housner-slender.toml")], engines=["native", "housner"], client=client
     )
     assert list(scenes["engine"]) == ["native", "housner"] and (scenes["status"] == "ok").all()
+    # One engine's name is that engine, not its letters.
+    one = rockbench.run_many([str(ROOT / "validation/scenes/housner-slender.toml")], engines="housner")
+    assert list(one["engine"]) == ["housner"] and (one["status"] == "ok").all()
 
 
 def test_task_size_aims_at_the_target_and_balances() -> None:
@@ -269,6 +272,13 @@ def test_the_command_rejects_bad_input_in_one_line(study: Path, tmp_path: Path) 
     )
     assert r.returncode == 1 and "--scheduler" in r.stderr and "Traceback" not in r.stderr, r.stderr
     assert not (tmp_path / "o").exists()
+    for seconds in ["nan", "0", "-1"]:
+        r = subprocess.run(
+            [sys.executable, "-m", "rockbench.study", str(study), "--task-seconds", seconds, "--out", str(tmp_path / "o")],
+            capture_output=True, text=True,
+        )
+        assert r.returncode == 2 and r.stderr.startswith("--task-seconds must be positive"), r.stderr
+        assert not (tmp_path / "o").exists()
 
 
 def test_mujoco_and_pybullet_runs_in_the_workers_python_equal_the_worker_process_runs(
