@@ -568,6 +568,9 @@ fn engine_names() -> Vec<&'static str> {
 #[pymodule]
 #[pyo3(name = "_native")]
 fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // Load NumPy's C API now: loaded on first use instead, it imports NumPy, and a Ctrl-C that
+    // arrives during that import turns into a panic of the numpy crate.
+    PyArray1::<f64>::zeros(m.py(), 0, false);
     m.add("__version__", crate::build_info::VERSION)?;
     m.add("__git_commit__", crate::build_info::GIT_COMMIT)?;
     m.add("__source_hash__", crate::build_info::SOURCE_HASH)?;
