@@ -1260,7 +1260,7 @@ mod tests {
 #[cfg(test)]
 mod fault_tests {
     use super::*;
-    use crate::engines::RunOutput;
+    use crate::engines::{Progress, RunOutput};
 
     #[derive(Clone, Copy)]
     enum Fault {
@@ -1282,7 +1282,7 @@ mod fault_tests {
         fn run_reporting(
             &self,
             scene: &Scene,
-            _progress: &dyn Fn(f64),
+            _progress: Progress,
         ) -> Result<RunOutput, EngineError> {
             let mut out = engine_by_name("housner").unwrap().run(scene)?;
             match self.0 {

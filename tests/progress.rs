@@ -1,5 +1,6 @@
 //! `rockbench run`'s progress lines: the simulated time reached, on stderr, at most one per
-//! `--progress-interval`, none with `--quiet`, and the same answer either way.
+//! `--progress-interval`, none with `--quiet`, and the same answer either way; and a run's
+//! observer that asks it to stop (a Ctrl-C in the Python bindings).
 
 mod common;
 
@@ -97,4 +98,39 @@ fn a_negative_progress_interval_is_one_clear_error() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--progress-interval"), "{err}");
     assert!(!dir.join("out").exists(), "an output was written");
+}
+
+#[test]
+fn an_observer_that_asks_to_stop_stops_the_run_there() {
+    use rockbench::engines::{EngineError, engine_by_name};
+    use std::cell::Cell;
+    use std::ops::ControlFlow;
+    let path = common::root().join("tests/scenes/housner-stocky.toml");
+    let scene =
+        rockbench::scene::load_scene_with_overrides(&path, &["duration=2.0".to_string()]).unwrap();
+    let engines: &[&str] = if cfg!(feature = "rapier") {
+        &["native", "rapier"]
+    } else {
+        &["native"]
+    };
+    for &name in engines {
+        let engine = engine_by_name(name).unwrap();
+        let last_seen = Cell::new(0.0);
+        let stop_at_half_a_second = |t: f64| {
+            last_seen.set(t);
+            if t >= 0.5 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        match engine.run_reporting(&scene, &stop_at_half_a_second) {
+            Err(EngineError::Interrupted { engine, t }) => {
+                assert_eq!(engine, name);
+                assert!((0.5..0.51).contains(&t), "{name}: stopped at {t}");
+                assert_eq!(t, last_seen.get(), "{name}: went on after the stop");
+            }
+            other => panic!("{name}: {:?}", other.map(|o| o.trajectory.t.len())),
+        }
+    }
 }

@@ -6,6 +6,7 @@ use crate::engines::{engine_by_name, run_timed_reporting, timed, write_outputs};
 use crate::native::checkpoint::Checkpointing;
 use anyhow::{Context, Result};
 use std::cell::Cell;
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -143,6 +144,7 @@ pub fn run(a: RunArgs) -> Result<()> {
         if !quiet {
             line.report(t)
         }
+        ControlFlow::Continue(())
     };
     let (output, mut summary) = match &a.checkpoint {
         None => run_timed_reporting(e.as_ref(), &s, &progress)?,

@@ -6,7 +6,7 @@
 
 use super::housner::{HousnerBlock, HousnerEngine, HousnerSettings};
 use super::native::NativeEngine;
-use super::{Engine, EngineError, RunOutput};
+use super::{Engine, EngineError, Progress, RunOutput};
 use crate::excitation::GroundMotion;
 use crate::scene::Scene;
 
@@ -49,11 +49,7 @@ impl Engine for AutoEngine {
         "auto"
     }
 
-    fn run_reporting(
-        &self,
-        scene: &Scene,
-        progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError> {
+    fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError> {
         let (mut out, note) = match not_housner(scene) {
             None => (
                 HousnerEngine.run_reporting(scene, progress)?,

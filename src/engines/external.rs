@@ -23,7 +23,7 @@
 //! [`super::siconos`]) a standalone script, its own input and an exit code for scenes it
 //! cannot model ([`EngineError::Unsupported`], skipped by the harness).
 
-use super::{Engine, EngineError, RunOutput};
+use super::{Engine, EngineError, Progress, RunOutput};
 use crate::scene::{Scene, SceneError};
 use crate::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
@@ -511,11 +511,7 @@ impl Engine for ExternalEngine {
         self.spec.cannot_model.and_then(|f| f(scene))
     }
 
-    fn run_reporting(
-        &self,
-        scene: &Scene,
-        _progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError> {
+    fn run_reporting(&self, scene: &Scene, _progress: Progress) -> Result<RunOutput, EngineError> {
         let dir = temp_dir(self.engine)
             .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
         let result = self.run_in(scene, &dir, None).map(|(out, _)| out);

@@ -20,7 +20,7 @@
 //! the step is located and is an impact. The block overturns when
 //! |theta| reaches pi/2; it is then held there. Sliding is not modelled.
 
-use super::{Engine, EngineError, RunOutput};
+use super::{Engine, EngineError, Progress, RunOutput};
 use crate::events::NOISE_FLOOR;
 use crate::excitation::GroundMotion;
 use crate::scene::{MAX_STEPS, MIN_EVENT_TOLERANCE_REL, Scene, SceneError};
@@ -43,7 +43,9 @@ pub struct HousnerSettings {
     /// proportionally smaller steps.
     #[serde(default = "default_housner_phase_step")]
     pub max_phase_step: f64,
-    /// Impact instants are located to this time tolerance, s.
+    /// Impact instants are located to this time tolerance, s. Default 1e-10 s, or
+    /// [`MIN_EVENT_TOLERANCE_REL`] of the duration for runs longer than 1000 s, where time's
+    /// round-off is coarser.
     #[serde(default = "default_housner_event_tol")]
     pub event_tolerance: f64,
 }
@@ -79,7 +81,18 @@ impl HousnerSettings {
     /// The scene's `[housner]` table, parsed and checked (one-line errors naming
     /// `housner.<field>`).
     pub fn of(scene: &Scene) -> Result<HousnerSettings, SceneError> {
-        let s: HousnerSettings = scene.parse_table("housner")?;
+        let mut s: HousnerSettings = scene.parse_table("housner")?;
+        let given = |field: &str| {
+            scene
+                .engine_table("housner")
+                .and_then(|t| t.get(field))
+                .is_some()
+        };
+        if !given("event_tolerance") {
+            s.event_tolerance = s
+                .event_tolerance
+                .max(MIN_EVENT_TOLERANCE_REL * scene.duration.max(1.0));
+        }
         s.validate(scene)?;
         Ok(s)
     }
@@ -386,11 +399,7 @@ impl Engine for HousnerEngine {
         None
     }
 
-    fn run_reporting(
-        &self,
-        scene: &Scene,
-        _progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError> {
+    fn run_reporting(&self, scene: &Scene, _progress: Progress) -> Result<RunOutput, EngineError> {
         let refuse = |reason: String| EngineError::Unsupported {
             engine: "housner",
             scene: scene.name.clone(),
@@ -461,5 +470,37 @@ impl Engine for HousnerEngine {
             exact_impacts: Some(vec![impacts]),
             notes,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_str;
+
+    fn scene(duration: f64, table: &str) -> Scene {
+        let text = format!(
+            "name = \"long\"\nduration = {duration}\n[[blocks]]\nname = \"b\"\nwidth = 0.4\n\
+             height = 1.0\n[initial]\ntilt = 0.05\n{table}"
+        );
+        parse_scene_str(&text, false, "long.toml", &[]).unwrap()
+    }
+
+    #[test]
+    fn the_default_event_tolerance_follows_long_durations_and_a_given_one_is_checked() {
+        let tol = |s: &Scene| HousnerSettings::of(s).map(|h| h.event_tolerance);
+        assert_eq!(tol(&scene(10.0, "")).unwrap(), 1e-10);
+        assert_eq!(tol(&scene(1000.0, "")).unwrap(), 1e-10);
+        let four_hours = tol(&scene(14400.0, "")).unwrap();
+        assert!((four_hours - 1.44e-9).abs() < 1e-24, "{four_hours}");
+        let given = tol(&scene(14400.0, "[housner]\nevent_tolerance = 1e-10\n")).unwrap_err();
+        assert!(
+            given
+                .to_string()
+                .contains("housner.event_tolerance: must be at least"),
+            "{given}"
+        );
+        let fine = tol(&scene(14400.0, "[housner]\nevent_tolerance = 2e-9\n")).unwrap();
+        assert_eq!(fine, 2e-9);
     }
 }

@@ -1,7 +1,7 @@
 //! Engines: everything that turns a scene into a trajectory.
 //!
 //! `Engine::run` is the only way the harness meets an engine (`Engine::run_reporting`, the same
-//! run telling how far it has got).
+//! run telling how far it has got, and stopped when its observer asks).
 
 pub mod auto;
 pub mod external;
@@ -15,6 +15,7 @@ pub mod siconos;
 
 use crate::scene::{Scene, SceneError};
 use crate::summary::Summary;
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -44,6 +45,8 @@ pub enum EngineError {
     },
     #[error("stopped after step {step} as asked: `--checkpoint {path}` resumes the run")]
     Stopped { step: u64, path: String },
+    #[error("engine `{engine}` was interrupted at t = {t} s, as its caller asked")]
+    Interrupted { engine: &'static str, t: f64 },
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error("{0}")]
@@ -55,15 +58,12 @@ pub trait Engine: Send + Sync {
     fn name(&self) -> &'static str;
     /// Run `scene`, calling `progress` with the simulated time reached as it goes (the engines
     /// that step in time do, after every step; the others ignore it). The answer does not
-    /// depend on `progress`.
-    fn run_reporting(
-        &self,
-        scene: &Scene,
-        progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError>;
+    /// depend on `progress`; when it answers [`ControlFlow::Break`] the run stops there with
+    /// [`EngineError::Interrupted`] (a Ctrl-C in the Python bindings).
+    fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError>;
     /// [`Engine::run_reporting`] without progress.
     fn run(&self, scene: &Scene) -> Result<RunOutput, EngineError> {
-        self.run_reporting(scene, &|_| {})
+        self.run_reporting(scene, &go_on)
     }
     /// Why this engine cannot model the scene's blocks and their initial state, whatever the
     /// loading (`None`: it can). A study asks before any of its runs starts; a run refuses with
@@ -73,6 +73,15 @@ pub trait Engine: Send + Sync {
     }
 }
 
+/// A run's observer ([`Engine::run_reporting`]): told the simulated time reached, it answers
+/// whether the run goes on.
+pub type Progress<'a> = &'a dyn Fn(f64) -> ControlFlow<()>;
+
+/// The observer that lets every run go on to its end.
+pub fn go_on(_t: f64) -> ControlFlow<()> {
+    ControlFlow::Continue(())
+}
+
 /// The engine named `name` ([`registry::engine`]).
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     registry::engine(name)
@@ -80,14 +89,14 @@ pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
 
 /// Run an engine, timing it, and build its summary.
 pub fn run_timed(engine: &dyn Engine, scene: &Scene) -> Result<(RunOutput, Summary), EngineError> {
-    run_timed_reporting(engine, scene, &|_| {})
+    run_timed_reporting(engine, scene, &go_on)
 }
 
 /// [`run_timed`], with the engine's progress ([`Engine::run_reporting`]).
 pub fn run_timed_reporting(
     engine: &dyn Engine,
     scene: &Scene,
-    progress: &dyn Fn(f64),
+    progress: Progress,
 ) -> Result<(RunOutput, Summary), EngineError> {
     timed(engine.name(), scene, || {
         engine.run_reporting(scene, progress)

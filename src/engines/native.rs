@@ -1,6 +1,6 @@
 //! The native engine: the paper's theta-method with a contact QP per step.
 
-use super::{Engine, EngineError, RunOutput};
+use super::{Engine, EngineError, Progress, RunOutput};
 use crate::excitation::GroundMotion;
 use crate::native::checkpoint::{Checkpoint, Checkpointing, SampleLog, this_build};
 use crate::native::solver::Blob;
@@ -19,11 +19,7 @@ impl Engine for NativeEngine {
         "native"
     }
 
-    fn run_reporting(
-        &self,
-        scene: &Scene,
-        progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError> {
+    fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError> {
         self.run_checkpointed(scene, progress, None)
     }
 }
@@ -35,7 +31,7 @@ impl NativeEngine {
     pub fn run_checkpointed(
         &self,
         scene: &Scene,
-        progress: &dyn Fn(f64),
+        progress: Progress,
         checkpointing: Option<&Checkpointing>,
     ) -> Result<RunOutput, EngineError> {
         let started = Instant::now();
@@ -134,7 +130,12 @@ impl NativeEngine {
             if k % every == 0 || k == n_steps {
                 tr.push(time_of(k), &states);
             }
-            progress(time_of(k));
+            if progress(time_of(k)).is_break() {
+                return Err(EngineError::Interrupted {
+                    engine: "native",
+                    t: time_of(k),
+                });
+            }
             if ns.stop_at_rest && state.t > excitation_end {
                 let v = ns.rest_velocity;
                 let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
@@ -154,7 +155,8 @@ impl NativeEngine {
                             tr.push(time_of(j), &at_rest);
                         }
                     }
-                    progress(scene.duration);
+                    // The run is done: an answer to stop changes nothing.
+                    let _ = progress(scene.duration);
                     break;
                 }
             }

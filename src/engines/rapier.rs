@@ -43,7 +43,7 @@
 //! comparison.
 
 use super::rapier_settings::{CombineRule, FrictionRule, RapierSettings};
-use super::{Engine, EngineError, RunOutput};
+use super::{Engine, EngineError, Progress, RunOutput};
 use crate::excitation::GroundMotion;
 use crate::scene::{AppliedAs, Scene};
 use crate::trajectory::Trajectory;
@@ -407,11 +407,7 @@ impl Engine for RapierEngine {
         "rapier"
     }
 
-    fn run_reporting(
-        &self,
-        scene: &Scene,
-        progress: &dyn Fn(f64),
-    ) -> Result<RunOutput, EngineError> {
+    fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError> {
         let s = &RapierSettings::of(scene)?;
         let mut sim = RapierSim::new(scene)?;
         let dt = s.dt;
@@ -425,7 +421,12 @@ impl Engine for RapierEngine {
             if k % every == 0 || k == n_steps {
                 tr.push(sim.t, &sim.relative_states()?);
             }
-            progress(sim.t);
+            if progress(sim.t).is_break() {
+                return Err(EngineError::Interrupted {
+                    engine: "rapier",
+                    t: sim.t,
+                });
+            }
         }
         let mut settings = serde_json::to_value(s).expect("settings serialise");
         if let Some(o) = settings.as_object_mut() {

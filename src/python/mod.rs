@@ -5,7 +5,10 @@
 //! - `run(scene, engine="native", overrides=())` runs any engine of
 //!   [`engine_by_name`](crate::engines::engine_by_name) with the GIL released and returns a
 //!   `Run`: sample times and per-block histories as numpy arrays, and the summary as a dict.
-//!   A failed run raises `RuntimeError` with the engine's one-line reason.
+//!   A failed run raises `RuntimeError` with the engine's one-line reason. Called from the
+//!   main thread, a Ctrl-C stops the native and rapier engines within [`SIGNAL_CHECK`] and
+//!   raises `KeyboardInterrupt`; the other engines finish first (an external engine's worker
+//!   shares the terminal's Ctrl-C and stops with it).
 //! - `Scene.layout()` and `Scene.ground_motion(t)` expose the crate's single definitions of the
 //!   initial configuration and of the ground motion to the Python engines.
 //!
@@ -14,14 +17,20 @@
 
 mod convert;
 
-use crate::engines::{EngineError, engine_by_name, registry, run_timed};
+use crate::engines::{EngineError, engine_by_name, registry, run_timed_reporting};
 use crate::excitation::GroundMotion;
 use crate::scene::{self, Scene as CoreScene};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use std::cell::{Cell, RefCell};
+use std::ops::ControlFlow;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// How often a run started from Python's main thread looks for a Ctrl-C.
+pub const SIGNAL_CHECK: Duration = Duration::from_millis(50);
 
 /// A checked scene.
 #[pyclass(frozen, module = "rockbench._native", name = "Scene")]
@@ -282,9 +291,34 @@ fn run(
 ) -> PyResult<PyRun> {
     let scene = scene_from(scene, &overrides)?;
     let eng = engine_by_name(engine).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let result = py.detach(move || run_timed(eng.as_ref(), &scene));
-    // A Ctrl-C during the run (which the run does not see) is raised here, before NumPy's API,
-    // which a pending KeyboardInterrupt would turn into a panic.
+    // Python runs signal handlers on its main thread only: elsewhere there is nothing to check.
+    let threading = py.import("threading")?;
+    let on_main_thread = threading
+        .call_method0("current_thread")?
+        .is(&threading.call_method0("main_thread")?);
+    let (result, interrupt) = py.detach(move || {
+        let interrupt = RefCell::new(None);
+        let checked = Cell::new(Instant::now());
+        let look_for_ctrl_c = |_t: f64| {
+            if !on_main_thread || checked.get().elapsed() < SIGNAL_CHECK {
+                return ControlFlow::Continue(());
+            }
+            checked.set(Instant::now());
+            match Python::attach(|py| py.check_signals()) {
+                Ok(()) => ControlFlow::Continue(()),
+                Err(e) => {
+                    *interrupt.borrow_mut() = Some(e);
+                    ControlFlow::Break(())
+                }
+            }
+        };
+        let result = run_timed_reporting(eng.as_ref(), &scene, &look_for_ctrl_c);
+        (result, interrupt.into_inner())
+    });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    // A Ctrl-C the run did not look for is raised here.
     py.check_signals()?;
     let (out, summary) = result.map_err(|e| match e {
         EngineError::Failed { .. } | EngineError::Io(_) => PyRuntimeError::new_err(e.to_string()),
