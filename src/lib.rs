@@ -36,6 +36,7 @@ pub mod colonnade;
 pub mod compare;
 pub mod contract;
 pub mod converge;
+pub mod digest;
 pub mod engines;
 pub mod events;
 pub mod excitation;

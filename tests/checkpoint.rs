@@ -207,9 +207,10 @@ fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
 /// The samples go to `FILE.samples`, appended at each write (here after every step). A run
 /// interrupted after an append and before its checkpoint is renamed leaves samples the checkpoint
 /// does not count: the resumed run drops them and writes the uninterrupted run's outputs; the
-/// finished run removes the file. A samples file shorter than its checkpoint says is one error.
+/// finished run removes the file. A samples file shorter than its checkpoint says, or whose
+/// counted samples are not those the checkpoint hashed, is one error.
 #[test]
-fn samples_beyond_the_checkpoint_are_dropped_and_missing_ones_are_one_error() {
+fn samples_beyond_the_checkpoint_are_dropped_and_missing_or_damaged_ones_are_one_error() {
     let dir = common::tmp("rb-checkpoint", "samples");
     let path = scene("two-block-free-rocking");
     let sets = ["duration=1", "output_interval=0.002"];
@@ -267,4 +268,24 @@ fn samples_beyond_the_checkpoint_are_dropped_and_missing_ones_are_one_error() {
         "{err}"
     );
     assert!(!dir.join("short").exists());
+
+    // One value changed within the counted samples (a damaged disk, or another run's samples
+    // under the same name): one error, no outputs.
+    std::fs::remove_file(&ck).unwrap();
+    stop("300");
+    let mut bytes = std::fs::read(&samples).unwrap();
+    let at = 77 * per_sample as usize + 3 * 8;
+    bytes[at] ^= 1;
+    std::fs::write(&samples, &bytes).unwrap();
+    let damaged = run(&path, &sets, &dir.join("damaged"), &every_step);
+    assert!(!damaged.status.success());
+    let err = String::from_utf8_lossy(&damaged.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(
+            "run.ckpt.samples: its first 151 samples are not those the checkpoint counted"
+        ),
+        "{err}"
+    );
+    assert!(!dir.join("damaged").exists());
 }

@@ -79,7 +79,8 @@ impl NativeEngine {
                 .map_err(|e| io(format!("{}: {e}", c.path.display())))?;
             tr = Trajectory::new(&names);
             if let Some(log) = samples.as_mut() {
-                log.read(&mut tr, saved.samples).map_err(io)?;
+                log.read(&mut tr, saved.samples, &saved.samples_sha256)
+                    .map_err(io)?;
             }
             (state, still, wall_before) = (saved.state, saved.still, saved.wall_s);
             first = saved.steps_done + 1;
@@ -163,8 +164,10 @@ impl NativeEngine {
             if let Some(c) = checkpointing.filter(|_| k < n_steps) {
                 let stop = c.stop_after_step == Some(k);
                 if stop || last_write.elapsed() >= c.interval {
+                    let mut samples_sha256 = String::new();
                     if let Some(log) = samples.as_mut() {
                         log.append(&tr).map_err(EngineError::Io)?;
+                        samples_sha256 = log.sha256();
                     }
                     Checkpoint {
                         build: this_build(),
@@ -174,6 +177,7 @@ impl NativeEngine {
                         state: state.clone(),
                         stepper: Blob(stepper.save()),
                         samples: tr.len() as u64,
+                        samples_sha256,
                         wall_s: wall_before + started.elapsed().as_secs_f64(),
                     }
                     .write(&c.path)

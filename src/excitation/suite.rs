@@ -126,10 +126,6 @@ pub fn peaks(s: &records::Samples, unit: f64) -> (f64, f64) {
     (pa, pv)
 }
 
-fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02x}")).collect()
-}
-
 /// Read and check a suite manifest and every record it names.
 pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
     let file = path.display().to_string();
@@ -239,7 +235,6 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
         {
             return Err(err("p695_factor", format!("must be > 0 (got {})", num(f))));
         }
-        use sha2::Digest;
         out.push(SuiteRecord {
             id: r.id.clone(),
             file: std::path::absolute(&fpath).unwrap_or(fpath.clone()),
@@ -259,7 +254,7 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
             pgv,
             duration: *s.t.last().expect("two samples"),
             p695_factor: r.p695_factor,
-            sha256: hex(&sha2::Sha256::digest(&bytes)),
+            sha256: crate::digest::sha256_hex(&bytes),
         });
     }
     Ok(Suite {

@@ -31,7 +31,6 @@ use crate::scene::Scene;
 use crate::spectrum::{SAFE_ENERGY_FRACTION, housner_early_stop};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 use std::f64::consts::FRAC_PI_2;
 
 /// Bumped when the meaning of a cached outcome changes.
@@ -136,10 +135,7 @@ impl RunSpec {
             "worker": worker_id(&self.engine),
         });
         let text = serde_json::to_string(&key).expect("keys serialise");
-        Sha256::digest(text.as_bytes())
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect()
+        crate::digest::sha256_hex(text.as_bytes())
     }
 }
 

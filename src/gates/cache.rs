@@ -1,11 +1,11 @@
 //! The run cache of the gates: one directory per run, named by a content hash.
 
 use crate::compare::{EngineRun, Status, run_engine};
+use crate::digest::sha256_hex;
 use crate::engines::RunOutput;
 use crate::scene::{MotionSpec, Scene};
 use crate::summary::Summary;
 use crate::trajectory::Trajectory;
-use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -25,13 +25,9 @@ fn build_id() -> &'static str {
     ID.get_or_init(|| {
         std::env::current_exe()
             .and_then(std::fs::read)
-            .map(|b| hex(&Sha256::digest(&b)))
+            .map(|b| sha256_hex(&b))
             .unwrap_or_else(|_| "unknown".into())
     })
-}
-
-fn hex(b: &[u8]) -> String {
-    b.iter().map(|x| format!("{x:02x}")).collect()
 }
 
 /// The inputs that determine a run, as hashed (also written to `key.json` in the entry).
@@ -45,7 +41,7 @@ pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
             if let MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } = m {
                 let p = scene.base_dir.join(file);
                 let h = std::fs::read(&p)
-                    .map(|b| hex(&Sha256::digest(&b)))
+                    .map(|b| sha256_hex(&b))
                     .unwrap_or_else(|e| format!("unreadable: {e}"));
                 records.insert(p.display().to_string(), h.into());
             }
@@ -64,7 +60,7 @@ pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
 /// The content hash of a run.
 pub fn run_key(engine: &str, scene: &Scene) -> String {
     let text = serde_json::to_string(&key_json(engine, scene)).expect("keys serialise");
-    hex(&Sha256::digest(text.as_bytes()))
+    sha256_hex(text.as_bytes())
 }
 
 impl RunCache {
@@ -112,7 +108,7 @@ fn load(entry: &Path, engine: &str) -> Option<EngineRun> {
     // The trajectory as it was stored, to the byte (a cut or altered file is not served).
     let csv = std::fs::read(entry.join("trajectory.csv")).ok()?;
     let digest = std::fs::read_to_string(entry.join("trajectory.sha256")).ok()?;
-    if digest.trim() != hex(&Sha256::digest(&csv)) {
+    if digest.trim() != sha256_hex(&csv) {
         return None;
     }
     let trajectory = Trajectory::parse_csv(std::str::from_utf8(&csv).ok()?).ok()?;
@@ -152,10 +148,7 @@ fn store(entry: &Path, engine: &str, scene: &Scene, r: &EngineRun) -> std::io::R
     let mut csv = Vec::new();
     out.trajectory.write_csv_to(&mut csv)?;
     std::fs::write(tmp.join("trajectory.csv"), &csv)?;
-    std::fs::write(
-        tmp.join("trajectory.sha256"),
-        hex(&Sha256::digest(&csv)) + "\n",
-    )?;
+    std::fs::write(tmp.join("trajectory.sha256"), sha256_hex(&csv) + "\n")?;
     std::fs::write(
         tmp.join("summary.json"),
         serde_json::to_string_pretty(summary).expect("summaries serialise"),

@@ -8,11 +8,14 @@
 //! another build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied).
 //! The samples go to a file beside it ([`SampleLog`], `FILE.samples`), appended at each write:
 //! a write costs the samples since the last one, not the whole history (a 215-block wall sampled
-//! every step gathers 10 kB a step).
+//! every step gathers 10 kB a step). The checkpoint keeps the SHA-256 of the samples it counts,
+//! so that samples damaged or written by another run are refused, not resumed into an answer.
 
 use super::solver::{Blob, from_bytes, to_bytes};
 use super::stepper::NativeState;
+use crate::digest::hex;
 use crate::trajectory::Trajectory;
+use sha2::{Digest, Sha256};
 use std::path::Path;
 
 /// Where and how often a run writes its checkpoint.
@@ -42,6 +45,8 @@ pub struct Checkpoint {
     pub stepper: Blob,
     /// Samples so far: the first this many of the [`SampleLog`] beside the checkpoint.
     pub samples: u64,
+    /// SHA-256 of those samples' bytes ([`SampleLog::sha256`]).
+    pub samples_sha256: String,
     /// Wall time of the run before this checkpoint, s (all its processes).
     pub wall_s: f64,
 }
@@ -125,6 +130,8 @@ pub struct SampleLog {
     path: std::path::PathBuf,
     /// Samples in the file.
     written: usize,
+    /// The running SHA-256 of the file's bytes.
+    digest: Sha256,
 }
 
 impl SampleLog {
@@ -134,7 +141,13 @@ impl SampleLog {
         SampleLog {
             path: samples_of(path),
             written: 0,
+            digest: Sha256::new(),
         }
+    }
+
+    /// The SHA-256 of the samples written so far, as hex.
+    pub fn sha256(&self) -> String {
+        hex(&self.digest.clone().finalize())
     }
 
     fn values_per_sample(tr: &Trajectory) -> usize {
@@ -166,13 +179,17 @@ impl SampleLog {
             .map_err(fail)?;
         file.write_all(&bytes).map_err(fail)?;
         file.sync_data().map_err(fail)?;
+        if self.written == 0 {
+            self.digest = Sha256::new();
+        }
+        self.digest.update(&bytes);
         self.written = tr.len();
         Ok(())
     }
 
-    /// Read the first `count` samples into `tr` (its blocks named, no samples), and cut the
-    /// file after them, so that the next append follows them.
-    pub fn read(&mut self, tr: &mut Trajectory, count: u64) -> Result<(), String> {
+    /// Read the first `count` samples into `tr` (its blocks named, no samples), which must hash
+    /// to `sha256`, and cut the file after them, so that the next append follows them.
+    pub fn read(&mut self, tr: &mut Trajectory, count: u64, sha256: &str) -> Result<(), String> {
         let fail = |e: std::io::Error| format!("{}: {e}", self.path.display());
         let per = Self::values_per_sample(tr);
         let count = usize::try_from(count)
@@ -185,6 +202,13 @@ impl SampleLog {
                 self.path.display(),
                 bytes.len() / (per * 8),
                 tr.blocks.len()
+            ));
+        }
+        let digest = Sha256::new_with_prefix(&bytes[..need]);
+        if hex(&digest.clone().finalize()) != sha256 {
+            return Err(format!(
+                "{}: its first {count} samples are not those the checkpoint counted (damaged, or written by another run)",
+                self.path.display()
             ));
         }
         let values: Vec<f64> = bytes[..need]
@@ -206,6 +230,7 @@ impl SampleLog {
                 .map_err(fail)?;
         }
         self.written = count;
+        self.digest = digest;
         Ok(())
     }
 }
