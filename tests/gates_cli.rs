@@ -215,3 +215,30 @@ fn validation_gates_file_is_valid() {
     let gates = rockbench::gates::load_gates(&root().join("validation/gates.toml")).unwrap();
     assert!(gates.len() >= 5);
 }
+
+#[test]
+fn a_metric_past_the_impacts_in_the_window_fails_with_their_counts() {
+    let dir = tmp("past-the-impacts");
+    // The slender block's first impact is at 0.467 s: a 0.6 s run has one.
+    let text = gate_toml(
+        "third-impact",
+        "rotation_rms_error_to_impact_3",
+        1e-3,
+        "set = [\"duration=0.6\"]",
+    );
+    let (o, so, se) = gate(&dir, &text);
+    assert_eq!(o.status.code(), Some(1), "{so}\n{se}");
+    let xml = std::fs::read_to_string(dir.join("junit.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let failure = doc
+        .descendants()
+        .find(|n| n.has_tag_name("failure"))
+        .and_then(|n| n.attribute("message"))
+        .unwrap_or_default()
+        .to_string();
+    assert_eq!(
+        failure,
+        "metric rotation_rms_error_to_impact_3 not produced (in the compared window, block: 1 \
+         impacts, the reference 1)"
+    );
+}

@@ -471,10 +471,30 @@ fn evaluate(g: &Gate, rows: &[MetricRow], run: Option<&EngineRun>) -> GateResult
     let row = match candidates.as_slice() {
         [one] => *one,
         [] => {
+            // The usual cause: fewer impacts, in the run or the reference, than the index.
+            let counts: Vec<String> = rows
+                .iter()
+                .filter(|r| r.engine == g.engine && r.metric == "impact_count")
+                .filter(|r| g.block.as_ref().is_none_or(|b| &r.block == b))
+                .map(|r| {
+                    let count = |v: Option<f64>| v.map_or("-".into(), |v| v.to_string());
+                    format!(
+                        "{}: {} impacts, the reference {}",
+                        r.block,
+                        count(r.value),
+                        count(r.reference)
+                    )
+                })
+                .collect();
+            let counts = if counts.is_empty() {
+                "e.g. fewer impacts than its index".to_string()
+            } else {
+                format!("in the compared window, {}", counts.join("; "))
+            };
             return failed(
                 g,
                 format!(
-                    "metric {}{} not produced (e.g. fewer impacts than its index)",
+                    "metric {}{} not produced ({counts})",
                     g.metric,
                     g.block
                         .as_ref()
