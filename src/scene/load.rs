@@ -133,6 +133,21 @@ pub fn parse_scene_str(
     }
     output_table(&mut value).map_err(|(field, m)| SceneError::new(file, field, m))?;
     let engines = engine_tables(&mut value);
+    let obj = value.as_object().expect("checked to be a table");
+    if let Some(k) = obj
+        .keys()
+        .find(|k| !super::SCENE_FIELDS.contains(&k.as_str()))
+    {
+        return Err(SceneError::new(
+            file,
+            k,
+            format!(
+                "unknown field `{k}` (a scene's fields: {}; an engine's settings are a table, \
+                 `[{k}]` or `--set {k}.SETTING=VALUE`)",
+                super::SCENE_FIELDS.join(", ")
+            ),
+        ));
+    }
     let mut scene: Scene = serde_path_to_error::deserialize(&value).map_err(|e| {
         let path = e.path().to_string();
         let field = if path == "." {
@@ -148,7 +163,7 @@ pub fn parse_scene_str(
 }
 
 /// Take the engine tables out of the top level: every table that is not a scene field
-/// ([`super::SCENE_FIELDS`]). Other unknown keys stay, for the "unknown field" error.
+/// ([`super::SCENE_FIELDS`]). Other keys that are not scene fields stay, to be refused.
 fn engine_tables(value: &mut serde_json::Value) -> super::EngineTables {
     let obj = value.as_object_mut().expect("checked to be a table");
     let keys: Vec<String> = obj
@@ -399,6 +414,25 @@ mod tests {
 
     fn scene() -> serde_json::Value {
         json!({"duration": 1.0, "blocks": [{"name": "a", "width": 1.0}, {"name": "b", "width": 2.0}]})
+    }
+
+    #[test]
+    fn a_top_level_key_that_is_no_scene_field_nor_a_table_is_refused_by_name() {
+        let text =
+            "name = \"s\"\nduration = 1.0\n[[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1.0\n";
+        assert!(parse_scene_str(text, false, "s.toml", &["native.dt=1e-3".into()]).is_ok());
+        for set in ["native=3", "rapier=[1]", "colour=\"red\""] {
+            let err = parse_scene_str(text, false, "s.toml", &[set.into()])
+                .unwrap_err()
+                .to_string();
+            let key = set.split('=').next().unwrap();
+            assert!(
+                err.starts_with(&format!(
+                    "s.toml: {key}: unknown field `{key}` (a scene's fields: name, duration"
+                )) && err.contains(&format!("`--set {key}.SETTING=VALUE`")),
+                "{set}: {err}"
+            );
+        }
     }
 
     #[test]
