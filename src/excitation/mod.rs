@@ -82,8 +82,12 @@ impl Component {
         }
     }
 
-    /// Ground acceleration at t, m/s^2 (zero between samples of a displacement record).
+    /// Ground acceleration at t, m/s^2 (zero between samples of a displacement record; NaN at
+    /// a NaN time, as [`Component::vel`] and [`Component::disp`]).
     pub fn acc(&self, t: f64) -> f64 {
+        if t.is_nan() {
+            return f64::NAN;
+        }
         match self {
             Component::Pulse {
                 shape,
@@ -114,6 +118,9 @@ impl Component {
 
     /// Ground velocity at t, m/s.
     pub fn vel(&self, t: f64) -> f64 {
+        if t.is_nan() {
+            return f64::NAN;
+        }
         match self {
             Component::Pulse {
                 shape,
@@ -152,6 +159,9 @@ impl Component {
 
     /// Ground displacement at t, m.
     pub fn disp(&self, t: f64) -> f64 {
+        if t.is_nan() {
+            return f64::NAN;
+        }
         match self {
             Component::Pulse {
                 shape,
@@ -226,9 +236,9 @@ impl Component {
     }
 }
 
-/// Index k with `t[k] <= x < t[k+1]`, if x is inside the samples.
+/// Index k with `t[k] <= x < t[k+1]`, if x is inside the samples (never for a NaN).
 fn segment(t: &[f64], x: f64) -> Option<usize> {
-    if x < t[0] || x >= t[t.len() - 1] {
+    if !(x >= t[0] && x < t[t.len() - 1]) {
         return None;
     }
     Some(t.partition_point(|&s| s <= x) - 1)
@@ -480,6 +490,27 @@ mod tests {
             amplitude: 2.0,
             duration: 0.4,
             start: 0.1,
+        }
+    }
+
+    /// A NaN time gives NaN motion, never a panic (it indexed before the first sample).
+    #[test]
+    fn a_nan_time_gives_nan_motion_for_every_kind() {
+        let t = vec![0.0, 0.01, 0.02];
+        let record = Component::AccelerationRecord {
+            t: t.clone(),
+            a: vec![0.0, 1.0, 0.0],
+            v: vec![0.0, 0.005, 0.01],
+            d: vec![0.0, 0.0, 0.0001],
+        };
+        let displacement = Component::DisplacementRecord {
+            t,
+            d: vec![0.0, 0.001, 0.0],
+        };
+        for c in [pulse(PulseShape::HalfSine), record, displacement] {
+            assert!(c.acc(f64::NAN).is_nan(), "{c:?}");
+            assert!(c.vel(f64::NAN).is_nan(), "{c:?}");
+            assert!(c.disp(f64::NAN).is_nan(), "{c:?}");
         }
     }
 

@@ -126,17 +126,35 @@ impl PyScene {
         Ok(self.inner.friction_between(lower, upper))
     }
 
-    /// Ground motion at the times `t`: a dict of arrays `ax`, `az` (m/s^2), `vx`, `vz` (m/s),
-    /// `dx`, `dz` (m), from the same definitions the Rust engines use (zero without
-    /// excitation).
+    /// Ground motion at the times `t` (a number or a 1-D sequence of them, s): a dict of
+    /// arrays `ax`, `az` (m/s^2), `vx`, `vz` (m/s), `dx`, `dz` (m), from the same definitions
+    /// the Rust engines use (zero without excitation). A time that is not finite is a
+    /// `ValueError`.
     fn ground_motion<'py>(
         &self,
         py: Python<'py>,
-        t: PyReadonlyArray1<'py, f64>,
+        t: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let gm = GroundMotion::from_scene(&self.inner)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        // At least 1-D, contiguous float64 (a number becomes one time).
+        let t = py
+            .import("numpy")?
+            .call_method1("ascontiguousarray", (t, "float64"))?;
+        let ndim: usize = t.getattr("ndim")?.extract()?;
+        if ndim != 1 {
+            return Err(PyValueError::new_err(format!(
+                "ground_motion: t must be a number or a 1-D sequence of times (got {ndim} dimensions)"
+            )));
+        }
+        let t: PyReadonlyArray1<'py, f64> = t.extract()?;
         let t = t.as_slice()?;
+        if let Some(k) = t.iter().position(|v| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "ground_motion: t[{k}] = {} is not a finite time",
+                t[k]
+            )));
+        }
         let mut cols: [Vec<f64>; 6] = Default::default();
         for &ti in t {
             let (ax, az) = gm.acc(ti);

@@ -277,3 +277,19 @@ def test_importing_the_extension_loads_numpy() -> None:
     )
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "True"
+
+
+def test_ground_motion_takes_numbers_and_sequences_and_refuses_times_that_are_not_finite() -> None:
+    sc = rockbench.load_scene(ROOT / "validation/scenes/earthquake-elcentro.toml")
+    ts = np.array([0.0, 1.234, 2.5])
+    ax = sc.ground_motion(ts)["ax"]
+    assert np.array_equal(sc.ground_motion(list(ts))["ax"], ax)
+    assert np.array_equal(sc.ground_motion(ts.astype(np.float32).astype(np.float64))["ax"],
+                          sc.ground_motion(ts.astype(np.float32))["ax"])
+    assert sc.ground_motion(np.float64(1.234))["ax"][0] == ax[1]
+    assert sc.ground_motion(ts[::2])["ax"].tolist() == [ax[0], ax[2]]  # a strided view
+    for bad in (np.nan, -np.inf):
+        with pytest.raises(ValueError, match=r"ground_motion: t\[1\] = .* is not a finite time"):
+            sc.ground_motion([0.5, bad])
+    with pytest.raises(ValueError, match="1-D sequence of times .got 2 dimensions"):
+        sc.ground_motion(np.zeros((2, 2)))
