@@ -106,7 +106,16 @@ class FragilityResult:
     - ``json``: everything, as the Rust core returned it.
     """
 
+    # The parts of fragility.json the tables read.
+    PARTS = ("study", "limit_states", "rows", "fits", "capacities", "differences", "counts")
+
     def __init__(self, data: dict[str, Any], distributed: dict[str, Any] | None = None) -> None:
+        missing = [k for k in self.PARTS if k not in data] if isinstance(data, dict) else ["all"]
+        if missing:
+            raise ValueError(
+                "FragilityResult: not a fragility study's results (fragility.json): "
+                f"missing {', '.join(missing)}"
+            )
         self.json = data
         self.distributed = distributed
         self.limit_states = [ls["name"] for ls in data["limit_states"]]

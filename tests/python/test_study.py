@@ -316,3 +316,15 @@ def test_workers_without_the_clients_filesystem_still_fill_its_store(
     assert res.counts["made"] == 0
     assert cache_entries(cache) == cache_entries(elsewhere) == cache_entries(loc_dir / "cache")
     assert_same_study(loc.json, res.json)
+
+
+def test_results_read_back_from_fragility_json_and_other_json_is_refused(
+    local: tuple[rockbench.FragilityResult, Path],
+) -> None:
+    res, out = local
+    again = rockbench.FragilityResult(json.loads((out / "out" / "fragility.json").read_text()))
+    assert again.outcomes.equals(res.outcomes) and again.fits.equals(res.fits)
+    summary = json.loads(next((out / "cache").glob("*/*.json")).read_text())
+    for data in ({}, summary):
+        with pytest.raises(ValueError, match="not a fragility study's results .*: missing study"):
+            rockbench.FragilityResult(data)
