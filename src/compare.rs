@@ -223,6 +223,11 @@ pub fn classify(e: &EngineError) -> Status {
 /// Run the engines and compare them with the reference.
 pub fn compare(scene: &Scene, opts: &CompareOptions) -> Result<Comparison, CompareError> {
     use crate::engines::registry::check_names;
+    if opts.engines.is_empty() {
+        return Err(CompareError::Name(
+            "--engines: name at least one engine".into(),
+        ));
+    }
     check_names("--engines", opts.engines.iter().map(|e| e.trim())).map_err(CompareError::Name)?;
     if let ReferenceSpec::Engine(r) = &opts.reference {
         check_names("--reference", [r.as_str()]).map_err(CompareError::Name)?;

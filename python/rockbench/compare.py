@@ -25,8 +25,10 @@ def compare(
     trajectory.csv path). Returns one row per metric (long format, the columns of
     metrics.csv); ``df.attrs["status"]`` maps each engine to ``ok``, ``skipped: why`` or
     ``failed: why``. The definitions are the Rust ones (VALIDATION.md). The result is a
-    DataFrame that shows the status and an engine x metric table in a notebook."""
-    rows, status = compare_rows(scene, list(engines), reference, list(overrides))
+    DataFrame that shows the status and an engine x metric table in a notebook. One engine's
+    name alone is that engine."""
+    names = [engines] if isinstance(engines, str) else list(engines)
+    rows, status = compare_rows(scene, names, reference, list(overrides))
     df = Comparison(pd.DataFrame(rows, columns=COLUMNS))
     df.attrs["status"] = status
     return df

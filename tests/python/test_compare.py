@@ -4,6 +4,7 @@ notebook HTML); `rockbench.trajectory` gives a run as one."""
 from __future__ import annotations
 
 import pandas as pd
+import pytest
 
 import rockbench
 from conftest import scene_path
@@ -48,3 +49,11 @@ def test_a_run_as_a_dataframe() -> None:
     assert list(df.index[:2]) == list(r.t[:2]) and df.index.name == "t"
     assert set(df.columns.get_level_values("field")) == {"x", "z", "phi", "vx", "vz", "omega"}
     assert (df[("block", "phi")].to_numpy() == r.blocks["block"]["phi"]).all()
+
+
+def test_one_engine_name_is_that_engine_and_no_engine_is_refused() -> None:
+    df = rockbench.compare(scene_path("housner-slender"), engines="native", reference="housner")
+    assert df.attrs["status"] == {"native": "ok", "housner": "ok"}
+    assert set(df.engine) == {"native"}
+    with pytest.raises(ValueError, match="--engines: name at least one engine"):
+        rockbench.compare(scene_path("housner-slender"), engines=[], reference="housner")
