@@ -19,6 +19,7 @@ __all__ = [
     "Run",
     "load_scene",
     "run",
+    "check_engine_names",
     "engine_names",
     "compare_rows",
     "fragility_study",
@@ -81,6 +82,7 @@ def run(
     overrides: Sequence[str] = ...,
 ) -> Run: ...
 def engine_names() -> list[str]: ...
+def check_engine_names(what: str, names: Sequence[str]) -> None: ...
 def compare_rows(
     scene: Scene | str | os.PathLike[str] | dict[str, Any],
     engines: Sequence[str],

@@ -26,9 +26,10 @@ def compare(
     metrics.csv); ``df.attrs["status"]`` maps each engine to ``ok``, ``skipped: why`` or
     ``failed: why``. The definitions are the Rust ones (VALIDATION.md). The result is a
     DataFrame that shows the status and an engine x metric table in a notebook. One engine's
-    name alone is that engine."""
+    name alone is that engine, and one override alone is that override."""
     names = [engines] if isinstance(engines, str) else list(engines)
-    rows, status = compare_rows(scene, names, reference, list(overrides))
+    sets = [overrides] if isinstance(overrides, str) else list(overrides)
+    rows, status = compare_rows(scene, names, reference, sets)
     df = Comparison(pd.DataFrame(rows, columns=COLUMNS))
     df.attrs["status"] = status
     return df

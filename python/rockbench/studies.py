@@ -47,6 +47,7 @@ import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for
 
 from rockbench._native import (
     Scene,
+    check_engine_names,
     fragility_cache_dir,
     fragility_cache_has,
     fragility_ida_batch,
@@ -438,6 +439,7 @@ def run_many(
         scenes: list[Any] = [scenes_or_study]
     else:
         scenes = list(scenes_or_study)
+    check_engine_names("run_many: engines", list(engines))
     items = [
         (s.to_dict() if isinstance(s, Scene) else (os.fspath(s) if isinstance(s, os.PathLike) else s), e)
         for s in scenes

@@ -113,14 +113,20 @@ impl PyScene {
         Ok(list)
     }
 
-    /// Friction coefficient of the interface between `lower` (a block index, or None for the
-    /// ground) and block `upper`.
+    /// Friction coefficient of a contact between `lower` (a block index, or None for the
+    /// ground) and block `upper`: `upper`'s interface friction below, whichever body below it
+    /// touches (the scene's contact law).
     #[pyo3(signature = (lower, upper))]
     fn friction_between(&self, lower: Option<usize>, upper: usize) -> PyResult<f64> {
         let n = self.inner.blocks.len();
         if upper >= n || lower.is_some_and(|l| l >= n) {
             return Err(PyValueError::new_err(format!(
                 "block index out of range (the scene has {n} blocks)"
+            )));
+        }
+        if lower == Some(upper) {
+            return Err(PyValueError::new_err(format!(
+                "friction_between: block {upper} cannot touch itself"
             )));
         }
         Ok(self.inner.friction_between(lower, upper))
@@ -261,18 +267,40 @@ fn scene_from(obj: &Bound<'_, PyAny>, overrides: &[String]) -> PyResult<CoreScen
     }
     let err = |e: scene::SceneError| PyValueError::new_err(e.to_string());
     if obj.cast::<PyDict>().is_ok() {
+        let py = obj.py();
+        let json_module = py.import("json")?;
+        // NumPy scalars and arrays as their Python values; Python's encoder refuses cycles and
+        // nesting deeper than its recursion limit.
+        let as_python = pyo3::types::PyCFunction::new_closure(
+            py,
+            None,
+            None,
+            |args: &Bound<'_, pyo3::types::PyTuple>,
+             _kwargs: Option<&Bound<'_, PyDict>>|
+             -> PyResult<Py<PyAny>> {
+                let o = args.get_item(0)?;
+                if o.hasattr("tolist")? {
+                    return Ok(o.call_method0("tolist")?.unbind());
+                }
+                Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                    "Object of type {} is not JSON serializable",
+                    o.get_type().name()?
+                )))
+            },
+        )?;
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("default", as_python)?;
+        let json: String = json_module
+            .call_method("dumps", (obj,), Some(&kwargs))
+            .map_err(|e| PyValueError::new_err(format!("<dict>: (file): not JSON data: {e}")))?
+            .extract()?;
         // JSON has no NaN or infinity: named here, as a scene file names them.
-        if let Some((field, x)) = non_finite(obj, String::new()) {
+        let plain = json_module.call_method1("loads", (&json,))?;
+        if let Some((field, x)) = non_finite(&plain, String::new()) {
             return Err(PyValueError::new_err(format!(
                 "<dict>: {field}: must be a finite number (got {x})"
             )));
         }
-        let json: String = obj
-            .py()
-            .import("json")?
-            .call_method1("dumps", (obj,))
-            .map_err(|e| PyValueError::new_err(format!("<dict>: (file): not JSON data: {e}")))?
-            .extract()?;
         let s = scene::parse_scene_str(&json, true, "<dict>", overrides).map_err(err)?;
         crate::engines::registry::check(&s).map_err(err)?;
         return Ok(s);
@@ -617,6 +645,18 @@ fn engine_names() -> Vec<&'static str> {
     registry::names()
 }
 
+/// Refuse an empty or unknown engine name with `ValueError` (`what: unknown engine ...`), as
+/// the command line refuses them before any run.
+#[pyfunction]
+fn check_engine_names(what: &str, names: Vec<String>) -> PyResult<()> {
+    if names.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{what}: name at least one engine"
+        )));
+    }
+    registry::check_names(what, names.iter().map(String::as_str)).map_err(PyValueError::new_err)
+}
+
 #[pymodule]
 #[pyo3(name = "_native")]
 fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -631,6 +671,7 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(engine_names, m)?)?;
+    m.add_function(wrap_pyfunction!(check_engine_names, m)?)?;
     m.add_function(wrap_pyfunction!(compare_rows, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_study, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_run_specs, m)?)?;

@@ -8,6 +8,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -293,3 +294,56 @@ def test_ground_motion_takes_numbers_and_sequences_and_refuses_times_that_are_no
             sc.ground_motion([0.5, bad])
     with pytest.raises(ValueError, match="1-D sequence of times .got 2 dimensions"):
         sc.ground_motion(np.zeros((2, 2)))
+
+
+def _block_dict(**extra: Any) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "name": "d", "duration": 0.2, "blocks": [{"name": "b", "width": 0.4, "height": 1.0}],
+    }
+    d.update(extra)
+    return d
+
+
+def test_a_scene_dict_that_refers_to_itself_or_nests_too_deep_is_a_value_error() -> None:
+    """Each raised ValueError; the interpreter crashed (a stack overflow) before."""
+    code = (
+        "import rockbench\n"
+        "d = {'name': 'x', 'duration': 0.2, 'blocks': [{'name': 'b', 'width': 1.0, 'height': 2.5}]}\n"
+        "d['native'] = d\n"
+        "for scene in (d, dict(d, native={'dt': __import__('functools').reduce(lambda a, _: [a], range(100000), 1.0)})):\n"
+        "    try:\n"
+        "        rockbench.load_scene(scene)\n"
+        "    except ValueError as e:\n"
+        "        print('refused:', str(e)[:60])\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.splitlines()
+    assert len(lines) == 2 and all(l.startswith("refused: <dict>: (file): not JSON data") for l in lines), r.stdout
+
+
+def test_numpy_values_in_a_scene_dict_are_their_python_values() -> None:
+    plain = rockbench.load_scene(_block_dict(duration=1.0, native={"dt": 1e-3}))
+    numpy = rockbench.load_scene(
+        _block_dict(duration=np.int64(1), native={"dt": np.float32(1e-3), "sleep": np.bool_(False)})
+    )
+    assert numpy.duration == plain.duration == 1.0
+    assert numpy.to_dict()["native"]["dt"] == float(np.float32(1e-3))
+    with pytest.raises(ValueError, match=r"<dict>: native.dt: must be a finite number \(got NaN\)"):
+        rockbench.load_scene(_block_dict(native={"dt": np.float32("nan")}))
+
+
+def test_a_block_cannot_touch_itself() -> None:
+    sc = rockbench.load_scene(_block_dict(blocks=[
+        {"name": "p", "width": 0.4, "height": 1.0}, {"name": "s", "width": 0.4, "height": 1.0},
+    ]))
+    assert sc.friction_between(0, 1) == sc.friction_between(None, 0)
+    with pytest.raises(ValueError, match="block 1 cannot touch itself"):
+        sc.friction_between(1, 1)
+
+
+def test_run_many_refuses_no_engine_and_unknown_engines_before_any_run() -> None:
+    with pytest.raises(ValueError, match="run_many: engines: name at least one engine"):
+        rockbench.run_many([_block_dict()], engines=[])
+    with pytest.raises(ValueError, match="run_many: engines: unknown engine `nope`"):
+        rockbench.run_many([_block_dict()], engines=["native", "nope"])

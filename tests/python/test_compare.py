@@ -57,3 +57,12 @@ def test_one_engine_name_is_that_engine_and_no_engine_is_refused() -> None:
     assert set(df.engine) == {"native"}
     with pytest.raises(ValueError, match="--engines: name at least one engine"):
         rockbench.compare(scene_path("housner-slender"), engines=[], reference="housner")
+
+
+def test_one_override_alone_is_that_override() -> None:
+    df = rockbench.compare(
+        scene_path("housner-slender"), engines="native", reference="housner", overrides="duration=0.3"
+    )
+    assert df.attrs["status"] == {"native": "ok", "housner": "ok"}
+    # No impact in 0.3 s (the first is at 0.467 s).
+    assert "impact_time_1" not in set(df.metric)
