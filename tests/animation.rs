@@ -392,6 +392,27 @@ fn animate_draws_runs_made_with_run() {
         "{err}"
     );
     assert!(!other.exists(), "the page was written");
+    // A video where nothing can be written: refused before the page is written (it was
+    // written, and rockbench ended on SIGPIPE without a word when ffmpeg could not open it).
+    let o = bin()
+        .args([
+            "animate",
+            out.join("housner").to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+            "--video",
+            "/proc/rockbench-test/a.mp4",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--video: /proc/rockbench-test/a.mp4: "),
+        "{err}"
+    );
+    assert!(!other.exists(), "the page was written");
     let o = bin()
         .args([
             "compare",

@@ -57,6 +57,7 @@ fn scene_of(a: &AnimateArgs, first: &Path, summary: &Summary) -> Result<Scene> {
 pub fn animate(a: AnimateArgs) -> Result<()> {
     if let Some(v) = &a.video {
         crate::report::animate::video_kind(v).map_err(anyhow::Error::msg)?;
+        writable(v).map_err(|e| anyhow::anyhow!("--video: {}: {e}", v.display()))?;
     }
     let runs: Vec<(PathBuf, Summary, Trajectory)> = a
         .runs
@@ -128,8 +129,29 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
     .map_err(|e| anyhow::anyhow!("{}: {e}", a.out.display()))?;
     println!("wrote {}", a.out.display());
     if let Some(v) = &a.video {
-        anim.write_video(v).map_err(anyhow::Error::msg)?;
+        if let Err(e) = anim.write_video(v) {
+            // Nothing half-written: neither the page nor a part of the video.
+            let _ = std::fs::remove_file(&a.out);
+            let _ = std::fs::remove_file(v);
+            anyhow::bail!(e);
+        }
         println!("wrote {}", v.display());
+    }
+    Ok(())
+}
+
+/// Check that `path` can be written (its folder made if need be), leaving no file behind.
+fn writable(path: &std::path::Path) -> std::io::Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)?;
+    }
+    let existed = path.exists();
+    std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)?;
+    if !existed {
+        std::fs::remove_file(path)?;
     }
     Ok(())
 }

@@ -626,6 +626,9 @@ impl Animation {
                 )
             })?;
         let mut stdin = child.stdin.take().expect("piped stdin");
+        // An ffmpeg that stops early closes the pipe: a write error here, not a SIGPIPE that
+        // would end rockbench without a word (the binary restores SIGPIPE's default).
+        let _ignore_sigpipe = IgnoreSigpipe::new();
         let mut buf = vec![0u8; w * h * 3];
         for f in 0..nframes {
             let k = self.frame_at(f as f64 / vfps);
@@ -935,5 +938,24 @@ mod tests {
         let c0 = a.block_px(0, 0, 0);
         let c1 = a.block_px(0, a.frame_at(0.5), 0);
         assert!((c1[0].0 - c0[0].0 - a.view.s * want).abs() < 0.5);
+    }
+}
+
+/// SIGPIPE ignored while it lives; the previous disposition restored when dropped.
+struct IgnoreSigpipe(libc::sighandler_t);
+
+impl IgnoreSigpipe {
+    fn new() -> Self {
+        // SAFETY: `signal` only swaps the process's disposition of SIGPIPE.
+        IgnoreSigpipe(unsafe { libc::signal(libc::SIGPIPE, libc::SIG_IGN) })
+    }
+}
+
+impl Drop for IgnoreSigpipe {
+    fn drop(&mut self) {
+        // SAFETY: as above, restoring the disposition `new` replaced.
+        unsafe {
+            libc::signal(libc::SIGPIPE, self.0);
+        }
     }
 }
