@@ -853,6 +853,25 @@ if('play' in P)play();
 document.body.setAttribute('data-anim-ready','1');
 })();"#;
 
+/// SIGPIPE ignored while it lives; the previous disposition restored when dropped.
+struct IgnoreSigpipe(libc::sighandler_t);
+
+impl IgnoreSigpipe {
+    fn new() -> Self {
+        // SAFETY: `signal` only swaps the process's disposition of SIGPIPE.
+        IgnoreSigpipe(unsafe { libc::signal(libc::SIGPIPE, libc::SIG_IGN) })
+    }
+}
+
+impl Drop for IgnoreSigpipe {
+    fn drop(&mut self) {
+        // SAFETY: as above, restoring the disposition `new` replaced.
+        unsafe {
+            libc::signal(libc::SIGPIPE, self.0);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -938,24 +957,5 @@ mod tests {
         let c0 = a.block_px(0, 0, 0);
         let c1 = a.block_px(0, a.frame_at(0.5), 0);
         assert!((c1[0].0 - c0[0].0 - a.view.s * want).abs() < 0.5);
-    }
-}
-
-/// SIGPIPE ignored while it lives; the previous disposition restored when dropped.
-struct IgnoreSigpipe(libc::sighandler_t);
-
-impl IgnoreSigpipe {
-    fn new() -> Self {
-        // SAFETY: `signal` only swaps the process's disposition of SIGPIPE.
-        IgnoreSigpipe(unsafe { libc::signal(libc::SIGPIPE, libc::SIG_IGN) })
-    }
-}
-
-impl Drop for IgnoreSigpipe {
-    fn drop(&mut self) {
-        // SAFETY: as above, restoring the disposition `new` replaced.
-        unsafe {
-            libc::signal(libc::SIGPIPE, self.0);
-        }
     }
 }
