@@ -242,3 +242,29 @@ fn a_metric_past_the_impacts_in_the_window_fails_with_their_counts() {
          impacts, the reference 1)"
     );
 }
+
+#[test]
+fn a_cache_dir_that_cannot_be_made_is_one_error_before_any_run() {
+    let dir = tmp("cache-is-a-file");
+    let f = dir.join("gates.toml");
+    std::fs::write(&f, gate_toml("first-impact", "impact_time_1", 1e-3, "")).unwrap();
+    let file = dir.join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_rockbench"))
+        .args(["gate", f.to_str().unwrap(), "--quiet", "--cache-dir"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--cache-dir: ") && err.contains("a-file"),
+        "{err}"
+    );
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+}

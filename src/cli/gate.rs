@@ -18,7 +18,7 @@ pub struct GateArgs {
 pub fn gate_cmd(a: GateArgs) -> Result<()> {
     let gates = load_gates(&a.gates)?;
     let opts = GateOptions {
-        cache_dir: a.run_cache.cache_dir(),
+        cache_dir: a.run_cache.cache_dir()?,
         jobs: a.run_cache.jobs()?,
         progress: a.run_cache.progress(),
     };

@@ -88,9 +88,15 @@ pub(crate) struct RunCacheArgs {
 }
 
 impl RunCacheArgs {
-    /// The cache directory, or `None` with `--no-cache`.
-    pub(crate) fn cache_dir(&self) -> Option<std::path::PathBuf> {
-        (!self.no_cache).then(|| self.cache_dir.clone())
+    /// The cache directory, made if need be, or `None` with `--no-cache`. A directory that
+    /// cannot be made is an error (runs would silently go uncached).
+    pub(crate) fn cache_dir(&self) -> Result<Option<std::path::PathBuf>> {
+        if self.no_cache {
+            return Ok(None);
+        }
+        std::fs::create_dir_all(&self.cache_dir)
+            .map_err(|e| anyhow::anyhow!("--cache-dir: {}: {e}", self.cache_dir.display()))?;
+        Ok(Some(self.cache_dir.clone()))
     }
     /// Engines run at once ([`check_jobs`] first).
     pub(crate) fn jobs(&self) -> Result<usize> {

@@ -78,7 +78,7 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
         .collect();
     let opts = ValidateOptions {
         engines: a.engines.clone(),
-        cache_dir: a.run_cache.cache_dir(),
+        cache_dir: a.run_cache.cache_dir()?,
         jobs: a.run_cache.jobs()?,
         progress: a.run_cache.progress(),
     };
