@@ -794,7 +794,8 @@ pub fn is_known_metric(name: &str) -> bool {
     if let Some(k) = name.strip_prefix("rest_time_") {
         return events::REST_THRESHOLDS.iter().any(|(t, _)| *t == k);
     }
-    let number = |s: &str| !s.is_empty() && s.bytes().all(|c| c.is_ascii_digit());
+    // Impacts count from 1 (`impact_time_1` is the first); `07` is not a name the rows use.
+    let number = |s: &str| s.parse::<u64>().is_ok_and(|k| k >= 1 && k.to_string() == s);
     for p in ["impact_time_", "peak_amplitude_", "restitution_"] {
         if let Some(k) = name.strip_prefix(p) {
             return number(k);

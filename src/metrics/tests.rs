@@ -555,6 +555,9 @@ fn known_metric_names() {
         "impact_time_",
         "rotation_rms",
         "peak_amplitude_x",
+        "impact_time_0",
+        "restitution_01",
+        "rotation_rms_error_to_impact_0",
     ] {
         assert!(!is_known_metric(m), "{m}");
     }
