@@ -129,6 +129,25 @@ impl HousnerSettings {
                 ),
             );
         }
+        // The fastest block's step, `max_phase_step / p`, bounds the steps as well.
+        let p_max = scene
+            .blocks
+            .iter()
+            .map(|b| {
+                HousnerBlock::new(b.width, b.height, scene.gravity, None)
+                    .p2
+                    .sqrt()
+            })
+            .fold(0.0, f64::max);
+        let phase_steps = scene.duration * p_max / self.max_phase_step;
+        if phase_steps > MAX_STEPS {
+            return err(
+                "max_phase_step",
+                format!(
+                    "duration x p / max_phase_step = {phase_steps:e} steps for the fastest block; at most {MAX_STEPS:e} are allowed"
+                ),
+            );
+        }
         if let Some(r) = self.restitution
             && (!r.is_finite() || !(0.0..=1.0).contains(&r))
         {

@@ -253,6 +253,7 @@ impl RapierSettings {
     pub fn of(scene: &crate::scene::Scene) -> Result<RapierSettings, SceneError> {
         let s: RapierSettings = scene.parse_table("rapier")?;
         s.validate(&scene.source)?;
+        crate::scene::check_step(scene, "rapier.dt", s.dt)?;
         Ok(s)
     }
 

@@ -69,7 +69,10 @@ pub fn step(scene: &Scene) -> Result<f64, EngineError> {
         return Ok(DEFAULT_STEP);
     };
     match v.as_f64() {
-        Some(s) if s.is_finite() && s > 0.0 => Ok(s),
+        Some(s) if s.is_finite() && s > 0.0 => {
+            crate::scene::check_step(scene, "siconos.step", s)?;
+            Ok(s)
+        }
         _ => Err(EngineError::Scene(SceneError::new(
             &scene.source,
             "siconos.step",

@@ -104,6 +104,20 @@ def test_a_bad_setting_is_a_failed_run_naming_it(engine: str) -> None:
 
 
 @pytest.mark.parametrize("engine", EXTERNAL)
+def test_a_step_longer_than_the_run_or_of_too_many_steps_is_a_failed_run_naming_it(engine: str) -> None:
+    key = {"mujoco": "mujoco.timestep", "pybullet": "pybullet.fixed_time_step"}[engine]
+    for step, why in [("0.08", r"is larger than the duration \(0.05 s\)"), ("1e-12", r"at most 1\.0+e\+09")]:
+        with pytest.raises(RuntimeError, match=rf"{key}: .*{why}"):
+            rockbench.run(scene_path("housner-square"), engine=engine, overrides=["duration=0.05", f"{key}={step}"])
+
+
+@pytest.mark.parametrize("name", ["erp", "contact_erp", "friction_erp"])
+def test_pybullet_error_reduction_parameters_are_fractions(name: str) -> None:
+    with pytest.raises(RuntimeError, match=rf"pybullet\.{name}: must be a number in \[0, 1\] \(got 1\.5\)"):
+        rockbench.run(scene_path("housner-square"), engine="pybullet", overrides=["duration=0.05", f"pybullet.{name}=1.5"])
+
+
+@pytest.mark.parametrize("engine", EXTERNAL)
 def test_a_scene_that_blows_up_is_a_failed_run_and_the_harness_goes_on(engine: str) -> None:
     with pytest.raises(RuntimeError) as e:
         rockbench.run(

@@ -45,6 +45,12 @@ def non_negative(name: str, v: Any) -> float:
     return float(v)
 
 
+def fraction(name: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v <= 1:
+        raise SettingsError(f"{name}: must be a number in [0, 1] (got {v!r})")
+    return float(v)
+
+
 def positive_int(name: str, v: Any) -> int:
     if isinstance(v, bool) or not isinstance(v, int) or v < 1:
         raise SettingsError(f"{name}: must be a whole number >= 1 (got {v!r})")
@@ -126,11 +132,31 @@ class TimeGrid:
         return np.array(self.sample_steps, dtype=float) * self.step
 
 
+# At most this many steps in a run (the Rust harness's MAX_STEPS).
+MAX_STEPS = 1e9
+
+
 def time_grid(
-    duration: float, output_interval: float, step: float, update_interval: float | None
+    duration: float,
+    output_interval: float,
+    step: float,
+    update_interval: float | None,
+    step_name: str,
 ) -> TimeGrid:
     """Samples every ``output_interval`` (rounded to whole steps, at least one step) up to
-    ``duration``; excitation updates every ``update_interval`` too (None: only at samples)."""
+    ``duration``; excitation updates every ``update_interval`` too (None: only at samples).
+    A ``step`` (the setting ``step_name``) longer than the duration, or of more than
+    ``MAX_STEPS`` steps, is a ``SettingsError``."""
+    if step > duration:
+        raise SettingsError(
+            f"{step_name}: {step!r} s is larger than the duration ({duration!r} s): "
+            "not a single step fits"
+        )
+    if duration / step > MAX_STEPS:
+        raise SettingsError(
+            f"{step_name}: duration / step = {duration / step:e} steps; at most {MAX_STEPS:e} "
+            "are allowed (a unit slip?)"
+        )
     n_total = max(1, round(duration / step))
     every = max(1, round(output_interval / step))
     samples = list(range(0, n_total, every)) + [n_total]

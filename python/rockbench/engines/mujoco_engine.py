@@ -139,7 +139,13 @@ def run(scene: Any, spec: dict[str, Any], early_stop: dict[str, Any] | None = No
 
     h = s["timestep"]
     excited = "excitation" in spec
-    grid = time_grid(spec["duration"], spec["output_interval"], h, s["excitation_interval"] if excited else None)
+    grid = time_grid(
+        spec["duration"],
+        spec["output_interval"],
+        h,
+        s["excitation_interval"] if excited else None,
+        "mujoco.timestep",
+    )
     bounds = np.array(grid.boundaries)
     if excited:
         ax, az = mean_ground_acceleration(scene, bounds * h)

@@ -41,6 +41,7 @@ from rockbench.engines.common import (
     Setting,
     SettingsError,
     excitation_notes,
+    fraction,
     mean_ground_acceleration,
     non_negative,
     optional,
@@ -65,9 +66,9 @@ SETTINGS: dict[str, Setting] = {
     "ground_friction": Setting(
         1.0, positive, "The ground's own coefficient when lateral_friction is null."
     ),
-    "erp": Setting(0.2, non_negative, "Error reduction parameter of joints."),
-    "contact_erp": Setting(0.2, non_negative, "Error reduction parameter of contacts."),
-    "friction_erp": Setting(0.2, non_negative, "Error reduction parameter of friction."),
+    "erp": Setting(0.2, fraction, "Error reduction parameter of joints, in [0, 1]."),
+    "contact_erp": Setting(0.2, fraction, "Error reduction parameter of contacts, in [0, 1]."),
+    "friction_erp": Setting(0.2, fraction, "Error reduction parameter of friction, in [0, 1]."),
     "depth": Setting(1.0, positive, "Out-of-plane size of the blocks, m."),
     "ground_half_size": Setting(50.0, positive, "Half length of the ground box, m."),
     **HARNESS_SETTINGS,
@@ -211,7 +212,9 @@ def _run(
         bodies.append(body)
 
     excited = "excitation" in spec
-    grid = time_grid(spec["duration"], spec["output_interval"], h, h if excited else None)
+    grid = time_grid(
+        spec["duration"], spec["output_interval"], h, h if excited else None, "pybullet.fixed_time_step"
+    )
     bounds = np.array(grid.boundaries)
     if excited:
         ax, az = mean_ground_acceleration(scene, bounds * h)
