@@ -220,3 +220,32 @@ fn check_prints_the_rest_interval_and_the_onset() {
         "{stdout}"
     );
 }
+
+/// Sleep needs the excitation as horizontal inertial forces: under a moving ground it is off,
+/// and the run says so (the summary's settings still record `sleep = true` as given).
+#[test]
+fn sleep_asked_for_where_it_cannot_be_is_off_and_noted() {
+    use rockbench::engines::Engine;
+    let text = format!(
+        "{}[excitation.horizontal]\nkind = \"half-sine\"\namplitude = {}\nduration = 0.6\nstart = 0.3\n",
+        block(1.0, 2.5, 0.7),
+        0.2 * G
+    );
+    let note = "native.sleep: off for this scene";
+    for (applied_as, off) in [("moving-ground", true), ("inertial-forces", false)] {
+        let s = scene(
+            &text,
+            &[
+                "native.sleep=true",
+                &format!("excitation.applied_as=\"{applied_as}\""),
+            ],
+        );
+        let out = rockbench::engines::native::NativeEngine.run(&s).unwrap();
+        assert_eq!(
+            out.notes.iter().any(|n| n.starts_with(note)),
+            off,
+            "{applied_as}: {:?}",
+            out.notes
+        );
+    }
+}

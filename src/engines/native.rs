@@ -263,6 +263,11 @@ impl NativeEngine {
                         stepper.coulomb.lemke_pivots
                     ));
                 }
+                if ns.sleep && stepper.sleep.is_none() {
+                    notes.push(
+                        "native.sleep: off for this scene (blocks sleep only under a horizontal excitation applied as inertial forces)".into(),
+                    );
+                }
                 if let Some(sl) = stepper.sleep.as_ref().filter(|sl| sl.fallen_asleep > 0) {
                     notes.push(format!(
                         "sleeping islands: {} put to sleep, {} woken by the excitation, {} by a contact; {:.1} % of block-steps asleep",

@@ -298,8 +298,27 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                 );
             }
         }
-        // Loading checks the record files themselves.
-        crate::excitation::GroundMotion::from_scene(scene)?;
+        // Loading checks the record files themselves; a record that starts after the run
+        // would never act, as such a pulse.
+        let motion = crate::excitation::GroundMotion::from_scene(scene)?;
+        for (comp, c) in [
+            ("horizontal", &motion.horizontal),
+            ("vertical", &motion.vertical),
+        ] {
+            use crate::excitation::Component::{AccelerationRecord, DisplacementRecord};
+            if let Some(AccelerationRecord { t, .. } | DisplacementRecord { t, .. }) = c
+                && t[0] >= scene.duration
+            {
+                return err(
+                    format!("excitation.{comp}"),
+                    format!(
+                        "the record starts at {} s, when the run of {} s has ended",
+                        num(t[0]),
+                        num(scene.duration)
+                    ),
+                );
+            }
+        }
     }
 
     match tables {
