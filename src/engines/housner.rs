@@ -139,6 +139,17 @@ impl HousnerSettings {
                     .sqrt()
             })
             .fold(0.0, f64::max);
+        let smallest_step = self.max_step.min(self.max_phase_step / p_max);
+        if self.event_tolerance >= smallest_step {
+            return err(
+                "event_tolerance",
+                format!(
+                    "must be smaller than the RK4 step ({} s for the fastest block): impacts would be located no better than a step (got {})",
+                    num(smallest_step),
+                    num(self.event_tolerance)
+                ),
+            );
+        }
         let phase_steps = scene.duration * p_max / self.max_phase_step;
         if phase_steps > MAX_STEPS {
             return err(
@@ -521,5 +532,12 @@ mod tests {
         );
         let fine = tol(&scene(14400.0, "[housner]\nevent_tolerance = 2e-9\n")).unwrap();
         assert_eq!(fine, 2e-9);
+        let coarse = tol(&scene(10.0, "[housner]\nevent_tolerance = 1e-4\n")).unwrap_err();
+        assert!(
+            coarse.to_string().contains(
+                "housner.event_tolerance: must be smaller than the RK4 step (8.11625379238725e-5 s for the fastest block)"
+            ),
+            "{coarse}"
+        );
     }
 }
