@@ -208,7 +208,7 @@ impl ExternalEngine {
             _ => Err(EngineError::Scene(SceneError::new(
                 &scene.source,
                 format!("{}.timeout", self.engine),
-                format!("must be a positive number of seconds (got {v})"),
+                format!("must be a positive number of seconds below 1e9 (got {v})"),
             ))),
         }
     }

@@ -139,6 +139,15 @@ impl HousnerSettings {
                     .sqrt()
             })
             .fold(0.0, f64::max);
+        let phase_steps = scene.duration * p_max / self.max_phase_step;
+        if phase_steps > MAX_STEPS {
+            return err(
+                "max_phase_step",
+                format!(
+                    "duration x p / max_phase_step = {phase_steps:e} steps for the fastest block; at most {MAX_STEPS:e} are allowed"
+                ),
+            );
+        }
         let smallest_step = self.max_step.min(self.max_phase_step / p_max);
         if self.event_tolerance >= smallest_step {
             return err(
@@ -147,15 +156,6 @@ impl HousnerSettings {
                     "must be smaller than the RK4 step ({} s for the fastest block): impacts would be located no better than a step (got {})",
                     num(smallest_step),
                     num(self.event_tolerance)
-                ),
-            );
-        }
-        let phase_steps = scene.duration * p_max / self.max_phase_step;
-        if phase_steps > MAX_STEPS {
-            return err(
-                "max_phase_step",
-                format!(
-                    "duration x p / max_phase_step = {phase_steps:e} steps for the fastest block; at most {MAX_STEPS:e} are allowed"
                 ),
             );
         }
