@@ -255,9 +255,7 @@ fn a_cache_dir_that_cannot_be_made_is_one_error_before_any_run() {
         .arg(&file)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    let err = common::one_error_line(&o);
     assert!(
         err.contains("--cache-dir: ") && err.contains("a-file"),
         "{err}"

@@ -67,6 +67,14 @@ pub fn run_ok(cmd: &mut Command) -> String {
     so
 }
 
+/// The stderr of a run that must fail with exit code 1 and one line on stderr.
+pub fn one_error_line(out: &std::process::Output) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    err
+}
+
 /// Open `out/report.html` in headless Chromium and check that the screenshot is not blank and
 /// shows the first engine's curve colour (#1f77b4), i.e. the plots rendered, not only the text.
 /// Without Chromium the check is skipped, except under CI (`make test` installs it).
