@@ -54,6 +54,13 @@
 //! sets `native.dt` (rapier keeps its own step): the per-step figures of a finer step, whose
 //! cost per simulated second is theirs times `1e-3 / dt`.
 //!
+//! `--repeat N` runs each engine on each wall N times, each run its own child process, and keeps
+//! the run of median wall time (the lower median of an even N): a series of few steps, ten on the
+//! sliding walls, is otherwise timed from a fraction of a second and moves with the machine's
+//! load. The tables say how many runs each figure is the median of; the counts (iterations,
+//! factorisations, rescues) are those of that run, the same in every run of a deterministic
+//! engine.
+//!
 //! `--instructions true` runs each engine's child process under callgrind
 //! (`rockbench::instructions`; valgrind) and counts the instructions its steps execute: the
 //! tables then give millions of instructions a step, and the growth and the cost over the last
@@ -84,10 +91,10 @@ const USAGE: &str = "cargo run --release --example bench_dynamic -- \
 [--courses 2,5,10,20,40 [--lengths 21,...] | --gallery N,... | --colonnade N,...] [--duration 5] [--scale 2 | --pulse 0.8] \
 [--ground-friction 0.5] [--engines native,rapier] [--sleep false] [--island-impacts true] \
 [--locate-impacts true] [--locate-speed 0] [--native-dt 1e-3] [--budget 600] \
-[--instructions false] [--out out/bench-dynamic]";
+[--repeat 1] [--instructions false] [--out out/bench-dynamic]";
 
 /// The flags of `USAGE`, each followed by its value.
-const FLAGS: [&str; 17] = [
+const FLAGS: [&str; 18] = [
     "--courses",
     "--lengths",
     "--gallery",
@@ -103,6 +110,7 @@ const FLAGS: [&str; 17] = [
     "--locate-speed",
     "--native-dt",
     "--budget",
+    "--repeat",
     "--instructions",
     "--out",
 ];
@@ -248,6 +256,33 @@ fn measure_apart(
     Ok(Some(measured))
 }
 
+/// `measure_apart` `repeat` times: the run of median wall time (the lower median of an even
+/// number). A run that fails or does not finish within the budget ends the repeats with its
+/// outcome.
+fn measure_median(
+    path: &Path,
+    engine: &str,
+    budget: Duration,
+    counts: Option<&Path>,
+    repeat: usize,
+) -> anyhow::Result<Option<Measured>> {
+    let mut runs = Vec::with_capacity(repeat);
+    for _ in 0..repeat {
+        match measure_apart(path, engine, budget, counts)? {
+            Some(m) => runs.push(m),
+            None => return Ok(None),
+        }
+    }
+    Ok(Some(median_by_wall_time(runs)))
+}
+
+/// The run of median wall time; of an even number of runs, the lower of the two middle ones.
+fn median_by_wall_time(mut runs: Vec<Measured>) -> Measured {
+    assert!(!runs.is_empty(), "no run to take the median of");
+    runs.sort_by(|a, b| a.wall_s.total_cmp(&b.wall_s));
+    runs.swap_remove((runs.len() - 1) / 2)
+}
+
 fn main() {
     rockbench::allocator::keep_freed_memory();
     if let Err(e) = benchmark() {
@@ -355,6 +390,14 @@ fn benchmark() -> anyhow::Result<()> {
     }
     let budget = Duration::from_secs_f64(budget);
     let count_instructions = flag(&args, "--instructions", false)?;
+    let repeat = arg(&args, "--repeat", "1");
+    let repeat: usize = match repeat.trim().parse() {
+        Ok(n) if n >= 1 => n,
+        _ => bail!("--repeat: must be a whole number of runs, 1 or more (got {repeat})"),
+    };
+    if repeat > 1 && count_instructions {
+        bail!("--repeat: instruction counts are the same in every run; not with --instructions");
+    }
     if count_instructions {
         if let Some(e) = engines
             .iter()
@@ -402,8 +445,13 @@ fn benchmark() -> anyhow::Result<()> {
     } else {
         ""
     };
+    let runs = if repeat > 1 {
+        format!(", each figure the median of {repeat} runs")
+    } else {
+        String::new()
+    };
     let mut md = format!(
-        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, native.locate_speed {}, budget {} s a run{counted}\n\n| blocks | engine | in motion | overturned | wall s | ms/step | M instructions/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues | located impacts/step |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "# {what}: {loading}, {duration} s, native.dt {}, native.sleep = {sleep}, native.island_impacts = {island_impacts}, native.locate_impacts = {locate_impacts}, native.locate_speed {}, budget {} s a run{runs}{counted}\n\n| blocks | engine | in motion | overturned | wall s | ms/step | M instructions/step | iterations/step | factorisations/step | rows updated/step | Clarabel fallbacks | interior-point rescues | located impacts/step |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         native_dt.map_or("1e-3".to_string(), |dt| dt.to_string()),
         locate_speed.unwrap_or(0.0),
         budget.as_secs_f64()
@@ -519,7 +567,7 @@ fn benchmark() -> anyhow::Result<()> {
                 let stem = path.file_stem().unwrap_or_default().to_string_lossy();
                 out.join("callgrind").join(format!("{stem}-{e}.out"))
             });
-            match measure_apart(&path, e, budget, counts.as_deref()) {
+            match measure_median(&path, e, budget, counts.as_deref(), repeat) {
                 Ok(Some(m)) => {
                     let steps = m.steps.max(1) as f64;
                     let per = |x: Option<u64>| {
@@ -667,4 +715,35 @@ fn growth(engines: &[String], measured: &[Finished], in_instructions: bool) -> (
         }
     }
     (md, csv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(wall_s: f64, iterations: u64) -> Measured {
+        Measured {
+            moving: 1,
+            overturned: 0,
+            wall_s,
+            steps: 10,
+            iterations: Some(iterations),
+            factorisations: None,
+            factor_updates: None,
+            fallbacks: None,
+            rescues: None,
+            split_steps: None,
+            instructions: None,
+        }
+    }
+
+    #[test]
+    fn the_median_run_is_kept_whole_and_the_lower_middle_of_an_even_number() {
+        let odd = median_by_wall_time(vec![run(3.0, 3), run(1.0, 1), run(9.0, 9)]);
+        assert_eq!((odd.wall_s, odd.iterations), (3.0, Some(3)));
+        let even = median_by_wall_time(vec![run(4.0, 4), run(2.0, 2), run(8.0, 8), run(1.0, 1)]);
+        assert_eq!((even.wall_s, even.iterations), (2.0, Some(2)));
+        let one = median_by_wall_time(vec![run(5.0, 5)]);
+        assert_eq!(one.wall_s, 5.0);
+    }
 }
