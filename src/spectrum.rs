@@ -329,6 +329,30 @@ impl<'a> Spectrum<'a> {
         s
     }
 
+    /// The longest run of these ratios (the lowest: the longest pulse, then the tail) checked as
+    /// a scene, so that a run too long for a step's count is one line naming `--tail` and `p`
+    /// before any run, not an engine's setting at its first run.
+    pub fn check_longest_run<'r>(
+        &self,
+        ratios: impl Iterator<Item = &'r f64>,
+    ) -> Result<(), String> {
+        let Some(lowest) = ratios.copied().reduce(f64::min) else {
+            return Ok(());
+        };
+        let scene = self.scene(lowest, 1.0);
+        crate::engines::registry::check(&scene).map_err(|e| {
+            format!(
+                "--tail {}: the longest run, {} at omega_p/p = {lowest}, lasts {:e} s (the pulse, then --tail / p with p = {:e} 1/s), too long: {}: {}",
+                self.settings.tail,
+                self.pulse.name(),
+                scene.duration,
+                self.p,
+                e.field,
+                e.message
+            )
+        })
+    }
+
     /// Run at (ratio, amplitude) and decide.
     pub fn run(&self, ratio: f64, amplitude: f64) -> Result<Outcome, EngineError> {
         let scene = self.scene(ratio, amplitude);
@@ -676,7 +700,7 @@ pub fn block_scene(
         ));
     }
     let text = format!(
-        "name = \"block {width}x{height}\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = {width}\nheight = {height}\n\n[contact]\nfriction = {friction}\n"
+        "name = \"block {width}x{height}\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = {width:?}\nheight = {height:?}\n\n[contact]\nfriction = {friction:?}\n"
     );
     let s = crate::scene::parse_scene_str(&text, false, "block", overrides)
         .map_err(|e| e.to_string())?;
@@ -727,6 +751,27 @@ pub struct Request {
     /// Also search the lowest amplitude that overturns without impact.
     pub no_impact: bool,
     pub settings: Settings,
+}
+
+impl Request {
+    /// One line naming a pulse, an engine, a ratio or an amplitude given twice (each would be
+    /// computed again and written twice).
+    pub fn check_lists(&self) -> Result<(), String> {
+        fn twice<T: PartialEq + std::fmt::Display>(what: &str, list: &[T]) -> Result<(), String> {
+            for (k, x) in list.iter().enumerate() {
+                if list[..k].contains(x) {
+                    return Err(format!("{what}: {x} is given twice"));
+                }
+            }
+            Ok(())
+        }
+        let pulses: Vec<&str> = self.pulses.iter().map(|p| p.name()).collect();
+        twice("--pulse", &pulses)?;
+        twice("--engines", &self.engines)?;
+        twice("--ratios", &self.ratios)?;
+        twice("--map-ratios", &self.map_ratios)?;
+        twice("--amplitudes", &self.map_amplitudes)
+    }
 }
 
 /// One minimum of one engine and pulse.
@@ -788,11 +833,13 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
         alpha,
         wall_s: 0.0,
     };
+    req.check_lists()?;
     for name in &req.engines {
         let eng = engine(name)?;
         let fail = |e: EngineError| format!("{name}: {e}");
         for &pulse in &req.pulses {
             let sp = Spectrum::new(base, eng.as_ref(), pulse, &req.settings);
+            sp.check_longest_run(req.ratios.iter().chain(&req.map_ratios))?;
             for &r in &req.ratios {
                 let t0 = Instant::now();
                 let m = sp.minimum(r, |o| o.overturned).map_err(fail)?;

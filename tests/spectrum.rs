@@ -271,6 +271,32 @@ fn spectrum_bad_input_one_line_errors() {
             "--tolerance must be a positive number",
         ),
         (vec!["0.2x4", "--set", "native.dt=-1"], "native.dt"),
+        (
+            vec!["0.2x4", "--ratios", "2,3,2"],
+            "--ratios: 2 is given twice",
+        ),
+        (
+            vec!["0.2x4", "--amplitudes", "1,2,1"],
+            "--amplitudes: 1 is given twice",
+        ),
+        (
+            vec!["0.2x4", "--pulse", "half-sine,rectangular,half-sine"],
+            "--pulse: half-sine is given twice",
+        ),
+        (
+            vec!["0.2x4", "--engines", "housner,housner"],
+            "--engines: housner is given twice",
+        ),
+        // A run too long for the steps is --tail's, not an engine setting's at its first run.
+        (
+            vec!["0.2x4", "--tail", "1e9", "--engines", "housner"],
+            "--tail 1000000000: the longest run, half-sine at omega_p/p = 1, lasts",
+        ),
+        // Sizes beyond what TOML's integers hold are read as the numbers they are.
+        (
+            vec!["1e300x1e300", "--engines", "housner"],
+            "mass inf kg/m and moment of inertia inf",
+        ),
     ] {
         let mut all = args.clone();
         all.extend(["--out", d]);

@@ -149,13 +149,15 @@ pub fn parse_scene_str(
         ));
     }
     let mut scene: Scene = serde_path_to_error::deserialize(&value).map_err(|e| {
-        let path = e.path().to_string();
-        let field = if path == "." {
-            "(top level)".to_string()
-        } else {
-            path
-        };
-        SceneError::new(file, field, clean_serde_message(&e.inner().to_string()))
+        let message = e.inner().to_string();
+        let mut field = e.path().to_string();
+        if let Some(key) = key_of_wrong_number(&value, e.path(), &message) {
+            field = format!("{field}.{key}");
+        }
+        if field == "." {
+            field = "(top level)".to_string();
+        }
+        SceneError::new(file, field, clean_serde_message(&message))
     })?;
     scene.source = file.to_string();
     scene.engines = engines;
@@ -243,6 +245,47 @@ fn reject_non_finite(v: &toml::Value, path: String, file: &str) -> Result<(), Sc
             Ok(())
         }
         _ => Ok(()),
+    }
+}
+
+/// The key that holds the value a "wrong type where a number belongs" `message` is about, when
+/// the error's `path` stops at the table that holds it: a tagged table (an excitation, whose
+/// `kind` picks its fields) is read whole before its fields, so its errors name the table only.
+/// `None` unless exactly one key of that table holds a value of the type the message names.
+fn key_of_wrong_number(
+    value: &serde_json::Value,
+    path: &serde_path_to_error::Path,
+    message: &str,
+) -> Option<String> {
+    use serde::de::Unexpected;
+    use serde_path_to_error::Segment;
+    let got = message
+        .trim()
+        .strip_prefix("invalid type: ")?
+        .strip_suffix(", expected f64")?;
+    let mut at = value;
+    for segment in path.iter() {
+        at = match segment {
+            Segment::Map { key } => at.get(key)?,
+            Segment::Seq { index } => at.get(index)?,
+            _ => return None,
+        };
+    }
+    let described = |v: &serde_json::Value| match v {
+        serde_json::Value::String(s) => Unexpected::Str(s).to_string(),
+        serde_json::Value::Bool(b) => Unexpected::Bool(*b).to_string(),
+        serde_json::Value::Array(_) => Unexpected::Seq.to_string(),
+        serde_json::Value::Object(_) => Unexpected::Map.to_string(),
+        _ => String::new(),
+    };
+    let mut keys = at
+        .as_object()?
+        .iter()
+        .filter(|(_, v)| described(v) == got)
+        .map(|(k, _)| k);
+    match (keys.next(), keys.next()) {
+        (Some(k), None) => Some(k.clone()),
+        _ => None,
     }
 }
 
