@@ -199,6 +199,42 @@ fn bad_studies_stop_before_running_with_one_line() {
         &["fit.bootstrap", "at most 1000000 resamples"],
     );
 
+    // Runs that no engine can make, refused at load (each would fail every run reaching it):
+    // a tail too long for the steps, a level that scales a record beyond floating point, a
+    // record whose samples are 1e12 s apart.
+    edit("tail = 3.0", "tail = 1e300");
+    fails_with(
+        &study,
+        &out,
+        &[
+            "study.toml: tail: scene `block` under the longest record",
+            "native.dt",
+        ],
+    );
+    edit("5.5]", "1e308]");
+    fails_with(
+        &study,
+        &out,
+        &[
+            "intensity.levels[5]",
+            "for level 1e308",
+            "excitation.horizontal.scale",
+        ],
+    );
+    let r0 = d.join("r0.AT2");
+    let record = std::fs::read_to_string(&r0).unwrap();
+    std::fs::write(&r0, record.replace("DT= 0.0100", "DT= 1e12")).unwrap();
+    std::fs::write(&study, &text).unwrap();
+    fails_with(
+        &study,
+        &out,
+        &[
+            "study.toml: suite: scene `block` under the longest record, `r0`",
+            "native.dt",
+        ],
+    );
+    std::fs::write(&r0, record).unwrap();
+
     // A hunt that would start above its highest level.
     std::fs::write(&study, text.clone() + "\n[ida]\nstart = 10\nmax = 1\n").unwrap();
     fails_with(

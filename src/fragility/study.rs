@@ -462,12 +462,82 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
         Some(c) => base.join(c),
         None => PathBuf::from(".cache/rockbench/fragility"),
     };
-    Ok(Study {
+    let study = Study {
         file: f,
         path: path.to_path_buf(),
         scenes,
         suite,
         limit_states,
         cache_dir,
-    })
+    };
+    check_extreme_runs(&study)?;
+    Ok(study)
+}
+
+/// The study's extreme runs checked as scenes before any run: on each scene, under the longest
+/// record and under the record scaled most, both at the highest level the study reaches (its
+/// highest stripe, or the hunt's ceiling when that is higher). A run too long for the steps or
+/// a scaled record that is not finite is then one line naming the tail, the record or the
+/// level, where it would otherwise fail every run that reaches it.
+fn check_extreme_runs(study: &Study) -> Result<(), SceneError> {
+    let f = &study.file;
+    let file = study.path.display().to_string();
+    let (_, highest_stripe) = f.intensity.range();
+    let (level, level_field) = match f.ida.as_ref().and_then(|ida| ida.max) {
+        Some(max) if max > highest_stripe => (max, "ida.max".to_string()),
+        _ => {
+            let k = f
+                .intensity
+                .levels
+                .iter()
+                .position(|&l| l == highest_stripe)
+                .unwrap_or(0);
+            (highest_stripe, format!("intensity.levels[{k}]"))
+        }
+    };
+    let records = &study.suite.records;
+    for scene in &study.scenes {
+        let scale =
+            |r: &crate::excitation::suite::SuiteRecord| super::scale_for(study, scene, r, level);
+        let longest = records
+            .iter()
+            .max_by(|a, b| a.duration.total_cmp(&b.duration));
+        let scaled_most = records.iter().max_by(|a, b| scale(a).total_cmp(&scale(b)));
+        for (rec, what) in [
+            (longest, "the longest record"),
+            (scaled_most, "the record scaled most"),
+        ] {
+            let Some(rec) = rec else { continue };
+            let engine = f.engines.first().map_or("native", String::as_str);
+            let run = super::spec_for(study, scene, engine, rec, scale(rec)).scene;
+            let Err(e) = crate::engines::registry::check(&run) else {
+                continue;
+            };
+            // Which input the user must change: the level for an amplitude, else the longer of
+            // the record and the tail.
+            let field = if e.field.ends_with(".scale") {
+                level_field.clone()
+            } else if f.tail > rec.duration {
+                "tail".to_string()
+            } else {
+                "suite".to_string()
+            };
+            return Err(SceneError::new(
+                &file,
+                field,
+                format!(
+                    "scene `{}` under {what}, `{}` ({} s, scaled x{} for level {}), with the tail of {} s: {}: {}",
+                    scene.name,
+                    rec.id,
+                    num(rec.duration),
+                    num(scale(rec)),
+                    num(level),
+                    num(f.tail),
+                    e.field,
+                    e.message
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
