@@ -298,6 +298,10 @@ pub enum MetricsError {
     NoOverlap { run: String, reference: String },
     #[error("{run}: times are not increasing at sample {index}")]
     Times { run: String, index: usize },
+    #[error(
+        "{run}: time {t} s is repeated at sample {index}; a reference's times must increase (which of its states would hold there?)"
+    )]
+    RepeatedTime { run: String, index: usize, t: f64 },
     #[error("grid spacing must be a positive number of seconds (got {0})")]
     Grid(f64),
     #[error("{run}: {samples} sample(s); a reference needs at least two")]
@@ -341,11 +345,18 @@ pub fn check_run(scene: &Scene, run: &Run) -> Result<(), MetricsError> {
 }
 
 /// Check that a trajectory read from a file can serve as the reference of runs of this scene:
-/// the scene's blocks, times that do not decrease, at least two samples and every value finite
-/// (an engine's own run is judged by its contracts instead; a file is data to be checked).
+/// the scene's blocks, times that increase, at least two samples and every value finite (an
+/// engine's own run is judged by its contracts instead; a file is data to be checked).
 pub fn check_reference_file(scene: &Scene, run: &Run) -> Result<(), MetricsError> {
     check_run(scene, run)?;
     let tr = &run.trajectory;
+    if let Some(k) = tr.t.windows(2).position(|w| w[1] == w[0]) {
+        return Err(MetricsError::RepeatedTime {
+            run: run.name.clone(),
+            index: k + 1,
+            t: tr.t[k],
+        });
+    }
     if tr.t.len() < 2 {
         return Err(MetricsError::TooShort {
             run: run.name.clone(),

@@ -563,8 +563,8 @@ fn known_metric_names() {
     }
 }
 
-/// A reference read from a file is checked as data: its blocks, at least two samples and every
-/// value finite; a good one passes.
+/// A reference read from a file is checked as data: its blocks, at least two samples, times
+/// that increase and every value finite; a good one passes.
 #[test]
 fn a_reference_file_needs_two_finite_samples_of_the_scenes_blocks() {
     let sc = scene(ONE_BLOCK);
@@ -585,4 +585,17 @@ fn a_reference_file_needs_two_finite_samples_of_the_scenes_blocks() {
         check_reference_file(&sc, &other),
         Err(MetricsError::Blocks { .. })
     ));
+    // Two states at one time: which one the reference means there is not said.
+    let repeated = synthetic(
+        "ref.csv",
+        &["block"],
+        &[0.0, 1e-3, 1e-3, 2e-3],
+        &[vec![0.1, 0.1, 0.09, 0.08]],
+    );
+    assert_eq!(
+        check_reference_file(&sc, &repeated)
+            .unwrap_err()
+            .to_string(),
+        "ref.csv: time 0.001 s is repeated at sample 2; a reference's times must increase (which of its states would hold there?)"
+    );
 }
