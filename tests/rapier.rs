@@ -78,6 +78,35 @@ mod with_rapier {
         load_scene(&path).unwrap_or_else(|e| panic!("{e}"))
     }
 
+    /// A duration that is not a whole number of steps ends with a shorter step, at the duration
+    /// itself; the whole steps before it are those of a run of whole steps, to the bit.
+    #[test]
+    fn a_run_ends_at_its_duration_with_a_shorter_last_step() {
+        let whole = run("rapier", &load("housner-square.toml", &["duration=1.0"])).0;
+        let longer = run("rapier", &load("housner-square.toml", &["duration=1.0004"])).0;
+        let (tw, tl) = (&whole.trajectory.t, &longer.trajectory.t);
+        assert_eq!(*tw.last().unwrap(), 1.0);
+        assert_eq!(*tl.last().unwrap(), 1.0004);
+        assert_eq!(tl.len(), tw.len() + 1);
+        assert_eq!(&tl[..tw.len()], &tw[..]);
+        assert_eq!(
+            &longer.trajectory.blocks[0].phi[..tw.len()],
+            &whole.trajectory.blocks[0].phi[..]
+        );
+        // The last step moves the block by what 0.4 ms of its motion can.
+        let (phi, omega) = (
+            &longer.trajectory.blocks[0].phi,
+            &longer.trajectory.blocks[0].omega,
+        );
+        let n = phi.len();
+        let step = (phi[n - 1] - phi[n - 2]).abs();
+        let bound = 4e-4 * omega[n - 2].abs().max(omega[n - 1].abs()) + 1e-12;
+        assert!(
+            step <= 1.5 * bound,
+            "last step moved phi by {step:e} (bound {bound:e})"
+        );
+    }
+
     /// Linear interpolation of (t, y) at x.
     fn interp(t: &[f64], y: &[f64], x: f64) -> f64 {
         let k = t.partition_point(|&s| s <= x).clamp(1, t.len() - 1);

@@ -296,7 +296,23 @@ impl RapierSim {
     #[inline(never)]
     pub fn step(&mut self) -> Result<(), EngineError> {
         let dt = self.world.integration_parameters.dt;
-        let (t0, t1) = (self.t, (self.steps + 1) as f64 * dt);
+        self.advance((self.steps + 1) as f64 * dt, dt)
+    }
+
+    /// Advance one step shorter than `dt`, to `t_end`: the last step of a run whose duration is
+    /// not a whole number of steps.
+    pub fn step_to(&mut self, t_end: f64) -> Result<(), EngineError> {
+        let dt = self.world.integration_parameters.dt;
+        let h = t_end - self.t;
+        self.world.integration_parameters.dt = h;
+        let advanced = self.advance(t_end, h);
+        self.world.integration_parameters.dt = dt;
+        advanced
+    }
+
+    /// Advance one step of length `dt`, rapier's step, to `t1`.
+    fn advance(&mut self, t1: f64, dt: f64) -> Result<(), EngineError> {
+        let t0 = self.t;
         if !self.motion.is_none() {
             match self.applied_as {
                 AppliedAs::InertialForces => {
@@ -402,6 +418,40 @@ impl RapierSim {
     }
 }
 
+/// The steps of a run: whole steps of `dt`, then, where the duration is not within 1e-9 of a
+/// step of a whole number of them, one shorter step that ends at the duration, so that the last
+/// sample is the duration's.
+#[derive(Debug, Clone, Copy)]
+pub struct RunSteps {
+    whole: u64,
+    /// The end of the shorter last step, if there is one.
+    short_to: Option<f64>,
+}
+
+impl RunSteps {
+    pub fn new(duration: f64, dt: f64) -> Self {
+        let steps = duration / dt;
+        let whole = (steps + 1e-9).floor();
+        RunSteps {
+            whole: whole as u64,
+            short_to: (steps - whole > 1e-9).then_some(duration),
+        }
+    }
+
+    /// Steps in all.
+    pub fn count(&self) -> u64 {
+        self.whole + u64::from(self.short_to.is_some())
+    }
+
+    /// Take step `k` (from 1) of the run.
+    pub fn take(&self, sim: &mut RapierSim, k: u64) -> Result<(), EngineError> {
+        match self.short_to {
+            Some(t_end) if k > self.whole => sim.step_to(t_end),
+            _ => sim.step(),
+        }
+    }
+}
+
 impl Engine for RapierEngine {
     fn name(&self) -> &'static str {
         "rapier"
@@ -411,13 +461,14 @@ impl Engine for RapierEngine {
         let s = &RapierSettings::of(scene)?;
         let mut sim = RapierSim::new(scene)?;
         let dt = s.dt;
-        let n_steps = (scene.duration / dt - 1e-9).ceil() as u64;
+        let steps = RunSteps::new(scene.duration, dt);
+        let n_steps = steps.count();
         let every = ((scene.output_interval / dt).round() as u64).max(1);
         let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
         let mut tr = Trajectory::new(&names);
         tr.push(0.0, &sim.relative_states()?);
         for k in 1..=n_steps {
-            sim.step()?;
+            steps.take(&mut sim, k)?;
             if k % every == 0 || k == n_steps {
                 tr.push(sim.t, &sim.relative_states()?);
             }

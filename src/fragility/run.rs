@@ -390,11 +390,12 @@ pub fn worker_early_stop(spec: &RunSpec) -> Result<Option<EarlyStopSpec>, Engine
 #[cfg(feature = "rapier")]
 fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineError> {
     use super::early::Monitor;
-    use crate::engines::rapier::{RAPIER_VERSION, RapierSim};
+    use crate::engines::rapier::{RAPIER_VERSION, RapierSim, RunSteps};
     use crate::engines::rapier_settings::RapierSettings;
     let dt = RapierSettings::of(scene)?.dt;
     let mut sim = RapierSim::new(scene)?;
-    let n_steps = (scene.duration / dt - 1e-9).ceil() as u64;
+    let steps = RunSteps::new(scene.duration, dt);
+    let n_steps = steps.count();
     let every = ((scene.output_interval / dt).round() as u64).max(1);
     let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
     let mut tr = Trajectory::new(&names);
@@ -402,7 +403,7 @@ fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineE
     let mut monitor = Monitor::new(spec);
     let mut stop = Stop::End;
     for k in 1..=n_steps {
-        sim.step()?;
+        steps.take(&mut sim, k)?;
         let states = sim.relative_states()?;
         let s = monitor.check(sim.t, &states);
         if k % every == 0 || k == n_steps || s.is_some() {
