@@ -108,6 +108,10 @@ impl Component {
                 }
             }
             Component::AccelerationRecord { t: ts, a, .. } => {
+                // The record's samples are its values, the last one included (after it, 0).
+                if t == ts[ts.len() - 1] {
+                    return a[a.len() - 1];
+                }
                 let Some(k) = segment(ts, t) else { return 0.0 };
                 let f = (t - ts[k]) / (ts[k + 1] - ts[k]);
                 a[k] + f * (a[k + 1] - a[k])
@@ -578,5 +582,25 @@ mod tests {
             assert!((c.vel(x) - x * x / 2.0).abs() < 1e-14);
             assert!((c.disp(x) - x * x * x / 6.0).abs() < 1e-14);
         }
+    }
+
+    /// A record's acceleration at each of its samples is the sample, the last one included;
+    /// before the first and after the last it is 0.
+    #[test]
+    fn a_record_is_its_samples_at_their_times_and_zero_outside() {
+        let t = vec![0.5, 0.51, 0.52];
+        let a = vec![1.0, 2.0, 3.0];
+        let (v, d) = integrate_piecewise_linear(&t, &a);
+        let c = Component::AccelerationRecord {
+            t: t.clone(),
+            a: a.clone(),
+            v,
+            d,
+        };
+        for (ti, ai) in t.iter().zip(&a) {
+            assert_eq!(c.acc(*ti), *ai, "at {ti}");
+        }
+        assert_eq!(c.acc(0.4999), 0.0);
+        assert_eq!(c.acc(0.5201), 0.0);
     }
 }
