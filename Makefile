@@ -73,7 +73,7 @@ test-rust: chromium ffmpeg valgrind records paper-tools siconos .venv
 	$(MAKE) gates
 	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
 
-test-python: .venv build
+test-python: .venv build siconos
 	$(VPY) -m pytest -q tests/python
 
 # The Python package as users install it: `maturin build --release` makes the wheel, a fresh

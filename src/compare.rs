@@ -7,7 +7,9 @@
 //! and summaries, and [`crate::report::write_comparison`] those and the report. The report
 //! reads a [`Comparison`]; this module does not know the report.
 
-use crate::engines::{EngineError, RunOutput, engine_by_name, run_timed, write_outputs};
+use crate::engines::{
+    EngineError, Progress, RunOutput, engine_by_name, run_timed, run_timed_reporting, write_outputs,
+};
 use crate::metrics::{self, Cost, MetricRow, MetricSettings, Run};
 use crate::scene::Scene;
 use crate::summary::Summary;
@@ -191,7 +193,14 @@ pub type Runner<'a> = dyn Fn(&str, &Scene) -> EngineRun + Sync + 'a;
 
 /// Run one engine, classifying the outcome.
 pub fn run_engine(name: &str, scene: &Scene) -> EngineRun {
-    let result = engine_by_name(name).and_then(|e| run_timed(e.as_ref(), scene));
+    run_engine_reporting(name, scene, &crate::engines::go_on)
+}
+
+/// [`run_engine`] with an observer of the run's time that may stop it
+/// ([`crate::engines::Progress`]).
+pub fn run_engine_reporting(name: &str, scene: &Scene, progress: Progress) -> EngineRun {
+    let result =
+        engine_by_name(name).and_then(|e| run_timed_reporting(e.as_ref(), scene, progress));
     match result {
         Ok((out, summary)) => EngineRun {
             engine: name.to_string(),
@@ -222,6 +231,16 @@ pub fn classify(e: &EngineError) -> Status {
 
 /// Run the engines and compare them with the reference.
 pub fn compare(scene: &Scene, opts: &CompareOptions) -> Result<Comparison, CompareError> {
+    compare_with_runner(scene, opts, &run_engine)
+}
+
+/// [`compare`], its engines run by `runner` (one that a Ctrl-C can stop, in the Python
+/// bindings): the engine names checked first.
+pub fn compare_with_runner(
+    scene: &Scene,
+    opts: &CompareOptions,
+    runner: &Runner<'_>,
+) -> Result<Comparison, CompareError> {
     use crate::engines::registry::check_names;
     if opts.engines.is_empty() {
         return Err(CompareError::Name(
@@ -232,7 +251,7 @@ pub fn compare(scene: &Scene, opts: &CompareOptions) -> Result<Comparison, Compa
     if let ReferenceSpec::Engine(r) = &opts.reference {
         check_names("--reference", [r.as_str()]).map_err(CompareError::Name)?;
     }
-    compare_with(scene, opts, &run_engine)
+    compare_with(scene, opts, runner)
 }
 
 /// [`compare`] with a given way of running an engine.

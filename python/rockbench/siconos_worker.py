@@ -20,7 +20,10 @@ of the block below, a top corner of the block below on the bottom of the block a
 ``Interaction`` with a two-row relation (gap along the face's normal, position along it) and a
 ``NewtonImpactFrictionNSL(e, 0, mu, 2)`` with the interface's friction. Time-stepping is
 Moreau-Jean (``theta``) with a 2D friction-contact problem, or its direct-projection variant,
-which also projects positions onto the constraints (no pivot sink).
+which also projects positions onto the constraints (no pivot sink). A duration that is not a
+whole number of steps ends with one shorter step (an event at the duration inserted into the
+events manager), so the last sample is at the duration as in the native engine; the input then
+gives the ground velocity at the duration too, and that step takes its own mean acceleration.
 
 Settings (the ``[siconos]`` table; defaults measured against Housner, docs/engines-siconos.md):
 """
@@ -76,10 +79,27 @@ def _half_to_one(name: str, v: Any) -> float:
     return float(v)
 
 
+# The largest value of a C int: Siconos' solver options hold the iteration count as one.
+MAX_C_INT = 2**31 - 1
+
+
 def _positive_int(name: str, v: Any) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-        raise WorkerError(2, f"{name}: must be a whole number >= 1 (got {v!r})")
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_C_INT:
+        raise WorkerError(
+            2, f"{name}: must be a whole number from 1 to {MAX_C_INT} (a C int) (got {v!r})"
+        )
     return v
+
+
+def _relative_residual(name: str, v: Any) -> float:
+    if (
+        isinstance(v, bool)
+        or not isinstance(v, (int, float))
+        or not math.isfinite(v)
+        or not 0 < v < 1
+    ):
+        raise WorkerError(2, f"{name}: must be a relative residual, > 0 and < 1 (got {v!r})")
+    return float(v)
 
 
 def _one_of(*choices: str) -> Callable[[str, Any], str]:
@@ -114,8 +134,18 @@ SETTINGS: dict[str, tuple[Any, Callable[[str, Any], Any], str]] = {
         _one_of("NSGS", "ENUM", "LEMKE", "CPG"),
         "2D friction-contact solver (SICONOS_FRICTION_2D_*).",
     ),
-    "tolerance": (1e-12, _positive, "Tolerance of the friction-contact solver."),
-    "iterations": (1000, _positive_int, "Largest number of solver iterations per step."),
+    "tolerance": (
+        1e-12,
+        _relative_residual,
+        "Tolerance of the friction-contact solver, a relative residual (Siconos' error of the "
+        "friction-contact problem divided by the norm of its q), > 0 and < 1 (1 or more accepts "
+        "any iterate, even no contact force).",
+    ),
+    "iterations": (
+        1000,
+        _positive_int,
+        "Largest number of solver iterations per step, 1 to 2^31 - 1 (a C int).",
+    ),
     "timeout": (
         600.0,
         _positive,
@@ -244,10 +274,23 @@ def unsupported(spec: dict[str, Any], supports: list[int | None]) -> str | None:
     return None
 
 
-def time_grid(duration: float, output_interval: float, step: float) -> tuple[int, list[int]]:
-    n_total = max(1, round(duration / step))
+# A duration within this fraction of a step of a whole number of steps is that whole number
+# (the native engine's rule, src/engines/native.rs; rockbench.engines.common.time_grid).
+WHOLE_STEP_TOLERANCE = 1e-9
+
+
+def time_grid(
+    duration: float, output_interval: float, step: float
+) -> tuple[int, list[int], float]:
+    """Steps, the step indices of the samples (every ``output_interval`` rounded to whole
+    steps, and the last step) and the length of the last step: ``step``, or the rest of the
+    duration when it is not a whole number of steps (the last step ends at the duration)."""
+    n_total = max(1, math.ceil(duration / step - WHOLE_STEP_TOLERANCE))
+    last = duration - (n_total - 1) * step
+    if abs(last / step - 1.0) <= WHOLE_STEP_TOLERANCE:
+        last = step
     every = max(1, round(output_interval / step))
-    return n_total, list(range(0, n_total, every)) + [n_total]
+    return n_total, list(range(0, n_total, every)) + [n_total], last
 
 
 def build_and_run(inp: dict[str, Any], s: dict[str, Any]) -> dict[str, Any]:
@@ -271,16 +314,27 @@ def build_and_run(inp: dict[str, Any], s: dict[str, Any]) -> dict[str, Any]:
     q0 = np.array([[b["x"], b["z"], b["phi"]] for b in inp["layout"]], dtype=float).ravel()
     v0 = np.array([[b["vx"], b["vz"], b["omega"]] for b in inp["layout"]], dtype=float).ravel()
 
-    n_total, samples = time_grid(spec["duration"], spec["output_interval"], h)
+    duration = float(spec["duration"])
+    n_total, samples, last_step = time_grid(duration, spec["output_interval"], h)
+    partial = last_step != h
+    n_whole = n_total - 1 if partial else n_total
     ground = inp.get("ground")
     if ground is not None:
         if abs(ground["step"] - h) > 1e-15 * h:
             raise WorkerError(1, f"ground motion sampled every {ground['step']} s, step is {h} s")
         gvx = np.asarray(ground["vx"], dtype=float)
         gvz = np.asarray(ground["vz"], dtype=float)
-        if len(gvx) < n_total + 1 or len(gvz) < n_total + 1:
-            raise WorkerError(1, "ground motion shorter than the run")
-        ax, az = np.diff(gvx) / h, np.diff(gvz) / h
+        # The ground velocity at every step's end: whole steps, then the duration after a
+        # shorter last step (src/engines/siconos.rs, `input`).
+        if len(gvx) != n_total + 1 or len(gvz) != n_total + 1:
+            raise WorkerError(
+                1,
+                f"ground motion at {len(gvx)} instants; the run's {n_total} steps need "
+                f"{n_total + 1}",
+            )
+        lengths = np.full(n_total, h)
+        lengths[-1] = last_step
+        ax, az = np.diff(gvx) / lengths, np.diff(gvz) / lengths
 
     ds = sk.LagrangianLinearTIDS(q0, v0, np.diag(mdiag))
     fext = np.zeros(3 * n)
@@ -345,20 +399,38 @@ def build_and_run(inp: dict[str, Any], s: dict[str, Any]) -> dict[str, Any]:
         states[k, :, 3:] = np.array(ds.velocity()).reshape(n, 3)
         k += 1
 
+    def time_at(k: int) -> float:
+        return duration if partial and k == n_total else k * h
+
     record()
     for step in range(n_total):
         if ground is not None:
             fext_live[0::3] = -mass * ax[step]
             fext_live[1::3] = -mass * (g + az[step])
+        if partial and step == n_whole:
+            # The shorter last step: an event at the duration, between the time
+            # discretisation's instants n_whole * h and (n_whole + 1) * h, ends it there.
+            sim.eventsManager().insertEvent(sk.TD_EVENT, duration)
+            if sim.nextTime() != duration:
+                raise WorkerError(
+                    2,
+                    f"siconos.step: the last step, {last_step:.6g} s to the duration "
+                    f"({duration!r} s), is too close to a whole step for Siconos' events to "
+                    f"tell apart: make the duration a whole number of steps (got {h!r})",
+                )
         sim.computeOneStep()
         sim.nextStep()
         if step + 1 in sample_at:
             record()
             if not np.isfinite(states[k - 1]).all():
                 raise WorkerError(
-                    4, f"siconos: the state became NaN or infinite before t = {(step + 1) * h:.6g} s"
+                    4, f"siconos: the state became NaN or infinite before t = {time_at(step + 1):.6g} s"
                 )
-    return {"t": np.array(samples, dtype=float) * h, "states": states, "steps": n_total}
+    return {
+        "t": np.array([time_at(j) for j in samples]),
+        "states": states,
+        "steps": n_total,
+    }
 
 
 def run(input_path: str, out: str, source: str | None) -> dict[str, Any]:
@@ -415,7 +487,7 @@ def run(input_path: str, out: str, source: str | None) -> dict[str, Any]:
         if inp.get("ground") is not None
         else "none"
     )
-    notes = []
+    notes: list[str] = []
     if (spec.get("excitation") or {}).get("applied_as") == "moving-ground":
         notes.append(
             "excitation.applied_as = moving-ground was applied as inertial forces on every "

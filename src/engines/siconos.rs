@@ -112,13 +112,15 @@ pub fn input(scene: &Scene) -> Result<serde_json::Value, EngineError> {
     if scene.has_excitation() {
         let step = step(scene)?;
         let gm = crate::excitation::GroundMotion::from_scene(scene).map_err(EngineError::Scene)?;
-        let n = (scene.duration / step).round().max(1.0) as usize;
-        let (mut vx, mut vz) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
-        for k in 0..=n {
-            let (a, b) = gm.vel(k as f64 * step);
-            vx.push(a);
-            vz.push(b);
+        // The ground velocity at the worker's step ends: whole steps, then the duration where
+        // it is not within 1e-9 of a step of a whole number of them (a shorter last step).
+        let steps = scene.duration / step;
+        let whole = (steps + 1e-9).floor().max(1.0);
+        let mut ends: Vec<f64> = (0..=whole as usize).map(|k| k as f64 * step).collect();
+        if steps - whole > 1e-9 {
+            ends.push(scene.duration);
         }
+        let (vx, vz): (Vec<f64>, Vec<f64>) = ends.iter().map(|&t| gm.vel(t)).unzip();
         input["ground"] = serde_json::json!({ "step": step, "vx": vx, "vz": vz });
     }
     Ok(input)

@@ -25,8 +25,8 @@ use run::{RunOutcome, RunSpec, Stop};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use study::{Initial, LimitKind, LimitState, Measure, Study};
 
@@ -287,7 +287,12 @@ pub struct Runner {
     start: Instant,
     last: Mutex<Instant>,
     quiet: bool,
+    /// Set from outside (a Ctrl-C in the Python bindings): no run starts after it.
+    stop: Arc<AtomicBool>,
 }
+
+/// What a run asked for after its study was stopped says.
+pub const STOPPED: &str = "the study was stopped (its finished runs are in the cache)";
 
 impl Runner {
     pub fn new(dir: PathBuf, quiet: bool) -> Runner {
@@ -302,7 +307,15 @@ impl Runner {
             start: Instant::now(),
             last: Mutex::new(Instant::now()),
             quiet,
+            stop: Arc::new(AtomicBool::new(false)),
         }
+    }
+
+    /// A runner that starts no run once `stop` is set: the runs under way finish and are
+    /// stored, so the study resumes from them.
+    pub fn stopped_by(mut self, stop: Arc<AtomicBool>) -> Runner {
+        self.stop = stop;
+        self
     }
 
     /// The outcome of a run: from the cache, or run and stored ([`cache_store`]: an
@@ -315,6 +328,9 @@ impl Runner {
             self.cached.fetch_add(1, Ordering::Relaxed);
             self.tick(o.stop);
             return Ok((o, true));
+        }
+        if self.stop.load(Ordering::Relaxed) {
+            return Err(STOPPED.to_string());
         }
         let o = run::run_one(spec).map_err(|e| {
             format!(
@@ -370,8 +386,17 @@ impl Runner {
 
 /// Run a study: the stripes, then IDA, then the fits.
 pub fn run_study(study: &Study, quiet: bool) -> Result<Results, String> {
+    run_study_stopped_by(study, quiet, Arc::new(AtomicBool::new(false)))
+}
+
+/// [`run_study`], starting no run once `stop` is set (then an error, [`STOPPED`]).
+pub fn run_study_stopped_by(
+    study: &Study,
+    quiet: bool,
+    stop: Arc<AtomicBool>,
+) -> Result<Results, String> {
     let start = Instant::now();
-    let runner = Runner::new(study.cache_dir.clone(), quiet);
+    let runner = Runner::new(study.cache_dir.clone(), quiet).stopped_by(stop);
     let f = &study.file;
     let levels = &f.intensity.levels;
     let recs = &study.suite.records;

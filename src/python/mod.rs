@@ -8,7 +8,8 @@
 //!   A failed run raises `RuntimeError` with the engine's one-line reason. Called from the
 //!   main thread, a Ctrl-C stops the native and rapier engines within [`SIGNAL_CHECK`] and
 //!   raises `KeyboardInterrupt`; the other engines finish first (an external engine's worker
-//!   shares the terminal's Ctrl-C and stops with it).
+//!   shares the terminal's Ctrl-C and stops with it). `compare_rows` is stopped the same way,
+//!   and `fragility_study` starts no further run (those under way finish and are cached).
 //! - `Scene.layout()` and `Scene.ground_motion(t)` expose the crate's single definitions of the
 //!   initial configuration and of the ground motion to the Python engines.
 //!
@@ -24,13 +25,74 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::cell::{Cell, RefCell};
 use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, mpsc};
+use std::time::Duration;
 
 /// How often a run started from Python's main thread looks for a Ctrl-C.
 pub const SIGNAL_CHECK: Duration = Duration::from_millis(50);
+
+/// Run `work` with the GIL released. Called from Python's main thread (the only one on which
+/// Python runs signal handlers), `work` runs on a thread of its own while this one looks for a
+/// Ctrl-C every [`SIGNAL_CHECK`]; on one, `stop` is set, `work` is waited for (its runs see the
+/// flag and end) and the `KeyboardInterrupt` is raised instead of its result.
+fn interruptible<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&Arc<AtomicBool>) -> T + Send,
+) -> PyResult<T> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let threading = py.import("threading")?;
+    let on_main_thread = threading
+        .call_method0("current_thread")?
+        .is(&threading.call_method0("main_thread")?);
+    if !on_main_thread {
+        return Ok(py.detach(|| work(&stop)));
+    }
+    let (done, mut result) = mpsc::channel();
+    std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .name("rockbench-run".into())
+            // The main thread's size: a run has the stack it has from the command line.
+            .stack_size(8 << 20)
+            .spawn_scoped(s, || {
+                let _ = done.send(work(&stop));
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot start the run's thread: {e}")))?;
+        loop {
+            // The receiver goes to the detached waiting and back (it is not `Sync`).
+            let (received, back) = py.detach(move || (result.recv_timeout(SIGNAL_CHECK), result));
+            result = back;
+            match received {
+                // A Ctrl-C that came as the work ended is raised too.
+                Ok(value) => return py.check_signals().map(|()| value),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    if let Err(interrupt) = py.check_signals() {
+                        stop.store(true, Ordering::Relaxed);
+                        let _ = py.detach(move || result.recv());
+                        return Err(interrupt);
+                    }
+                }
+                // The work panicked: the scope's end raises it.
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(PyRuntimeError::new_err(
+                        "the run's thread ended without a result",
+                    ));
+                }
+            }
+        }
+    })
+}
+
+/// A run's observer that stops it once `stop` is set.
+fn until(stop: &AtomicBool) -> ControlFlow<()> {
+    if stop.load(Ordering::Relaxed) {
+        ControlFlow::Break(())
+    } else {
+        ControlFlow::Continue(())
+    }
+}
 
 /// A checked scene.
 #[pyclass(frozen, module = "rockbench._native", name = "Scene")]
@@ -337,35 +399,9 @@ fn run(
 ) -> PyResult<PyRun> {
     let scene = scene_from(scene, &overrides)?;
     let eng = engine_by_name(engine).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    // Python runs signal handlers on its main thread only: elsewhere there is nothing to check.
-    let threading = py.import("threading")?;
-    let on_main_thread = threading
-        .call_method0("current_thread")?
-        .is(&threading.call_method0("main_thread")?);
-    let (result, interrupt) = py.detach(move || {
-        let interrupt = RefCell::new(None);
-        let checked = Cell::new(Instant::now());
-        let look_for_ctrl_c = |_t: f64| {
-            if !on_main_thread || checked.get().elapsed() < SIGNAL_CHECK {
-                return ControlFlow::Continue(());
-            }
-            checked.set(Instant::now());
-            match Python::attach(|py| py.check_signals()) {
-                Ok(()) => ControlFlow::Continue(()),
-                Err(e) => {
-                    *interrupt.borrow_mut() = Some(e);
-                    ControlFlow::Break(())
-                }
-            }
-        };
-        let result = run_timed_reporting(eng.as_ref(), &scene, &look_for_ctrl_c);
-        (result, interrupt.into_inner())
-    });
-    if let Some(e) = interrupt {
-        return Err(e);
-    }
-    // A Ctrl-C the run did not look for is raised here.
-    py.check_signals()?;
+    let result = interruptible(py, |stop| {
+        run_timed_reporting(eng.as_ref(), &scene, &|_t| until(stop))
+    })?;
     let (out, summary) = result.map_err(|e| match e {
         EngineError::Failed { .. } | EngineError::Io(_) => PyRuntimeError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
@@ -411,9 +447,13 @@ fn compare_rows(
         engines,
         crate::compare::ReferenceSpec::parse(reference),
     );
-    let c = py
-        .detach(move || crate::compare::compare(&scene, &opts))
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let c = interruptible(py, |stop| {
+        let runner = |name: &str, scene: &CoreScene| {
+            crate::compare::run_engine_reporting(name, scene, &|_t| until(stop))
+        };
+        crate::compare::compare_with_runner(&scene, &opts, &runner)
+    })?
+    .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let rows = serde_json::to_value(&c.rows).expect("metric rows serialise");
     let status: serde_json::Map<String, serde_json::Value> = c
         .runs
@@ -456,9 +496,10 @@ fn fragility_study(
     if let Some(dir) = &out {
         crate::fragility::report::replaceable_out(dir).map_err(PyValueError::new_err)?;
     }
-    let res = py
-        .detach(|| crate::fragility::run_study(&st, quiet))
-        .map_err(PyRuntimeError::new_err)?;
+    let res = interruptible(py, |stop| {
+        crate::fragility::run_study_stopped_by(&st, quiet, stop.clone())
+    })?
+    .map_err(PyRuntimeError::new_err)?;
     let command = format!("rockbench._native.fragility_study({})", study.display());
     if let Some(dir) = out {
         crate::fragility::report::write_all(&dir, &st, &res, &command, false)

@@ -232,22 +232,57 @@ def test_the_package_type_checks() -> None:
     assert r.returncode == 0, r.stdout + r.stderr
 
 
-@pytest.mark.parametrize("engine", ["native", "rapier"])
-def test_ctrl_c_stops_a_run_and_raises_keyboard_interrupt(tmp_path: Path, engine: str) -> None:
-    """A SIGINT while `run` works (GIL released) stops the run and raises KeyboardInterrupt,
-    not a panic of NumPy's API. The run would take some 1000 s (four hours of rocking at 1e-4
-    s a step); the process must be done within 60 s of the signal."""
+def _long_study(tmp_path: Path) -> Path:
+    """A fragility study of 2000 short runs (one block, one 2 s record, 2000 levels, 20 s
+    tail, no early stop): some 40 s of work or more, each run a few hundredths of a second."""
+    (tmp_path / "block.toml").write_text(
+        'name = "block"\nduration = 1.0\n[[blocks]]\nname = "block"\nwidth = 0.3\n'
+        "height = 1.5\n[contact]\nfriction = 2.0\n"
+    )
+    n, dt = 200, 0.01
+    values = [f"{0.05 * np.sin(2 * np.pi * k * dt):15.7E}" for k in range(n)]
+    rows = ["".join(values[k:k + 5]) for k in range(0, n, 5)]
+    (tmp_path / "r0.AT2").write_text(
+        "synthetic\nsine\nACCELERATION TIME SERIES IN UNITS OF G\n"
+        f"NPTS= {n}, DT= {dt:.4f} SEC\n" + "\n".join(rows) + "\n"
+    )
+    (tmp_path / "suite.toml").write_text(
+        '[suite]\nname = "one"\n\n[[record]]\nid = "r0"\nfile = "r0.AT2"\npair = "p0"\n'
+        'event = "burst"\n'
+    )
+    levels = ", ".join(f"{0.001 * (k + 1):.3f}" for k in range(2000))
+    study = tmp_path / "study.toml"
+    study.write_text(
+        'name = "long"\nscenes = ["block.toml"]\nsuite = "suite.toml"\nengines = ["native"]\n'
+        f'cache = "cache"\ntail = 20.0\nearly_stop = false\n[intensity]\nmeasure = "pga"\n'
+        f"levels = [{levels}]\n[fit]\nbootstrap = 0\n"
+    )
+    return study
+
+
+@pytest.mark.parametrize("call", ["run-native", "run-rapier", "compare", "fragility"])
+def test_ctrl_c_stops_the_work_and_raises_keyboard_interrupt(tmp_path: Path, call: str) -> None:
+    """A SIGINT while the extension works (GIL released) stops it and raises KeyboardInterrupt,
+    not a panic of NumPy's API: a run or a comparison of runs that would take some 1000 s (four
+    hours of rocking at 1e-4 s a step), or a study of 2000 runs, which stops after the runs
+    under way and keeps those done. The process must be done within 60 s of the signal."""
     scene = tmp_path / "long.toml"
     scene.write_text(
         'name = "long"\nduration = 14400.0\n[output]\ninterval = 1.0\n[[blocks]]\nname = "b"\n'
         'width = 0.4\nheight = 1.0\n[initial]\ntilt = 0.05\n[native]\ndt = 1e-4\n'
         "[rapier]\ndt = 1e-4\n"
     )
+    work = {
+        "run-native": f"rockbench.run({str(scene)!r}, engine='native')",
+        "run-rapier": f"rockbench.run({str(scene)!r}, engine='rapier')",
+        "compare": f"rockbench.compare({str(scene)!r}, engines=['native', 'rapier'])",
+        "fragility": f"rockbench.fragility({str(_long_study(tmp_path))!r})",
+    }[call]
     code = (
         "import sys, rockbench\n"
         "print('started', flush=True)\n"
         "try:\n"
-        f"    rockbench.run({str(scene)!r}, engine={engine!r})\n"
+        f"    {work}\n"
         "except KeyboardInterrupt:\n"
         "    print('interrupted', flush=True)\n"
         "    sys.exit(3)\n"
@@ -258,6 +293,10 @@ def test_ctrl_c_stops_a_run_and_raises_keyboard_interrupt(tmp_path: Path, engine
     assert p.stdout is not None
     assert p.stdout.readline().strip() == "started"
     time.sleep(0.5)
+    if call == "fragility":  # signalled once the study is running its runs
+        deadline = time.monotonic() + 60
+        while not list((tmp_path / "cache").rglob("*.json")) and time.monotonic() < deadline:
+            time.sleep(0.05)
     p.send_signal(2)
     try:
         out, err = p.communicate(timeout=60)
@@ -267,6 +306,10 @@ def test_ctrl_c_stops_a_run_and_raises_keyboard_interrupt(tmp_path: Path, engine
         raise AssertionError("the run went on after Ctrl-C") from None
     assert p.returncode == 3, f"{out}\n{err}"
     assert "interrupted" in out and "PanicException" not in err, err
+    if call == "fragility":
+        stored = list((tmp_path / "cache").rglob("*.json"))
+        assert 0 < len(stored) < 2000, f"{len(stored)} runs stored"
+        assert not list((tmp_path / "cache").rglob("*.tmp-*")), "a half-written entry"
 
 
 def test_importing_the_extension_loads_numpy() -> None:

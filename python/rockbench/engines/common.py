@@ -51,10 +51,39 @@ def fraction(name: str, v: Any) -> float:
     return float(v)
 
 
+# The largest value of a C ``int``: iteration and sub-step counts are passed to the engines as
+# one (a larger Python int is an OverflowError in PyBullet, an XML error in MuJoCo).
+MAX_C_INT = 2**31 - 1
+
+
 def positive_int(name: str, v: Any) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-        raise SettingsError(f"{name}: must be a whole number >= 1 (got {v!r})")
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_C_INT:
+        raise SettingsError(
+            f"{name}: must be a whole number from 1 to {MAX_C_INT} (a C int) (got {v!r})"
+        )
     return v
+
+
+def residual_tolerance(allow_zero: bool) -> Callable[[str, Any], float]:
+    """A solver tolerance, a relative residual: below 1 (a tolerance of 1 or more accepts the
+    first iterate, whatever its error), above 0 (or at least 0 with ``allow_zero``)."""
+    low = ">= 0" if allow_zero else "> 0"
+
+    def check(name: str, v: Any) -> float:
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float))
+            or not math.isfinite(v)
+            or v < 0
+            or (v == 0 and not allow_zero)
+            or v >= 1
+        ):
+            raise SettingsError(
+                f"{name}: must be a relative residual, {low} and < 1 (got {v!r})"
+            )
+        return float(v)
+
+    return check
 
 
 def one_of(*choices: str) -> Callable[[str, Any], str]:
@@ -90,6 +119,44 @@ def numbers(*lengths: int) -> Callable[[str, Any], list[float]]:
     return check
 
 
+def given_or_default(given: bool) -> str:
+    """How a setting's value came: written in the scene or the default."""
+    return "" if given else ", the default"
+
+
+def block_dimensions(spec: dict[str, Any]) -> tuple[float, float]:
+    """The smallest and the largest in-plane dimension (width or height) of the scene's blocks."""
+    dims = [d for b in spec["blocks"] for d in (float(b["width"]), float(b["height"]))]
+    return min(dims), max(dims)
+
+
+def farthest_corner(spec: dict[str, Any], layout: list[dict[str, Any]]) -> float:
+    """The largest |x| of a block corner at the start (``layout``: ``Scene.layout()``)."""
+    far = 0.0
+    for b, st in zip(spec["blocks"], layout):
+        c, s = math.cos(st["phi"]), math.sin(st["phi"])
+        for dx in (-0.5 * b["width"], 0.5 * b["width"]):
+            for dz in (-0.5 * b["height"], 0.5 * b["height"]):
+                far = max(far, abs(st["x"] + c * dx - s * dz))
+    return far
+
+
+def check_depth(
+    s: dict[str, Any], name: str, given: bool, low: float, low_why: str, high: float, high_why: str
+) -> None:
+    """``s["depth"]`` (the setting ``name``) within ``[low, high]`` (each bound described): a
+    given depth is checked; the default one is brought to the nearer bound when it lies outside
+    (the planar motion does not depend on the depth within them)."""
+    if not given:
+        s["depth"] = min(max(s["depth"], low), high)
+    depth = s["depth"]
+    if not low <= depth <= high:
+        raise SettingsError(
+            f"{name}: must be from {low_why} ({low:.6g} m) to {high_why} ({high:.6g} m) "
+            f"(got {depth!r}{given_or_default(given)})"
+        )
+
+
 def read_settings(table: str, given: Any, spec: dict[str, Setting]) -> dict[str, Any]:
     """Check a scene's ``[table]`` against ``spec``; return every setting with defaults filled."""
     if given is None:
@@ -121,19 +188,54 @@ HARNESS_SETTINGS = {
 
 @dataclass
 class TimeGrid:
-    """Engine steps of length ``step``: sample and excitation-update boundaries as step indices."""
+    """Engine steps of length ``step``: sample and excitation-update boundaries as step indices.
+
+    Step ``k`` (from boundary ``k - 1`` to ``k``) is ``step`` long, except the last one
+    (``n_steps``) when the duration is not a whole number of steps: it is ``last_step`` long
+    and ends at the duration, as the native engine's last step does."""
 
     step: float
     sample_steps: list[int]
     boundaries: list[int]
+    duration: float
+    last_step: float
+
+    @property
+    def n_steps(self) -> int:
+        return self.sample_steps[-1]
+
+    @property
+    def partial(self) -> bool:
+        """Whether the last step is shorter than ``step``."""
+        return self.last_step != self.step
+
+    def time(self, k: int) -> float:
+        """Time of boundary ``k``: ``k * step``, the duration at the end of a shorter last step."""
+        return self.duration if self.partial and k == self.n_steps else k * self.step
+
+    def times(self, ks: Any) -> npt.NDArray[np.float64]:
+        """``time`` of each boundary of ``ks``."""
+        k = np.asarray(ks)
+        t: npt.NDArray[np.float64] = k.astype(float) * self.step
+        if self.partial:
+            t[k == self.n_steps] = self.duration
+        return t
+
+    def step_length(self, k: int) -> float:
+        """Length of step ``k`` (ending at boundary ``k``)."""
+        return self.last_step if k == self.n_steps else self.step
 
     @property
     def sample_times(self) -> npt.NDArray[np.float64]:
-        return np.array(self.sample_steps, dtype=float) * self.step
+        return self.times(self.sample_steps)
 
 
 # At most this many steps in a run (the Rust harness's MAX_STEPS).
 MAX_STEPS = 1e9
+
+# A duration within this fraction of a step of a whole number of steps is that whole number
+# (the native engine's rule, src/engines/native.rs).
+WHOLE_STEP_TOLERANCE = 1e-9
 
 
 def time_grid(
@@ -143,10 +245,13 @@ def time_grid(
     update_interval: float | None,
     step_name: str,
 ) -> TimeGrid:
-    """Samples every ``output_interval`` (rounded to whole steps, at least one step) up to
+    """Samples every ``output_interval`` (rounded to whole steps, at least one step) and at
     ``duration``; excitation updates every ``update_interval`` too (None: only at samples).
-    A ``step`` (the setting ``step_name``) longer than the duration, or of more than
-    ``MAX_STEPS`` steps, is a ``SettingsError``."""
+    A duration that is not a whole number of steps ends with one shorter step, whose end is
+    the duration (``TimeGrid.last_step``); a whole number of steps (within
+    ``WHOLE_STEP_TOLERANCE`` of a step) ends at ``n * step``. A ``step`` (the setting
+    ``step_name``) longer than the duration, or of more than ``MAX_STEPS`` steps, is a
+    ``SettingsError``."""
     if step > duration:
         raise SettingsError(
             f"{step_name}: {step!r} s is larger than the duration ({duration!r} s): "
@@ -157,14 +262,17 @@ def time_grid(
             f"{step_name}: duration / step = {duration / step:e} steps; at most {MAX_STEPS:e} "
             "are allowed (a unit slip?)"
         )
-    n_total = max(1, round(duration / step))
+    n_total = max(1, math.ceil(duration / step - WHOLE_STEP_TOLERANCE))
+    last = duration - (n_total - 1) * step
+    if abs(last / step - 1.0) <= WHOLE_STEP_TOLERANCE:
+        last = step
     every = max(1, round(output_interval / step))
     samples = list(range(0, n_total, every)) + [n_total]
     bounds = set(samples)
     if update_interval is not None:
         chunk = max(1, round(update_interval / step))
         bounds.update(range(0, n_total, chunk))
-    return TimeGrid(step, samples, sorted(bounds))
+    return TimeGrid(step, samples, sorted(bounds), duration, last)
 
 
 def mean_ground_acceleration(

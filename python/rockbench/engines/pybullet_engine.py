@@ -15,11 +15,16 @@ is applied as inertial forces on every block through the gravity vector, updated
 ``stepSimulation`` call (each ``fixed_time_step``) with the exact mean ground acceleration over
 it.
 
+A duration that is not a whole number of ``fixed_time_step`` ends with one shorter
+``stepSimulation`` call (``fixedTimeStep`` set to the rest for that call, with the same number of
+sub-steps), so the last sample is at the duration as in the native engine.
+
 Settings (the ``[pybullet]`` table; defaults measured against Housner's solution, see
 ENGINES.md): ``fixed_time_step`` 1e-3 s with ``num_sub_steps`` 10 (internal step 1e-4 s);
 ``num_solver_iterations`` 50; ``lateral_friction`` null; ``ground_friction`` 1; ``erp``,
 ``contact_erp``, ``friction_erp`` 0.2, 0.2, 0.2 (Bullet's defaults, recorded);
-``depth`` 1 m; ``ground_half_size`` 50 m; ``timeout`` 600 s (harness).
+``depth`` 1 m; ``ground_half_size`` 50 m; ``timeout`` 600 s (harness). The bounds of each
+setting are in ``SETTINGS``.
 """
 
 from __future__ import annotations
@@ -36,12 +41,18 @@ import numpy as np
 
 from rockbench.engines.common import (
     HARNESS_SETTINGS,
+    MAX_STEPS,
     EarlyStop,
     EngineResult,
     Setting,
     SettingsError,
+    TimeGrid,
+    block_dimensions,
+    check_depth,
     excitation_notes,
+    farthest_corner,
     fraction,
+    given_or_default,
     mean_ground_acceleration,
     non_negative,
     optional,
@@ -51,12 +62,22 @@ from rockbench.engines.common import (
     time_grid,
 )
 
+# The depth of the blocks' boxes relative to the scene's blocks (see SETTINGS["depth"]).
+DEPTH_MIN_FRACTION = 0.01
+DEPTH_MAX_MULTIPLE = 50.0
+
 SETTINGS: dict[str, Setting] = {
     "fixed_time_step": Setting(1e-3, positive, "Time advanced by one stepSimulation call, s."),
     "num_sub_steps": Setting(
-        10, positive_int, "Internal sub-steps per call (internal step = fixed_time_step / this)."
+        10,
+        positive_int,
+        "Internal sub-steps per call (internal step = fixed_time_step / this), 1 to 2^31 - 1 "
+        "(a C int), and at most 1e9 internal steps in the run (calls x this, the harness's "
+        "limit on steps).",
     ),
-    "num_solver_iterations": Setting(50, positive_int, "Constraint solver iterations."),
+    "num_solver_iterations": Setting(
+        50, positive_int, "Constraint solver iterations, 1 to 2^31 - 1 (a C int)."
+    ),
     "lateral_friction": Setting(
         None,
         optional(non_negative),
@@ -69,10 +90,55 @@ SETTINGS: dict[str, Setting] = {
     "erp": Setting(0.2, fraction, "Error reduction parameter of joints, in [0, 1]."),
     "contact_erp": Setting(0.2, fraction, "Error reduction parameter of contacts, in [0, 1]."),
     "friction_erp": Setting(0.2, fraction, "Error reduction parameter of friction, in [0, 1]."),
-    "depth": Setting(1.0, positive, "Out-of-plane size of the blocks, m."),
-    "ground_half_size": Setting(50.0, positive, "Half length of the ground box, m."),
+    "depth": Setting(
+        1.0,
+        positive,
+        "Out-of-plane size of the blocks, m: from 0.01 x to 50 x the smallest block width or "
+        "height. The planar motion does not depend on it (mass and inertia per metre of depth: "
+        "identical to round-off within the window); Bullet's box contacts need a box of "
+        "moderate aspect ratio: the landing corner of a rocking block went through the ground "
+        "undetected from a depth of 90-120 x its width (measured on 0.02, 0.125 and 1.25 m "
+        "wide blocks; the upper bound keeps a factor of about 2 from it), and blocks fell "
+        "through the ground below a depth of 1e-5 to 2e-5 m (1e-5 to 1e-4 x their width; the "
+        "lower bound keeps a factor of more than 100). A given depth outside them is refused; "
+        "the default 1 m is brought to the nearer bound (recorded in the run's settings).",
+    ),
+    "ground_half_size": Setting(
+        50.0,
+        positive,
+        "Half length of the ground box, m: at least the farthest block corner from x = 0 at "
+        "the start plus the largest block dimension (the reach of a block that tips over about "
+        "that corner), so every block starts, rocks and lands on the ground. A given size below "
+        "it is refused; the default 50 m is raised to it (recorded in the run's settings).",
+    ),
     **HARNESS_SETTINGS,
 }
+
+
+def check_settings(spec: dict[str, Any], layout: list[dict[str, Any]], s: dict[str, Any]) -> None:
+    """The checks of ``s`` (the settings read) that need the scene."""
+    given = spec.get("pybullet") or {}
+    small, large = block_dimensions(spec)
+    check_depth(
+        s,
+        "pybullet.depth",
+        "depth" in given,
+        DEPTH_MIN_FRACTION * small,
+        f"{DEPTH_MIN_FRACTION:g} x the smallest block dimension",
+        DEPTH_MAX_MULTIPLE * small,
+        f"{DEPTH_MAX_MULTIPLE:g} x it",
+    )
+    far = farthest_corner(spec, layout)
+    need = far + large
+    if "ground_half_size" not in given:
+        s["ground_half_size"] = max(s["ground_half_size"], need)
+    if s["ground_half_size"] < need:
+        raise SettingsError(
+            f"pybullet.ground_half_size: must be at least the farthest block corner from "
+            f"x = 0 ({far:.6g} m) plus the largest block dimension ({large:.6g} m), "
+            f"{need:.6g} m (got {s['ground_half_size']!r}"
+            f"{given_or_default('ground_half_size' in given)})"
+        )
 
 
 @contextlib.contextmanager
@@ -118,10 +184,23 @@ def run(scene: Any, spec: dict[str, Any], early_stop: dict[str, Any] | None = No
     ``early_stop`` rule (``common.EarlyStop``) the run ends at its stop, checked after every
     ``stepSimulation`` call."""
     s = read_settings("pybullet", spec.get("pybullet"), SETTINGS)
+    h = s["fixed_time_step"]
+    excited = "excitation" in spec
+    grid = time_grid(
+        spec["duration"], spec["output_interval"], h, h if excited else None, "pybullet.fixed_time_step"
+    )
+    internal = grid.n_steps * s["num_sub_steps"]
+    if internal > MAX_STEPS:
+        raise SettingsError(
+            f"pybullet.num_sub_steps: {grid.n_steps} calls x {s['num_sub_steps']} sub-steps = "
+            f"{internal:e} internal steps; at most {MAX_STEPS:e} are allowed "
+            f"(got {s['num_sub_steps']!r})"
+        )
+    check_settings(spec, scene.layout(), s)
     p = import_pybullet()
     client = p.connect(p.DIRECT)
     try:
-        return _run(p, client, scene, spec, s, early_stop)
+        return _run(p, client, scene, spec, s, grid, early_stop)
     finally:
         p.disconnect(physicsClientId=client)
 
@@ -132,6 +211,7 @@ def _run(
     scene: Any,
     spec: dict[str, Any],
     s: dict[str, Any],
+    grid: TimeGrid,
     early_stop: dict[str, Any] | None,
 ) -> EngineResult:
     h = s["fixed_time_step"]
@@ -212,12 +292,9 @@ def _run(
         bodies.append(body)
 
     excited = "excitation" in spec
-    grid = time_grid(
-        spec["duration"], spec["output_interval"], h, h if excited else None, "pybullet.fixed_time_step"
-    )
     bounds = np.array(grid.boundaries)
     if excited:
-        ax, az = mean_ground_acceleration(scene, bounds * h)
+        ax, az = mean_ground_acceleration(scene, grid.times(bounds))
     sample_at = set(grid.sample_steps)
     states = np.empty((len(grid.sample_steps) + 1, n, 6))
     times: list[float] = []
@@ -226,6 +303,7 @@ def _run(
     now = np.empty((n, 6))
     out_of_plane = 0.0
     k = 0
+    calls = 0
 
     def read() -> None:
         for i, body in enumerate(bodies):
@@ -249,10 +327,18 @@ def _run(
     for c in range(len(bounds) - 1):
         if excited:
             p.setGravity(-ax[c], 0, -(g + az[c]), physicsClientId=cid)
-        for _ in range(int(bounds[c + 1] - bounds[c])):
-            p.stepSimulation(physicsClientId=cid)
-        t = float(bounds[c + 1]) * h
-        sample = int(bounds[c + 1]) in sample_at
+        end = int(bounds[c + 1])
+        for step in range(int(bounds[c]) + 1, end + 1):
+            if grid.partial and step == grid.n_steps:
+                # The shorter last call, ending at the duration.
+                p.setPhysicsEngineParameter(fixedTimeStep=grid.last_step, physicsClientId=cid)
+                p.stepSimulation(physicsClientId=cid)
+                p.setPhysicsEngineParameter(fixedTimeStep=h, physicsClientId=cid)
+            else:
+                p.stepSimulation(physicsClientId=cid)
+        calls = end
+        t = grid.time(end)
+        sample = end in sample_at
         hit = None
         if monitor is not None or sample:
             read()
@@ -294,7 +380,7 @@ def _run(
         states=states[:k],
         settings=settings,
         engine_version=f"pybullet {importlib.metadata.version('pybullet')} (API {p.getAPIVersion()})",
-        steps=round(times[-1] / h) * s["num_sub_steps"],
+        steps=calls * s["num_sub_steps"],
         notes=excitation_notes(spec),
         extra=extra,
     )
