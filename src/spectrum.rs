@@ -40,7 +40,7 @@ use crate::engines::native::REST_WINDOW;
 use crate::engines::{Engine, EngineError, engine_by_name};
 use crate::events;
 use crate::excitation::GroundMotion;
-use crate::scene::{ExcitationSpec, MotionSpec, Scene};
+use crate::scene::{ExcitationSpec, MotionSpec, Scene, num};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -221,10 +221,25 @@ impl Settings {
         pos("--tolerance", self.tolerance)?;
         pos("--scan-from", self.scan_from)?;
         pos("--scan-step", self.scan_step)?;
-        if self.scan_to.is_nan() || self.scan_to <= self.scan_from {
+        if !self.scan_to.is_finite() || self.scan_to <= self.scan_from {
             return Err(format!(
-                "--scan-to must exceed --scan-from (got {} and {})",
-                self.scan_to, self.scan_from
+                "--scan-to must be finite and exceed --scan-from (got {} and {})",
+                num(self.scan_to),
+                num(self.scan_from)
+            ));
+        }
+        let scans = (self.scan_to - self.scan_from) / self.scan_step;
+        if scans > MAX_POINTS as f64 {
+            return Err(format!(
+                "--scan-step {}: {} scan points from --scan-from to --scan-to; at most {MAX_POINTS} (each is a run)",
+                num(self.scan_step),
+                num(scans.ceil())
+            ));
+        }
+        if self.tolerance < MIN_TOLERANCE {
+            return Err(format!(
+                "--tolerance must be at least {MIN_TOLERANCE:e} (got {}): a narrower bracket is below the bisection's floating-point resolution",
+                num(self.tolerance)
             ));
         }
         if self.tolerance >= self.scan_step {
@@ -236,6 +251,13 @@ impl Settings {
         Ok(())
     }
 }
+
+/// The most points a range (`from:to:n`) or a scan may have: each is at least one run.
+pub const MAX_POINTS: usize = 100_000;
+
+/// The narrowest relative bracket of a minimum's bisection (some 4500 times the floating-point
+/// resolution; a narrower one was never reached, the search never ended).
+pub const MIN_TOLERANCE: f64 = 1e-12;
 
 /// Why a run ended (spectra and fragility studies alike).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -253,6 +275,17 @@ pub enum Stop {
 }
 
 impl Stop {
+    /// Whether a block whose rotation relative to its support ends at `last` overturned by
+    /// this stop's word: the stop says overturned and the block is on its side, or is the
+    /// scene's single block beyond its critical angle `alpha` (the stop is made there; the
+    /// samples end there, and a slender block turns too slowly there for
+    /// [`events::overturning`], which ends at the rest threshold, to call it overturned yet).
+    pub fn overturns(self, last: f64, blocks: usize, alpha: f64) -> bool {
+        self == Stop::Overturned
+            && (last.abs() >= std::f64::consts::FRAC_PI_2 - events::ON_SIDE_TOLERANCE
+                || (blocks == 1 && last.abs() > alpha))
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Stop::End => "end",
@@ -342,9 +375,10 @@ impl<'a> Spectrum<'a> {
         let scene = self.scene(lowest, 1.0);
         crate::engines::registry::check(&scene).map_err(|e| {
             format!(
-                "--tail {}: the longest run, {} at omega_p/p = {lowest}, lasts {:e} s (the pulse, then --tail / p with p = {:e} 1/s), too long: {}: {}",
-                self.settings.tail,
+                "--tail {}: the longest run, {} at omega_p/p = {}, lasts {:e} s (the pulse, then --tail / p with p = {:e} 1/s), too long: {}: {}",
+                num(self.settings.tail),
                 self.pulse.name(),
+                num(lowest),
                 scene.duration,
                 self.p,
                 e.field,
@@ -380,7 +414,23 @@ impl<'a> Spectrum<'a> {
         for (i, b) in scene.blocks.iter().enumerate() {
             let (rel, rate) = tr.rotation(i, layout.supports[i]);
             let h = events::History::new(&tr.t, &rel, &rate);
-            let (over, t_over) = events::overturning(&h, (b.width / b.height).atan());
+            let alpha = (b.width / b.height).atan();
+            let (mut over, mut t_over) = events::overturning(&h, alpha);
+            if !over
+                && let Some(&last) = rel.last()
+                && stop.overturns(last, scene.blocks.len(), alpha)
+            {
+                // The last crossing of the critical angle, else the stop.
+                over = true;
+                t_over = (1..rel.len())
+                    .rev()
+                    .find(|&k| rel[k - 1].abs() <= alpha && rel[k].abs() > alpha)
+                    .map(|k| {
+                        let w = (alpha - rel[k - 1].abs()) / (rel[k].abs() - rel[k - 1].abs());
+                        tr.t[k - 1] + w * (tr.t[k] - tr.t[k - 1])
+                    })
+                    .or(tr.t.last().copied());
+            }
             if !over {
                 continue;
             }
@@ -720,6 +770,11 @@ pub fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
             .map_err(|_| format!("{what}: `{n}` is not a whole number of points"))?;
         if n < 2 {
             return Err(format!("{what}: a range needs at least 2 points (got {n})"));
+        }
+        if n > MAX_POINTS {
+            return Err(format!(
+                "{what}: a range of at most {MAX_POINTS} points (got {n}): each is at least one run"
+            ));
         }
         (0..n)
             .map(|k| a + (b - a) * k as f64 / (n - 1) as f64)

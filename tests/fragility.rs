@@ -217,10 +217,28 @@ fn bad_studies_stop_before_running_with_one_line() {
         &out,
         &[
             "intensity.levels[5]",
-            "for level 1e308",
-            "excitation.horizontal.scale",
+            "level 1e308 scales record",
+            "g; at most 1000 g",
         ],
     );
+    // A level far beyond any ground motion (the solver fails on it at the first step).
+    edit("5.5]", "1e15]");
+    fails_with(
+        &study,
+        &out,
+        &[
+            "intensity.levels[5]",
+            "level 1e15 scales record",
+            "at most 1000 g",
+        ],
+    );
+    std::fs::write(&study, text.clone() + "\n[ida]\nmax = 1e15\n").unwrap();
+    fails_with(&study, &out, &["ida.max", "level 1e15 scales record"]);
+    // An IDA that would never end its bisection, or fill without end.
+    std::fs::write(&study, text.clone() + "\n[ida]\ntolerance = 1e-300\n").unwrap();
+    fails_with(&study, &out, &["ida.tolerance", "must be at least 1e-12"]);
+    std::fs::write(&study, text.clone() + "\n[ida]\nfill = 1000000000\n").unwrap();
+    fails_with(&study, &out, &["ida.fill", "at most 100 levels"]);
     let r0 = d.join("r0.AT2");
     let record = std::fs::read_to_string(&r0).unwrap();
     std::fs::write(&r0, record.replace("DT= 0.0100", "DT= 1e12")).unwrap();

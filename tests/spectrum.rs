@@ -75,6 +75,41 @@ fn check_engine(engine: &dyn Engine) {
     println!("{}: worst {:.4} %", engine.name(), worst * 100.0);
 }
 
+/// The early stops keep the minimum of slender blocks: an early stop says overturned once the
+/// block is past its critical angle turning outwards, where the samples end and a block of B/H
+/// 1e-3 or less turns too slowly for the rest threshold of `events::overturning` (1.80112 at
+/// B/H = 1e-3, 3.36903 at 1e-5 and none at 1e-7 before, against 1.80077). The native engine
+/// keeps it down to B/H = 1e-4 and refuses slenderer blocks (40 % off at 1e-6).
+#[test]
+fn early_stops_keep_the_minimum_of_slender_blocks() {
+    let cf = closed_form(Pulse::HalfSine, 2.0).unwrap();
+    let st = Settings::default();
+    let cases: [(&dyn Engine, &[f64]); 2] = [
+        (&HousnerEngine, &[1e-3, 1e-5, 1e-7]),
+        (&NativeEngine, &[1e-3, 1e-4]),
+    ];
+    for (engine, widths) in cases {
+        for &b in widths {
+            let scene = block_scene(b, 1.0, 2.0, &[]).unwrap();
+            let sp = Spectrum::new(&scene, engine, Pulse::HalfSine, &st);
+            let a = sp.minimum(2.0, |o| o.overturned).unwrap().amplitude;
+            let a = a.unwrap_or_else(|| panic!("{} B/H = {b:e}: no overturn", engine.name()));
+            assert!(
+                (a / cf - 1.0).abs() < 2.0 * st.tolerance,
+                "{} B/H = {b:e}: {a} against the closed form {cf}",
+                engine.name()
+            );
+        }
+    }
+    let needle = block_scene(1e-6, 1.0, 2.0, &[]).unwrap();
+    let sp = Spectrum::new(&needle, &NativeEngine, Pulse::HalfSine, &st);
+    let e = sp.run(2.0, 2.0).unwrap_err().to_string();
+    assert!(
+        e.contains("B/H = 1e-6: the native engine is measured down to B/H = 1e-4"),
+        "{e}"
+    );
+}
+
 #[test]
 fn spectrum_minima_match_closed_forms_housner() {
     check_engine(&HousnerEngine);
@@ -274,6 +309,42 @@ fn spectrum_bad_input_one_line_errors() {
         (
             vec!["0.2x4", "--ratios", "2,3,2"],
             "--ratios: 2 is given twice",
+        ),
+        // Work without end: a range's points (an allocation of 800 TB aborted), a bracket
+        // narrower than floating point, a scan to infinity or of 1e300 points.
+        (
+            vec!["0.2x4", "--amplitudes", "1:10:100000000000000"],
+            "--amplitudes: a range of at most 100000 points",
+        ),
+        (
+            vec!["0.2x4", "--tolerance", "1e-300"],
+            "--tolerance must be at least 1e-12",
+        ),
+        (
+            vec!["0.2x4", "--scan-to", "inf"],
+            "--scan-to must be finite",
+        ),
+        // A similarity run that cannot be made is refused before the spectrum's runs, not
+        // after its outputs are written.
+        (
+            vec![
+                "0.2x4",
+                "--engines",
+                "housner",
+                "--ratios",
+                "2",
+                "--amplitudes",
+                "none",
+                "--similarity",
+                "0.4x8",
+                "--similarity-at",
+                "1e-300,2",
+            ],
+            "--similarity: --tail 30: the longest run, half-sine at omega_p/p = 1e-300",
+        ),
+        (
+            vec!["0.2x4", "--scan-step", "1e-300", "--tolerance", "1e-301"],
+            "--scan-step 1e-300:",
         ),
         (
             vec!["0.2x4", "--amplitudes", "1,2,1"],

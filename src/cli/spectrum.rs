@@ -148,21 +148,15 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         no_impact: a.no_impact,
         settings,
     };
-    let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}")).map_err(|e| anyhow!(e))?;
-    let out = &a.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let write = |name: &str, text: String| -> Result<()> {
-        let p = out.join(name);
-        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
-    };
-    write("minimum.csv", spectrum::minimum_csv(&res))?;
-    write("map.csv", spectrum::map_csv(&res))?;
-    for &p in &pulses {
-        write(
-            &format!("spectrum-{}.svg", p.name()),
-            spectrum::svg(&res, p, &a.engines),
-        )?;
+    if let (Some((other, ratio, _)), Some(first)) = (&similar, a.engines.first()) {
+        let eng = spectrum::engine(first).map_err(|e| anyhow!(e))?;
+        spectrum::Spectrum::new(other, eng.as_ref(), pulses[0], &req.settings)
+            .check_longest_run([*ratio].iter())
+            .map_err(|e| anyhow!("--similarity: {e}"))?;
     }
+    let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}")).map_err(|e| anyhow!(e))?;
+    // The similarity runs are made before anything is written: a failed one leaves no outputs.
+    let mut similarity_files = None;
     if let Some((other, ratio, amp)) = &similar {
         let st = Settings {
             early_stop: false,
@@ -219,8 +213,25 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
                 y: yb,
             });
         }
+        similarity_files = Some((csv, plot.render()));
+    }
+    let out = &a.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let write = |name: &str, text: String| -> Result<()> {
+        let p = out.join(name);
+        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
+    };
+    write("minimum.csv", spectrum::minimum_csv(&res))?;
+    write("map.csv", spectrum::map_csv(&res))?;
+    for &p in &pulses {
+        write(
+            &format!("spectrum-{}.svg", p.name()),
+            spectrum::svg(&res, p, &a.engines),
+        )?;
+    }
+    if let Some((csv, svg)) = similarity_files {
         write("similarity.csv", csv)?;
-        write("similarity.svg", plot.render())?;
+        write("similarity.svg", svg)?;
     }
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let b0 = &base.blocks[0];

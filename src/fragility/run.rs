@@ -555,10 +555,8 @@ pub fn outcome(scene: &Scene, sim: &Simulated) -> RunOutcome {
         let (rel, rate) = tr.rotation(i, layout.supports[i]);
         let h = events::History::new(&tr.t, &rel, &rate);
         let (mut over, _) = events::overturning(&h, alpha);
-        if sim.stop == Stop::Overturned
-            && let Some(&last) = rel.last()
-            && (last.abs() >= FRAC_PI_2 - events::ON_SIDE_TOLERANCE
-                || (scene.blocks.len() == 1 && last.abs() > alpha))
+        if let Some(&last) = rel.last()
+            && sim.stop.overturns(last, scene.blocks.len(), alpha)
         {
             over = true;
         }

@@ -100,6 +100,13 @@ fn d_factor() -> f64 {
 fn d_tol() -> f64 {
     0.05
 }
+/// The most levels an IDA fills in below its bracket.
+pub const MAX_FILL: usize = 100;
+
+/// The strongest scaled record a study may run, in g (the strongest recorded ground motions are
+/// a few g): a level or a record beyond it is taken for a slip, as a unit or an exponent.
+pub const MAX_PEAK_G: f64 = 1000.0;
+
 fn d_fill() -> usize {
     3
 }
@@ -291,10 +298,23 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                 format!("must be > 1 (got {})", num(ida.factor)),
             ));
         }
-        if !(ida.tolerance.is_finite() && ida.tolerance > 0.0) {
+        if !(ida.tolerance.is_finite() && ida.tolerance >= crate::spectrum::MIN_TOLERANCE) {
             return Err(err(
                 "ida.tolerance",
-                format!("must be > 0 (got {})", num(ida.tolerance)),
+                format!(
+                    "must be at least {:e} (got {}): a narrower bracket is below the bisection's floating-point resolution",
+                    crate::spectrum::MIN_TOLERANCE,
+                    num(ida.tolerance)
+                ),
+            ));
+        }
+        if ida.fill > MAX_FILL {
+            return Err(err(
+                "ida.fill",
+                format!(
+                    "at most {MAX_FILL} levels below the bracket (got {}): each is a run per record and limit state",
+                    ida.fill
+                ),
             ));
         }
         for (name, v) in [("ida.start", ida.start), ("ida.max", ida.max)] {
@@ -503,6 +523,22 @@ fn check_extreme_runs(study: &Study) -> Result<(), SceneError> {
             .iter()
             .max_by(|a, b| a.duration.total_cmp(&b.duration));
         let scaled_most = records.iter().max_by(|a, b| scale(a).total_cmp(&scale(b)));
+        if let Some(rec) = scaled_most
+            && !(rec.pga * scale(rec) <= MAX_PEAK_G)
+        {
+            return Err(SceneError::new(
+                &file,
+                level_field.clone(),
+                format!(
+                    "level {} scales record `{}` (PGA {:.4} g) by {:.4e} to a peak of {:.4e} g; at most {MAX_PEAK_G} g",
+                    num(level),
+                    rec.id,
+                    rec.pga,
+                    scale(rec),
+                    rec.pga * scale(rec)
+                ),
+            ));
+        }
         for (rec, what) in [
             (longest, "the longest record"),
             (scaled_most, "the record scaled most"),

@@ -31,6 +31,34 @@ pub fn settings_of(scene: &Scene) -> Result<NativeSettings, SceneError> {
     Ok(s)
 }
 
+/// The slenderest block (width over height) the native engine takes: its overturning spectra
+/// match Housner's closed form to the bisection's 1e-4 from B/H = 1e-1 down to 1e-4, are 0.2 %
+/// off at 1e-5 and 40 % off at 1e-6 (docs/spectrum.md).
+pub const MIN_SLENDERNESS: f64 = 1e-4;
+
+/// One line naming the first block slenderer than [`MIN_SLENDERNESS`].
+fn check_slenderness(scene: &Scene) -> Result<(), SceneError> {
+    match scene
+        .blocks
+        .iter()
+        .enumerate()
+        .find(|(_, b)| b.width / b.height < MIN_SLENDERNESS)
+    {
+        Some((i, b)) => Err(SceneError::new(
+            &scene.source,
+            format!("blocks[{i}]"),
+            format!(
+                "`{}` is {} m wide and {} m high, B/H = {:e}: the native engine is measured down to B/H = {MIN_SLENDERNESS:e} (docs/spectrum.md); use the housner engine for a slenderer single block",
+                b.name,
+                crate::scene::num(b.width),
+                crate::scene::num(b.height),
+                b.width / b.height
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// A stepper and its initial state for a scene.
 pub fn stepper_for(scene: &Scene) -> Result<(Stepper, NativeState), SceneError> {
     stepper_with(scene, solver::solver_for(&settings_of(scene)?))
@@ -42,6 +70,7 @@ pub fn stepper_with(
     scene: &Scene,
     solver: Box<dyn solver::ContactSolver>,
 ) -> Result<(Stepper, NativeState), SceneError> {
+    check_slenderness(scene)?;
     let settings = settings_of(scene)?;
     let motion = GroundMotion::from_scene(scene)?;
     let applied_as = scene.applied_as();
