@@ -523,9 +523,8 @@ fn check_extreme_runs(study: &Study) -> Result<(), SceneError> {
             .iter()
             .max_by(|a, b| a.duration.total_cmp(&b.duration));
         let scaled_most = records.iter().max_by(|a, b| scale(a).total_cmp(&scale(b)));
-        if let Some(rec) = scaled_most
-            && !(rec.pga * scale(rec) <= MAX_PEAK_G)
-        {
+        let beyond = |peak: f64| peak.is_nan() || peak > MAX_PEAK_G;
+        if let Some(rec) = scaled_most.filter(|r| beyond(r.pga * scale(r))) {
             return Err(SceneError::new(
                 &file,
                 level_field.clone(),
