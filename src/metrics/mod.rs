@@ -302,6 +302,15 @@ pub enum MetricsError {
         "{run}: time {t} s is repeated at sample {index}; a reference's times must increase (which of its states would hold there?)"
     )]
     RepeatedTime { run: String, index: usize, t: f64 },
+    #[error(
+        "{run}: covers {first} to {last} s; a reference must cover the run, 0 to {duration} s (its metrics are of the whole run)"
+    )]
+    Coverage {
+        run: String,
+        first: f64,
+        last: f64,
+        duration: f64,
+    },
     #[error("grid spacing must be a positive number of seconds (got {0})")]
     Grid(f64),
     #[error("{run}: {samples} sample(s); a reference needs at least two")]
@@ -384,6 +393,18 @@ pub fn check_reference_file(scene: &Scene, run: &Run) -> Result<(), MetricsError
                 return Err(not_finite(format!("{}_{field}", b.name), k));
             }
         }
+    }
+    // The run's metrics (impacts, peaks, rest) are of the whole run: the reference must cover
+    // it, from 0 to the duration within its own last sample interval.
+    let (first, last) = (tr.t[0], tr.t[tr.t.len() - 1]);
+    let last_interval = last - tr.t[tr.t.len() - 2];
+    if first.abs() > 1e-9 || last < scene.duration - last_interval {
+        return Err(MetricsError::Coverage {
+            run: run.name.clone(),
+            first,
+            last,
+            duration: scene.duration,
+        });
     }
     Ok(())
 }

@@ -564,12 +564,37 @@ fn known_metric_names() {
 }
 
 /// A reference read from a file is checked as data: its blocks, at least two samples, times
-/// that increase and every value finite; a good one passes.
+/// that increase and cover the run, and every value finite; a good one passes.
 #[test]
 fn a_reference_file_needs_two_finite_samples_of_the_scenes_blocks() {
     let sc = scene(ONE_BLOCK);
-    let good = synthetic("ref.csv", &["block"], &[0.0, 1e-3], &[vec![0.1, 0.1]]);
+    assert_eq!(sc.duration, 4.0);
+    let good = synthetic(
+        "ref.csv",
+        &["block"],
+        &[0.0, 2.0, 4.0],
+        &[vec![0.1, 0.1, 0.1]],
+    );
     assert_eq!(check_reference_file(&sc, &good), Ok(()));
+    // Within its last interval of the duration, or past it: the run is covered.
+    for times in [[0.0, 2.5, 3.5], [0.0, 2.0, 5.0]] {
+        let covers = synthetic("ref.csv", &["block"], &times, &[vec![0.1; 3]]);
+        assert_eq!(check_reference_file(&sc, &covers), Ok(()), "{times:?}");
+    }
+    // Short of the duration, or from after 0 or before it: metrics of part of the run.
+    for (times, covers) in [
+        ([0.0, 1.0, 2.0], "0 to 2 s"),
+        ([0.1, 2.0, 4.0], "0.1 to 4 s"),
+        ([-0.1, 2.0, 4.0], "-0.1 to 4 s"),
+    ] {
+        let part = synthetic("ref.csv", &["block"], &times, &[vec![0.1; 3]]);
+        assert_eq!(
+            check_reference_file(&sc, &part).unwrap_err().to_string(),
+            format!(
+                "ref.csv: covers {covers}; a reference must cover the run, 0 to 4 s (its metrics are of the whole run)"
+            )
+        );
+    }
     let one = synthetic("ref.csv", &["block"], &[0.0], &[vec![0.1]]);
     assert_eq!(
         check_reference_file(&sc, &one).unwrap_err().to_string(),
