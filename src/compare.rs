@@ -92,6 +92,9 @@ pub enum Status {
     Skipped(String),
     /// The engine ran and failed.
     Failed(String),
+    /// The engine refused the scene's settings of it: bad input (a worker engine's table,
+    /// checked by its worker), which stops a comparison before anything is written.
+    Refused(String),
 }
 
 impl Status {
@@ -100,12 +103,13 @@ impl Status {
             Status::Ok => "ok",
             Status::Skipped(_) => "skipped",
             Status::Failed(_) => "failed",
+            Status::Refused(_) => "refused",
         }
     }
     pub fn reason(&self) -> Option<&str> {
         match self {
             Status::Ok => None,
-            Status::Skipped(r) | Status::Failed(r) => Some(r),
+            Status::Skipped(r) | Status::Failed(r) | Status::Refused(r) => Some(r),
         }
     }
 }
@@ -186,6 +190,9 @@ pub enum CompareError {
     ReferenceFile { file: String, message: String },
     #[error("reference engine `{engine}` did not run: {reason}")]
     ReferenceFailed { engine: String, reason: String },
+    /// An engine's settings in the scene are bad input.
+    #[error("{0}")]
+    Refused(String),
 }
 
 /// How an engine is run: normally [`run_engine`]; the gates put a cache in front of it.
@@ -225,6 +232,7 @@ pub fn classify(e: &EngineError) -> Status {
     match e {
         EngineError::Unknown(_) => Status::Skipped(format!("not available in this build: {line}")),
         EngineError::Unsupported { .. } => Status::Skipped(line),
+        EngineError::Scene(_) => Status::Refused(line),
         _ => Status::Failed(line),
     }
 }
@@ -303,6 +311,12 @@ pub fn compare_with(
     };
 
     let runs = run_all(scene, &names, opts, runner);
+    if let Some(reason) = runs.iter().find_map(|r| match &r.status {
+        Status::Refused(reason) => Some(reason),
+        _ => None,
+    }) {
+        return Err(CompareError::Refused(reason.clone()));
+    }
 
     let (reference_run, reference) = match &opts.reference {
         ReferenceSpec::File(p) => (file_ref, p.display().to_string()),

@@ -202,6 +202,31 @@ fn bad_reference_file_or_setting_is_one_line_naming_it() {
     ] {
         cases.push((setting.map(String::from).to_vec(), message.to_string()));
     }
+    // A reference that covers part of the run: its metrics would be of that part.
+    let short = out.join("short.csv");
+    std::fs::write(
+        &short,
+        format!("{header}{}{}", sample(0.0, "0.05"), sample(0.049, "0.05")),
+    )
+    .unwrap();
+    let short = short.to_str().unwrap().to_string();
+    cases.push((
+        vec!["--reference".into(), short.clone()],
+        format!("--reference {short}: covers 0 to 0.049 s; a reference must cover the run"),
+    ));
+    // A worker engine's setting that its worker refuses: bad input, as a table checked at load
+    // (it was a failed run in a report of nothing compared, exit 0).
+    cases.push((
+        vec![
+            "--engines".into(),
+            "native,mujoco".into(),
+            "--set".into(),
+            "duration=0.05".into(),
+            "--set".into(),
+            "mujoco.solimp=[0.99,0.999,0.0001,0.5]".into(),
+        ],
+        "housner-slender.toml: mujoco.solimp: must be 3 or 5 finite numbers".into(),
+    ));
     for (k, (extra, message)) in cases.iter().enumerate() {
         let o = out.join(format!("o{k}"));
         let extra: Vec<&str> = extra.iter().map(String::as_str).collect();

@@ -143,8 +143,10 @@ fn failure(r: Result<impl std::fmt::Debug, EngineError>) -> String {
     }
 }
 
+/// A setting the worker refuses is a scene error naming the field (bad input, as a table
+/// checked at load), not a failed run.
 #[test]
-fn a_bad_setting_is_a_failed_run_naming_the_field() {
+fn a_bad_setting_is_a_scene_error_naming_the_field() {
     require_siconos();
     let e = engine_by_name("siconos").unwrap();
     for (set, field) in [
@@ -156,8 +158,14 @@ fn a_bad_setting_is_a_failed_run_naming_the_field() {
         ("siconos.tolerance=-1", "siconos.tolerance"),
         ("siconos.sweeps=3", "siconos.sweeps"),
     ] {
-        let m = failure(e.run(&short(&[set])));
-        assert!(m.contains(field), "{set}: {m}");
+        match e.run(&short(&[set])) {
+            Err(EngineError::Scene(err)) => {
+                assert!(err.field.starts_with("siconos"), "{set}: {err}");
+                assert!(err.to_string().contains(field), "{set}: {err}");
+                assert_eq!(err.to_string().lines().count(), 1, "{set}: {err}");
+            }
+            other => panic!("{set}: expected a scene error, got {other:?}"),
+        }
     }
     // The step is read here too (it samples the ground motion): a scene error.
     let pulse = load_scene_with_overrides(

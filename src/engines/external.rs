@@ -24,6 +24,9 @@
 //! cannot model ([`EngineError::Unsupported`], skipped by the harness).
 
 use super::{Engine, EngineError, Progress, RunOutput};
+
+/// The exit code with which a worker refuses a setting of its table (`WorkerError(2, ...)`).
+pub const SETTINGS_EXIT: i32 = 2;
 use crate::scene::{Scene, SceneError};
 use crate::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
@@ -326,10 +329,28 @@ impl ExternalEngine {
                 reason: one_line(stderr.trim()),
             });
         }
+        if status.code() == Some(SETTINGS_EXIT)
+            && let Some(e) = self.settings_error(scene, &stderr)
+        {
+            return Err(EngineError::Scene(e));
+        }
         if !status.success() {
             return Err(self.failed(self.exit_reason(&python, status, &stderr)));
         }
         self.read_outputs(scene, &out)
+    }
+
+    /// A worker's refusal of a setting (exit code [`SETTINGS_EXIT`]), its last line on stderr
+    /// `SOURCE: TABLE.FIELD: MESSAGE`, as the scene error naming that field, as a table checked
+    /// at load would be (`None` for another line with that code).
+    fn settings_error(&self, scene: &Scene, stderr: &str) -> Option<SceneError> {
+        let last = stderr.lines().rev().map(str::trim).find(|l| !l.is_empty())?;
+        let line = last
+            .strip_prefix(&format!("{}: ", scene.source))
+            .unwrap_or(last);
+        let (field, message) = line.split_once(": ")?;
+        let ours = field == self.engine || field.starts_with(&format!("{}.", self.engine));
+        ours.then(|| SceneError::new(&scene.source, field, message))
     }
 
     fn exit_reason(&self, python: &Path, status: ExitStatus, stderr: &str) -> String {
