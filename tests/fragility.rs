@@ -251,6 +251,16 @@ fn bad_studies_stop_before_running_with_one_line() {
             "native.dt",
         ],
     );
+    // A record of 1e308 g: its PGA in m/s^2 is not finite (it was blamed on the level).
+    let mut huge = record.clone();
+    let first_value = huge.lines().nth(4).unwrap()[..15].to_string();
+    huge = huge.replacen(&first_value, "  1.0000000E+308", 1);
+    std::fs::write(&r0, huge).unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["study.toml: suite: record `r0`", "is not finite"],
+    );
     std::fs::write(&r0, record).unwrap();
 
     // A hunt that would start above its highest level.

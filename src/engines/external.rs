@@ -344,7 +344,11 @@ impl ExternalEngine {
     /// `SOURCE: TABLE.FIELD: MESSAGE`, as the scene error naming that field, as a table checked
     /// at load would be (`None` for another line with that code).
     fn settings_error(&self, scene: &Scene, stderr: &str) -> Option<SceneError> {
-        let last = stderr.lines().rev().map(str::trim).find(|l| !l.is_empty())?;
+        let last = stderr
+            .lines()
+            .rev()
+            .map(str::trim)
+            .find(|l| !l.is_empty())?;
         let line = last
             .strip_prefix(&format!("{}: ", scene.source))
             .unwrap_or(last);

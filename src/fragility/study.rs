@@ -523,6 +523,22 @@ fn check_extreme_runs(study: &Study) -> Result<(), SceneError> {
             .iter()
             .max_by(|a, b| a.duration.total_cmp(&b.duration));
         let scaled_most = records.iter().max_by(|a, b| scale(a).total_cmp(&scale(b)));
+        if let Some(rec) = records
+            .iter()
+            .find(|r| !(r.pga.is_finite() && r.pgv.is_finite()))
+        {
+            return Err(SceneError::new(
+                &file,
+                "suite",
+                format!(
+                    "record `{}` ({}): its peak ground acceleration or velocity is not finite (PGA {} g, PGV {} m/s)",
+                    rec.id,
+                    rec.file.display(),
+                    num(rec.pga),
+                    num(rec.pgv)
+                ),
+            ));
+        }
         let beyond = |peak: f64| peak.is_nan() || peak > MAX_PEAK_G;
         if let Some(rec) = scaled_most.filter(|r| beyond(r.pga * scale(r))) {
             return Err(SceneError::new(
