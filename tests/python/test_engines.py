@@ -93,27 +93,29 @@ def test_a_ground_pulse_rocks_the_block_as_in_housner(engine: str) -> None:
 
 
 @pytest.mark.parametrize("engine", EXTERNAL)
-def test_a_bad_setting_is_a_failed_run_naming_it(engine: str) -> None:
+def test_a_bad_setting_is_bad_input_naming_it(engine: str) -> None:
+    """A setting the worker refuses is a ValueError naming the file and the field, as a table
+    checked at load, not a failed run (RuntimeError)."""
     key = {"mujoco": "mujoco.solref", "pybullet": "pybullet.num_sub_steps"}[engine]
-    with pytest.raises(RuntimeError) as e:
+    with pytest.raises(ValueError) as e:
         rockbench.run(scene_path("housner-square"), engine=engine, overrides=[f"{key}=0"])
     msg = str(e.value)
     assert "\n" not in msg and f"{key}:" in msg and "housner-square.toml" in msg, msg
-    with pytest.raises(RuntimeError, match=rf"{engine}\.timstep: unknown setting \(known: "):
+    with pytest.raises(ValueError, match=rf"{engine}\.timstep: unknown setting \(known: "):
         rockbench.run(scene_path("housner-square"), engine=engine, overrides=[f"{engine}.timstep=1e-3"])
 
 
 @pytest.mark.parametrize("engine", EXTERNAL)
-def test_a_step_longer_than_the_run_or_of_too_many_steps_is_a_failed_run_naming_it(engine: str) -> None:
+def test_a_step_longer_than_the_run_or_of_too_many_steps_is_bad_input_naming_it(engine: str) -> None:
     key = {"mujoco": "mujoco.timestep", "pybullet": "pybullet.fixed_time_step"}[engine]
     for step, why in [("0.08", r"is larger than the duration \(0.05 s\)"), ("1e-12", r"at most 1\.0+e\+09")]:
-        with pytest.raises(RuntimeError, match=rf"{key}: .*{why}"):
+        with pytest.raises(ValueError, match=rf"{key}: .*{why}"):
             rockbench.run(scene_path("housner-square"), engine=engine, overrides=["duration=0.05", f"{key}={step}"])
 
 
 @pytest.mark.parametrize("name", ["erp", "contact_erp", "friction_erp"])
 def test_pybullet_error_reduction_parameters_are_fractions(name: str) -> None:
-    with pytest.raises(RuntimeError, match=rf"pybullet\.{name}: must be a number in \[0, 1\] \(got 1\.5\)"):
+    with pytest.raises(ValueError, match=rf"pybullet\.{name}: must be a number in \[0, 1\] \(got 1\.5\)"):
         rockbench.run(scene_path("housner-square"), engine="pybullet", overrides=["duration=0.05", f"pybullet.{name}=1.5"])
 
 
