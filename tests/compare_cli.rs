@@ -189,6 +189,7 @@ fn bad_reference_file_or_setting_is_one_line_naming_it() {
         ));
     }
     for (setting, message) in [
+        (["--engines", "native"], "--engines: native is given twice"),
         (
             ["--window", "5,9"],
             "--window: 5,9 s lies outside the scene's run",
@@ -219,7 +220,7 @@ fn bad_reference_file_or_setting_is_one_line_naming_it() {
     cases.push((
         vec![
             "--engines".into(),
-            "native,mujoco".into(),
+            "mujoco".into(),
             "--set".into(),
             "duration=0.05".into(),
             "--set".into(),

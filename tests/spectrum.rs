@@ -310,6 +310,10 @@ fn spectrum_bad_input_one_line_errors() {
             vec!["0.2x4", "--ratios", "2,3,2"],
             "--ratios: 2 is given twice",
         ),
+        (
+            vec!["0.2x4", "--map-ratios", "2,3", "--amplitudes", "none"],
+            "--map-ratios: there is no map with --amplitudes none",
+        ),
         // Work without end: a range's points (an allocation of 800 TB aborted), a bracket
         // narrower than floating point, a scan to infinity or of 1e300 points.
         (

@@ -78,6 +78,11 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         None => ratios.clone(),
     };
     let amplitudes = if a.amplitudes == "none" {
+        if a.map_ratios.is_some() {
+            return Err(anyhow!(
+                "--map-ratios: there is no map with --amplitudes none (give the map's amplitudes)"
+            ));
+        }
         Vec::new()
     } else {
         spectrum::parse_list(&a.amplitudes, "--amplitudes").map_err(|e| anyhow!(e))?
