@@ -892,6 +892,10 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
     for name in &req.engines {
         let eng = engine(name)?;
         let fail = |e: EngineError| format!("{name}: {e}");
+        let note = housner_sliding_note(name, base);
+        if let Some(note) = &note {
+            progress(&format!("{name}: {note}"));
+        }
         for &pulse in &req.pulses {
             let sp = Spectrum::new(base, eng.as_ref(), pulse, &req.settings);
             sp.check_longest_run(req.ratios.iter().chain(&req.map_ratios))?;
@@ -968,14 +972,27 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                     .clone()
                     .unwrap_or((serde_json::Value::Null, String::new()))
             };
-            res.engines.insert(
-                name.clone(),
-                serde_json::json!({"version": version, "settings": settings}),
-            );
+            let mut entry = serde_json::json!({"version": version, "settings": settings});
+            if let Some(note) = &note {
+                entry["notes"] = serde_json::json!([note]);
+            }
+            res.engines.insert(name.clone(), entry);
         }
     }
     res.wall_s = start.elapsed().as_secs_f64();
     Ok(res)
+}
+
+/// The Housner engine's note on a block whose friction lets it slide ([`housner::sliding_note`]).
+fn housner_sliding_note(engine: &str, base: &Scene) -> Option<String> {
+    use crate::engines::housner::{self, HousnerBlock, HousnerSettings};
+    if engine != "housner" || base.blocks.len() != 1 {
+        return None;
+    }
+    let b = &base.blocks[0];
+    let restitution = HousnerSettings::of(base).ok()?.restitution;
+    let blk = HousnerBlock::new(b.width, b.height, base.gravity, restitution);
+    housner::sliding_note(&blk, base.friction_below(0))
 }
 
 fn opt(x: Option<f64>) -> String {

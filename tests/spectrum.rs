@@ -428,3 +428,48 @@ fn spectrum_command_writes_outputs() {
     );
     assert!(json["engines"]["housner"]["version"].is_string());
 }
+
+/// Housner's spectrum of a block whose friction lets it slide says so, on the terminal and in
+/// `spectrum.json`, and names both thresholds (B/H to start rocking, and the pivot's at impact);
+/// a block with friction enough to rock carries no such note.
+#[test]
+fn spectrum_notes_when_housner_ignores_the_sliding_its_friction_allows() {
+    let scratch = common::tmp("rb-spectrum", "housner-sliding");
+    for (friction, noted) in [("0", true), ("0.1", true), ("0.17", true), ("0.7", false)] {
+        let dir = scratch.join(friction);
+        let d = dir.to_str().unwrap();
+        let (ok, out, err) = rockbench(&[
+            "spectrum",
+            "0.2x1",
+            "--friction",
+            friction,
+            "--ratios",
+            "2",
+            "--amplitudes",
+            "none",
+            "--engines",
+            "housner",
+            "--out",
+            d,
+        ]);
+        assert!(ok, "{out}{err}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("spectrum.json")).unwrap())
+                .unwrap();
+        let notes = &json["engines"]["housner"]["notes"];
+        let printed = format!("{out}{err}").contains("the Housner model ignores sliding");
+        assert_eq!(printed, noted, "friction {friction}: {out}{err}");
+        if noted {
+            let note = notes[0].as_str().unwrap();
+            assert!(note.contains("ignores sliding"), "{note}");
+            // B/H = 0.2: below it the block slides before it rocks.
+            assert_eq!(
+                note.contains("B/H = 0.200"),
+                friction.parse::<f64>().unwrap() < 0.2,
+                "{note}"
+            );
+        } else {
+            assert!(notes.is_null(), "friction {friction}: {notes}");
+        }
+    }
+}

@@ -182,6 +182,13 @@ pub struct HousnerBlock {
 }
 
 impl HousnerBlock {
+    /// The friction below which the block slides where the model has it rock: `B/H` to start
+    /// rocking before it slides, `(H/B) (1 - r) / (1 + r)` for the pivot not to slip at impact.
+    pub fn friction_to_rock(&self) -> (f64, f64) {
+        let r = self.restitution;
+        (self.b / self.h, (self.h / self.b) * (1.0 - r) / (1.0 + r))
+    }
+
     pub fn new(width: f64, height: f64, g: f64, restitution: Option<f64>) -> Self {
         let (b, h) = (width / 2.0, height / 2.0);
         let r = b.hypot(h);
@@ -410,6 +417,29 @@ pub fn housner_step(blk: &HousnerBlock, hs: &HousnerSettings) -> f64 {
     hs.max_step.min(hs.max_phase_step / blk.p2.sqrt())
 }
 
+/// A note when friction `mu` lets the block slide where the Housner model, which has no
+/// sliding, rocks it ([`HousnerBlock::friction_to_rock`]).
+pub fn sliding_note(blk: &HousnerBlock, mu: f64) -> Option<String> {
+    let (to_start, at_impact) = blk.friction_to_rock();
+    let mut why = Vec::new();
+    if mu < to_start {
+        why.push(format!(
+            "B/H = {to_start:.3} for the block to rock before it slides"
+        ));
+    }
+    if mu < at_impact {
+        why.push(format!(
+            "{at_impact:.3} for the pivot not to slip at impact"
+        ));
+    }
+    (!why.is_empty()).then(|| {
+        format!(
+            "friction {mu} is below {}; the Housner model ignores sliding",
+            why.join(" and ")
+        )
+    })
+}
+
 impl Engine for HousnerEngine {
     fn name(&self) -> &'static str {
         "housner"
@@ -471,15 +501,10 @@ impl Engine for HousnerEngine {
             .filter(|(_, amp)| *amp >= NOISE_FLOOR)
             .map(|(t, _)| *t)
             .collect();
-        let mut notes = Vec::new();
         let r = blk.restitution;
-        let mu_needed = (blk.h / blk.b) * (1.0 - r) / (1.0 + r);
-        let mu = scene.friction_below(0);
-        if mu < mu_needed {
-            notes.push(format!(
-                "friction {mu} is below the {mu_needed:.3} needed for the pivot not to slip at impact; the Housner model ignores sliding"
-            ));
-        }
+        let notes: Vec<String> = sliding_note(&blk, scene.friction_below(0))
+            .into_iter()
+            .collect();
         Ok(RunOutput {
             trajectory: tr,
             settings: serde_json::json!({

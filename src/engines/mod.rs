@@ -82,6 +82,47 @@ pub fn go_on(_t: f64) -> ControlFlow<()> {
     ControlFlow::Continue(())
 }
 
+/// The steps of a fixed-step engine's run: whole steps of `dt`, then, where the duration is not
+/// within 1e-9 of a step of a whole number of them, one shorter step that ends at the duration,
+/// so that the last sample is the duration's (the native engine's rule; the Python engines'
+/// `time_grid`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSteps {
+    whole: u64,
+    dt: f64,
+    /// The end of the shorter last step, if there is one.
+    short_to: Option<f64>,
+}
+
+impl RunSteps {
+    pub fn new(duration: f64, dt: f64) -> Self {
+        let steps = duration / dt;
+        let whole = (steps + 1e-9).floor();
+        RunSteps {
+            whole: whole as u64,
+            dt,
+            short_to: (steps - whole > 1e-9).then_some(duration),
+        }
+    }
+
+    /// Steps in all.
+    pub fn count(&self) -> u64 {
+        self.whole + u64::from(self.short_to.is_some())
+    }
+
+    /// The end of step `k` (from 1) if it is the shorter last one.
+    pub fn short_end(&self, k: u64) -> Option<f64> {
+        self.short_to.filter(|_| k > self.whole)
+    }
+
+    /// The instants at which the steps end, from 0 (the start) to the last step's end.
+    pub fn ends(&self) -> impl Iterator<Item = f64> + '_ {
+        (0..=self.whole)
+            .map(|k| k as f64 * self.dt)
+            .chain(self.short_to)
+    }
+}
+
 /// The engine named `name` ([`registry::engine`]).
 pub fn engine_by_name(name: &str) -> Result<Box<dyn Engine>, EngineError> {
     registry::engine(name)
@@ -133,4 +174,30 @@ pub fn write_outputs(dir: &Path, out: &RunOutput, summary: &Summary) -> Result<(
     let json = serde_json::to_string_pretty(summary).expect("summaries serialise");
     std::fs::write(dir.join("summary.json"), json + "\n").map_err(io)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunSteps;
+
+    #[test]
+    fn a_run_ends_with_a_shorter_step_only_off_a_whole_number_of_steps() {
+        // 1 s in steps of 0.3 s: three whole steps and one of 0.1 s ending at 1 s.
+        let s = RunSteps::new(1.0, 0.3);
+        assert_eq!(s.count(), 4);
+        assert_eq!(s.short_end(3), None);
+        assert_eq!(s.short_end(4), Some(1.0));
+        let ends: Vec<f64> = s.ends().collect();
+        assert_eq!(ends.len(), 5);
+        assert!((ends[3] - 0.9).abs() < 1e-15 && ends[4] == 1.0, "{ends:?}");
+        // 1 s in steps of 0.1 s is ten whole steps, although 1.0 / 0.1 is not exactly 10.
+        let s = RunSteps::new(1.0, 0.1);
+        assert_eq!(s.count(), 10);
+        assert_eq!(s.short_end(10), None);
+        assert!((s.ends().last().unwrap() - 1.0).abs() < 1e-12);
+        // A duration shorter than a step is one step, ending at the duration.
+        let s = RunSteps::new(0.05, 0.1);
+        assert_eq!(s.count(), 1);
+        assert_eq!(s.ends().collect::<Vec<_>>(), vec![0.0, 0.05]);
+    }
 }

@@ -43,7 +43,7 @@
 //! comparison.
 
 use super::rapier_settings::{CombineRule, FrictionRule, RapierSettings};
-use super::{Engine, EngineError, Progress, RunOutput};
+use super::{Engine, EngineError, Progress, RunOutput, RunSteps};
 use crate::excitation::GroundMotion;
 use crate::scene::{AppliedAs, Scene};
 use crate::trajectory::Trajectory;
@@ -299,6 +299,14 @@ impl RapierSim {
         self.advance((self.steps + 1) as f64 * dt, dt)
     }
 
+    /// Take step `k` (from 1) of `steps`: `dt` long, or the run's shorter last step.
+    pub fn take(&mut self, steps: &RunSteps, k: u64) -> Result<(), EngineError> {
+        match steps.short_end(k) {
+            Some(t_end) => self.step_to(t_end),
+            None => self.step(),
+        }
+    }
+
     /// Advance one step shorter than `dt`, to `t_end`: the last step of a run whose duration is
     /// not a whole number of steps.
     pub fn step_to(&mut self, t_end: f64) -> Result<(), EngineError> {
@@ -418,40 +426,6 @@ impl RapierSim {
     }
 }
 
-/// The steps of a run: whole steps of `dt`, then, where the duration is not within 1e-9 of a
-/// step of a whole number of them, one shorter step that ends at the duration, so that the last
-/// sample is the duration's.
-#[derive(Debug, Clone, Copy)]
-pub struct RunSteps {
-    whole: u64,
-    /// The end of the shorter last step, if there is one.
-    short_to: Option<f64>,
-}
-
-impl RunSteps {
-    pub fn new(duration: f64, dt: f64) -> Self {
-        let steps = duration / dt;
-        let whole = (steps + 1e-9).floor();
-        RunSteps {
-            whole: whole as u64,
-            short_to: (steps - whole > 1e-9).then_some(duration),
-        }
-    }
-
-    /// Steps in all.
-    pub fn count(&self) -> u64 {
-        self.whole + u64::from(self.short_to.is_some())
-    }
-
-    /// Take step `k` (from 1) of the run.
-    pub fn take(&self, sim: &mut RapierSim, k: u64) -> Result<(), EngineError> {
-        match self.short_to {
-            Some(t_end) if k > self.whole => sim.step_to(t_end),
-            _ => sim.step(),
-        }
-    }
-}
-
 impl Engine for RapierEngine {
     fn name(&self) -> &'static str {
         "rapier"
@@ -468,7 +442,7 @@ impl Engine for RapierEngine {
         let mut tr = Trajectory::new(&names);
         tr.push(0.0, &sim.relative_states()?);
         for k in 1..=n_steps {
-            steps.take(&mut sim, k)?;
+            sim.take(&steps, k)?;
             if k % every == 0 || k == n_steps {
                 tr.push(sim.t, &sim.relative_states()?);
             }

@@ -112,15 +112,9 @@ pub fn input(scene: &Scene) -> Result<serde_json::Value, EngineError> {
     if scene.has_excitation() {
         let step = step(scene)?;
         let gm = crate::excitation::GroundMotion::from_scene(scene).map_err(EngineError::Scene)?;
-        // The ground velocity at the worker's step ends: whole steps, then the duration where
-        // it is not within 1e-9 of a step of a whole number of them (a shorter last step).
-        let steps = scene.duration / step;
-        let whole = (steps + 1e-9).floor().max(1.0);
-        let mut ends: Vec<f64> = (0..=whole as usize).map(|k| k as f64 * step).collect();
-        if steps - whole > 1e-9 {
-            ends.push(scene.duration);
-        }
-        let (vx, vz): (Vec<f64>, Vec<f64>) = ends.iter().map(|&t| gm.vel(t)).unzip();
+        // The ground velocity at the worker's step ends, the shorter last one included.
+        let ends = super::RunSteps::new(scene.duration, step);
+        let (vx, vz): (Vec<f64>, Vec<f64>) = ends.ends().map(|t| gm.vel(t)).unzip();
         input["ground"] = serde_json::json!({ "step": step, "vx": vx, "vz": vz });
     }
     Ok(input)

@@ -390,7 +390,8 @@ pub fn worker_early_stop(spec: &RunSpec) -> Result<Option<EarlyStopSpec>, Engine
 #[cfg(feature = "rapier")]
 fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineError> {
     use super::early::Monitor;
-    use crate::engines::rapier::{RAPIER_VERSION, RapierSim, RunSteps};
+    use crate::engines::RunSteps;
+    use crate::engines::rapier::{RAPIER_VERSION, RapierSim};
     use crate::engines::rapier_settings::RapierSettings;
     let dt = RapierSettings::of(scene)?.dt;
     let mut sim = RapierSim::new(scene)?;
@@ -403,7 +404,7 @@ fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineE
     let mut monitor = Monitor::new(spec);
     let mut stop = Stop::End;
     for k in 1..=n_steps {
-        steps.take(&mut sim, k)?;
+        sim.take(&steps, k)?;
         let states = sim.relative_states()?;
         let s = monitor.check(sim.t, &states);
         if k % every == 0 || k == n_steps || s.is_some() {
