@@ -207,6 +207,9 @@ impl Default for Settings {
     }
 }
 
+/// The amplitude below which the downward scan stops: a minimum under it is reported as 0.
+const SCAN_FLOOR: f64 = 1e-3;
+
 impl Settings {
     /// One line naming a bad setting.
     pub fn check(&self) -> Result<(), String> {
@@ -228,10 +231,12 @@ impl Settings {
                 num(self.scan_from)
             ));
         }
-        let scans = (self.scan_to - self.scan_from) / self.scan_step;
+        // The scan moves by factors (1 + scan_step): up to `scan_to`, or down to 1e-3 (`minimum`).
+        let factors = |from: f64, to: f64| (to / from).ln().max(0.0) / self.scan_step.ln_1p();
+        let scans = factors(self.scan_from, self.scan_to).max(factors(SCAN_FLOOR, self.scan_from));
         if scans > MAX_POINTS as f64 {
             return Err(format!(
-                "--scan-step {}: {} scan points from --scan-from to --scan-to; at most {MAX_POINTS} (each is a run)",
+                "--scan-step {}: {} scan points by factors (1 + scan-step) from --scan-from to --scan-to (or down to {SCAN_FLOOR}); at most {MAX_POINTS} (each is a run)",
                 num(self.scan_step),
                 num(scans.ceil())
             ));
@@ -476,7 +481,7 @@ impl<'a> Spectrum<'a> {
             while test(lo)? {
                 hi = lo;
                 lo /= f;
-                if lo < 1e-3 {
+                if lo < SCAN_FLOOR {
                     return Ok(Minimum::found(ratio, 0.0, hi, runs));
                 }
             }
@@ -1269,6 +1274,26 @@ pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The scan's points are counted as it makes them, by factors, up to `scan_to` or down to
+    /// the floor: 1 to 1e5 by 5 % is 236 runs, within the bound; by 1e-5 the scan down from 1
+    /// to 1e-3 is 690779, beyond it; so is a scan down from 1e9 by 1e-4, not by 1e-3.
+    #[test]
+    fn the_scan_is_bounded_by_its_geometric_count() {
+        let with = |scan_from: f64, scan_step: f64, scan_to: f64| Settings {
+            scan_from,
+            scan_step,
+            scan_to,
+            tolerance: 1e-6,
+            ..Settings::default()
+        };
+        assert!(with(1.0, 0.05, 1e5).check().is_ok());
+        let e = with(1.0, 1e-5, 100.0).check().unwrap_err();
+        assert!(e.contains("690779 scan points"), "{e}");
+        let e = with(1e9, 1e-4, 2e9).check().unwrap_err();
+        assert!(e.contains("scan points"), "{e}");
+        assert!(with(1e9, 1e-3, 2e9).check().is_ok());
+    }
 
     /// The closed forms reproduce the design note's numbers.
     #[test]

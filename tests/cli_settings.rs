@@ -151,3 +151,51 @@ fn an_out_that_is_a_file_is_refused_before_any_run() {
         "something else was written"
     );
 }
+
+/// A flag's seconds beyond some 30 years (`--progress-interval`, `--checkpoint-interval`,
+/// `stress --timeout`) are one line naming the flag, not a panic converting them to a duration;
+/// so is `spectrum --friction` above the largest friction a scene may give.
+#[test]
+fn seconds_and_friction_out_of_range_are_one_line_naming_the_flag() {
+    let dir = common::tmp("rb-settings", "seconds");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let scene = scene.to_str().unwrap();
+    let checkpoint = dir.join("run.ckpt");
+    let checkpoint = checkpoint.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["run", scene, "--progress-interval", "1e300"],
+            "--progress-interval: must be a number of seconds >= 0 and at most 1e9 (got 1e300)",
+        ),
+        (
+            vec![
+                "run",
+                scene,
+                "--checkpoint",
+                checkpoint,
+                "--checkpoint-interval",
+                "2e9",
+            ],
+            "--checkpoint-interval: must be a number of seconds >= 0 and at most 1e9 (got 2000000000)",
+        ),
+        (
+            vec!["stress", "--quick", "--timeout", "1e300"],
+            "--timeout: must be a number of seconds > 0 and at most 1e9 (got 1e300)",
+        ),
+        (
+            vec!["stress", "--quick", "--timeout", "0"],
+            "--timeout: must be a number of seconds > 0",
+        ),
+        (
+            vec!["spectrum", "0.2x1", "--friction", "2e4"],
+            "--friction 20000 is above 1e4",
+        ),
+    ];
+    for (k, (args, expected)) in cases.iter().enumerate() {
+        let out = dir.join(format!("out{k}"));
+        let line = refused(args, &out);
+        assert!(line.contains(expected), "{args:?}: {line}");
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+    assert!(!Path::new(checkpoint).exists());
+}

@@ -63,7 +63,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     if !(a.grid_dt > 0.0 && a.grid_dt.is_finite()) {
         bail!(
             "--grid-dt: must be a positive number of seconds (got {})",
-            a.grid_dt
+            crate::scene::num(a.grid_dt)
         );
     }
     if a.up_to_impacts.contains(&0) {

@@ -129,6 +129,23 @@ pub(crate) fn check_jobs(jobs: Option<usize>) -> Result<()> {
 
 /// `--out` checked before any work: a path that exists and is not a directory cannot take
 /// the command's files, and saying so after the runs would waste them.
+/// The longest number of seconds a flag may give (some 30 years: a larger one is a slip).
+const MAX_SECONDS: f64 = 1e9;
+
+/// A flag's number of seconds as a duration: finite, below [`MAX_SECONDS`], and positive (or
+/// also zero, with `zero_ok`).
+pub(crate) fn seconds(flag: &str, value: f64, zero_ok: bool) -> Result<std::time::Duration> {
+    let low_ok = value > 0.0 || (zero_ok && value == 0.0);
+    if !(value.is_finite() && low_ok && value <= MAX_SECONDS) {
+        let least = if zero_ok { ">= 0" } else { "> 0" };
+        anyhow::bail!(
+            "{flag}: must be a number of seconds {least} and at most {MAX_SECONDS:e} (got {})",
+            crate::scene::num(value)
+        );
+    }
+    Ok(std::time::Duration::from_secs_f64(value))
+}
+
 pub(crate) fn check_out_dir(out: &std::path::Path) -> Result<()> {
     if out.exists() && !out.is_dir() {
         anyhow::bail!("--out: {} is a file, not a directory", out.display());

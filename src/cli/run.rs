@@ -122,14 +122,6 @@ fn progress_text(
     )
 }
 
-/// A flag's number of seconds as a duration: finite and not negative.
-fn seconds(flag: &str, value: f64) -> Result<Duration> {
-    if !(value.is_finite() && value >= 0.0) {
-        anyhow::bail!("{flag}: must be a number of seconds >= 0 (got {value})");
-    }
-    Ok(Duration::from_secs_f64(value))
-}
-
 pub fn run(a: RunArgs) -> Result<()> {
     super::check_out_dir(&a.out)?;
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
@@ -137,7 +129,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let line = ProgressLine::new(
         e.name(),
         s.duration,
-        seconds("--progress-interval", a.progress_interval)?,
+        super::seconds("--progress-interval", a.progress_interval, true)?,
     );
     let quiet = a.quiet;
     let progress = |t: f64| {
@@ -157,7 +149,7 @@ pub fn run(a: RunArgs) -> Result<()> {
             }
             let checkpointing = Checkpointing {
                 path: path.clone(),
-                interval: seconds("--checkpoint-interval", a.checkpoint_interval)?,
+                interval: super::seconds("--checkpoint-interval", a.checkpoint_interval, true)?,
                 stop_after_step: a.stop_after_step,
             };
             timed("native", &s, || {

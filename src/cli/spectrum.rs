@@ -104,7 +104,14 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
             if !(a.friction.is_finite() && a.friction >= 0.0) {
                 return Err(anyhow!(
                     "--friction must be a non-negative number (got {})",
-                    a.friction
+                    crate::scene::num(a.friction)
+                ));
+            }
+            if a.friction > crate::scene::MAX_FRICTION {
+                return Err(anyhow!(
+                    "--friction {} is above {:e}: a block that must not slide needs a friction above its B/H only, and larger ones leave the contact problems ill-scaled",
+                    crate::scene::num(a.friction),
+                    crate::scene::MAX_FRICTION
                 ));
             }
             spectrum::block_scene(b, h, a.friction, &a.set).map_err(|e| anyhow!(e))?

@@ -7,7 +7,6 @@ use crate::stress::{
 };
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
-use std::time::Duration;
 
 #[derive(clap::Args)]
 pub struct StressArgs {
@@ -59,12 +58,7 @@ pub fn stress(a: StressArgs) -> Result<()> {
     } else {
         a.engines.clone()
     };
-    if !(a.timeout.is_finite() && a.timeout > 0.0) {
-        bail!(
-            "--timeout: must be a positive number of seconds (got {})",
-            a.timeout
-        );
-    }
+    let timeout = super::seconds("--timeout", a.timeout, false)?;
     registry::check_names("--engines", engines.iter().map(String::as_str))
         .map_err(anyhow::Error::msg)?;
     let known_path = match &a.known {
@@ -105,13 +99,7 @@ pub fn stress(a: StressArgs) -> Result<()> {
     for engine in &engines {
         let mut results = Vec::new();
         for cell in &cells {
-            let r = run_cell(
-                engine,
-                cell,
-                &tol,
-                Duration::from_secs_f64(a.timeout),
-                &judge,
-            );
+            let r = run_cell(engine, cell, &tol, timeout, &judge);
             if r.status != crate::stress::Status::Skipped {
                 let issues: Vec<String> = r
                     .issues

@@ -262,13 +262,25 @@ impl RapierSettings {
         let e = |f: &str, m: String| Err(SceneError::new(file, format!("rapier.{f}"), m));
         let positive = |f: &str, v: f64, unit: &str| {
             if !v.is_finite() || v <= 0.0 {
-                return e(f, format!("must be a positive number{unit} (got {v})"));
+                return e(
+                    f,
+                    format!(
+                        "must be a positive number{unit} (got {})",
+                        crate::scene::num(v)
+                    ),
+                );
             }
             Ok(())
         };
         let non_negative = |f: &str, v: f64, unit: &str| {
             if !v.is_finite() || v < 0.0 {
-                return e(f, format!("must be a non-negative number{unit} (got {v})"));
+                return e(
+                    f,
+                    format!(
+                        "must be a non-negative number{unit} (got {})",
+                        crate::scene::num(v)
+                    ),
+                );
             }
             Ok(())
         };
@@ -278,7 +290,7 @@ impl RapierSettings {
                 "dt",
                 format!(
                     "must be at most 0.1 s (got {}): blocks would fly apart",
-                    self.dt
+                    crate::scene::num(self.dt)
                 ),
             );
         }
