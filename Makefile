@@ -263,12 +263,12 @@ bench-steps:
 # interval and the instant the record leaves it: from then on it can move) and the scenes run.
 # Long: each run is a child process ended after "--budget" seconds (600), its row then "not
 # finished" (the native engine's 430- and 860-block walls, which the record moves from 4.22 /
-# 4.18 s; the 860-block wall's whole 5 s took 2665 s, docs/method.md);
+# 4.18 s; the 860-block wall's whole 5 s took 2665 s, docs/walls.md);
 # BENCH_DYNAMIC_ARGS narrows it, e.g. BENCH_DYNAMIC_ARGS="--courses 2,5,10 --duration 2";
 # "--sleep true" puts islands at rest to sleep; "--pulse 0.8 --duration 0.01" sets the walls
 # sliding from the first step (a rectangular pulse of 0.8 g, ten steps): the walls in motion;
 # "--ground-friction 0.5" lowers the ground's friction below the joints'; "--locate-impacts false"
-# takes every impact at the end of its step (native.locate_impacts = false; docs/method.md);
+# takes every impact at the end of its step (native.locate_impacts = false; docs/walls.md);
 # "--locate-speed 9.81e-4" leaves new contacts slower than that to the end of their step
 # (native.locate_speed; the tables count the impacts located a step); "--native-dt 2.5e-4" sets
 # native.dt (rapier keeps its own step).
@@ -276,7 +276,7 @@ BENCH_DYNAMIC_ARGS ?=
 bench-dynamic: records
 	$(CARGO) run --release --example bench_dynamic -- $(BENCH_DYNAMIC_ARGS)
 
-# The three figures of the walls (docs/method.md, "Walls") in instructions a step, counted by
+# The three figures of the walls (docs/walls.md) in instructions a step, counted by
 # callgrind in each engine's steps (bench_dynamic --instructions; native and rapier): the
 # 215-block wall under El Centro x2 for 5 s, the walls at rest over the first second (43 to 860
 # blocks) and the sliding walls' ten pulse steps at step ends (215 to 860 blocks); the growth and
@@ -305,7 +305,7 @@ wall-problems:
 # QPALM, OSQP and HiGHS (the pinned python/requirements-qp.txt, installed into the .venv here;
 # one thread, tolerance 1e-9, 20 s a problem): time, iterations and distance from the native
 # displacement a problem; out/bench-walls-external-qp/external-qp.{md,json}. About 10 minutes
-# (docs/method.md, "Walls": "Independent QP solvers on a sliding wall's steps").
+# (docs/walls.md, "Independent QP solvers on a sliding wall's steps").
 bench-walls-external-qp: $(VENV)/.requirements.stamp wall-problems
 	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
 	$(VPY) benches/walls/external_qp.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-external-qp/external-qp.md
@@ -313,7 +313,7 @@ bench-walls-external-qp: $(VENV)/.requirements.stamp wall-problems
 # The closed rows that change from one step's problem to the next on the sliding walls
 # (wall-problems), with the factorisations the native back-end spent on each problem: what
 # bounds the cost of an exact active-set solve of a moving wall's step;
-# out/bench-walls-closed-rows/closed-rows.{md,json}. About a minute (docs/method.md, "Walls":
+# out/bench-walls-closed-rows/closed-rows.{md,json}. About a minute (docs/walls.md:
 # "How many rows a moving wall's step changes, and what an exact solve of it costs").
 bench-walls-closed-rows: $(VENV)/.requirements.stamp wall-problems
 	$(VPY) benches/walls/closed_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-closed-rows/closed-rows.md
@@ -321,13 +321,13 @@ bench-walls-closed-rows: $(VENV)/.requirements.stamp wall-problems
 # What sets an interior point's iteration count on the sliding walls' problems (wall-problems):
 # Clarabel (python/requirements-qp.txt) on each problem whole, without its closed rows that carry
 # no force, without its open rows, with its loaded rows alone, and with its interfaces lifted;
-# out/bench-walls-ipm-rows/ipm-rows.{md,json}. About 4 minutes (docs/method.md, "Walls": "What
+# out/bench-walls-ipm-rows/ipm-rows.{md,json}. About 4 minutes (docs/walls.md, "What
 # sets the interior point's count on a sliding wall").
 bench-walls-ipm-rows: $(VENV)/.requirements.stamp wall-problems
 	$(VPY) -m pip install --disable-pip-version-check -q -r python/requirements-qp.txt -c python/requirements.txt
 	$(VPY) benches/walls/ipm_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-ipm-rows/ipm-rows.md
 
-# The walls against issue 14's targets in one command (docs/method.md, "Walls"): the 215-block
+# The walls against issue 14's targets in one command (docs/walls.md): the 215-block
 # wall under El Centro x2 for 5 s, the walls of 43 to 860 blocks standing over the record's first
 # second, and the walls of 215 to 860 blocks sliding (ten pulse steps, impacts at step ends),
 # native and rapier in the same runs, and the same pulse on walls of 10 courses grown along their
@@ -352,7 +352,7 @@ bench-walls-targets: records $(VENV)/.requirements.stamp
 # (the 860-block wall's joints still open). In long/step-ends the walls of 10 courses grow
 # along their length instead (21 / 42 / 84 blocks a course: 215, 425 and 845 blocks), so their
 # envelope keeps its width where the series above widens to a course. About a minute
-# (docs/method.md, "Walls": "Why a sliding wall is the worst case", "A rigidly sliding wall",
+# (docs/walls.md, "Why a sliding wall is the worst case", "A rigidly sliding wall",
 # "Walls grown along their length").
 bench-walls-in-motion:
 	$(CARGO) run --release --example bench_dynamic -- --courses 2,5,10 --pulse 0.8 --duration 0.01 --out out/bench-walls-in-motion/located
@@ -366,7 +366,7 @@ bench-walls-in-motion:
 # error of a block's final displacement, the native engine's settings and laws and rapier's, each
 # at several steps, each on three round-off paths (one path of the 64-block wall cost a quarter
 # less than four others); out/bench-walls-sliding-whole (results.csv, a work-precision figure per wall).
-# About 10 minutes (docs/method.md, "A wall that slides whole").
+# About 10 minutes (docs/walls.md, "A wall that slides whole").
 bench-walls-sliding-whole:
 	$(CARGO) run --release --example wall_sliding_whole -- --courses 3,10,20 --paths 3 --out out/bench-walls-sliding-whole
 
@@ -374,7 +374,7 @@ bench-walls-sliding-whole:
 # pulse amplitudes differ by 1e-12: impacts at step ends at dt 1e-3 / 5e-4 / 2.5e-4 / 1.25e-4,
 # located at 1e-3 / 5e-4, rapier at its defaults and finer; every pair of settings compared, in
 # mm and in standard errors of the round-off spread; out/bench-walls-sensitivity (resumes an
-# interrupted study). About 40 minutes (docs/method.md, "A sliding wall's answer is decided at
+# interrupted study). About 40 minutes (docs/walls.md, "A sliding wall's answer is decided at
 # round-off").
 bench-walls-sensitivity:
 	$(CARGO) run --release --example wall_sensitivity -- --out out/bench-walls-sensitivity

@@ -21,35 +21,35 @@
 //!
 //! `--colonnade 5,10,20,40` runs colonnades instead (`rockbench::colonnade`: that many stone
 //! columns of 0.5 x 4 m, 2 m apart, under architraves meeting end to end, one island): the
-//! series of a frame in motion, which El Centro x2 collapses (docs/method.md, "A colonnade in
+//! series of a frame in motion, which El Centro x2 collapses (docs/walls.md, "A colonnade in
 //! motion"). Its CSV's second column is the number of columns.
 //!
 //! `--lengths 21,42,84` runs walls of these numbers of blocks a course instead, all of the one
 //! number of courses `--courses` then names: the series of walls that grow along their length
 //! at a fixed height, whose Newton matrices keep the envelope's width (a column of courses),
 //! where the default series grows in height at 21 blocks a course and its envelope widens to a
-//! course (docs/method.md, "The factorisation's floor"). Its CSV's second column is the number
+//! course (docs/walls.md, "The factorisation's floor"). Its CSV's second column is the number
 //! of blocks a course.
 //!
 //! `--pulse G` puts the walls in motion from the first step instead: a rectangular pulse of `G`
 //! g (above the friction coefficient, 0.7, the walls slide) for the whole run, in place of the
 //! record; with a short `--duration` (0.01 s: ten steps) the per-step figures are those of a
-//! wall in motion (docs/method.md, "Walls in motion, 215 / 430 / 860 blocks").
+//! wall in motion (docs/walls.md, "Walls in motion, 215 / 430 / 860 blocks").
 //! `--ground-friction F` gives the bottom course's interfaces with the ground the friction `F`
 //! (the joints above keep 0.7): below 0.7 a sliding wall's joints are no longer all at the edge
-//! of their cones (docs/method.md, "Why a sliding wall is the worst case").
+//! of their cones (docs/walls.md, "Why a sliding wall is the worst case").
 //!
 //! Each wall's static collapse acceleration is written below the table (`static.csv` too): its
 //! rest interval at the start (`rockbench::native::collapse`: the static theorem on the closed
 //! points, exact for the associative law), the loading's peak, and the first instant the loading
 //! leaves the interval (scanned every 1e-4 s): the instant from which the wall can move, before
-//! which it stands (docs/method.md, "Which walls of the series move, and when").
+//! which it stands (docs/walls.md, "Which walls of the series move, and when").
 //!
 //! Usage: `USAGE` below (`--help` prints it; an unknown flag is an error).
 //! (`--sleep true`, `--island-impacts false` and `--locate-impacts false` run the native engine
 //! with `native.sleep = true`, `native.island_impacts = false` and
 //! `native.locate_impacts = false`: the last takes every impact at the end of its step, the
-//! cost of a moving wall's step without its located impacts; docs/method.md; `--locate-speed V`
+//! cost of a moving wall's step without its located impacts; docs/walls.md; `--locate-speed V`
 //! sets `native.locate_speed`, below which new contacts are not located). `--native-dt`
 //! sets `native.dt` (rapier keeps its own step): the per-step figures of a finer step, whose
 //! cost per simulated second is theirs times `1e-3 / dt`.

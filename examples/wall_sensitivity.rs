@@ -4,7 +4,7 @@
 //! `--duration` s, each configuration `--members` times with the pulse's amplitude times
 //! `1 + k epsilon` (`rockbench::sensitivity`). The wall is written to `OUT/scene.toml` once it
 //! and every configuration's overrides check; the study's runs to `OUT/runs.csv` (an
-//! interrupted study resumes) and its tables to `OUT/sensitivity.md` (docs/method.md, "A sliding
+//! interrupted study resumes) and its tables to `OUT/sensitivity.md` (docs/walls.md, "A sliding
 //! wall's answer is decided at round-off").
 
 #[path = "common/flags.rs"]

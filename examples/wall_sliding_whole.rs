@@ -8,7 +8,7 @@
 //! its base falls short) are written to `OUT/results.csv` and as a table on stdout, and each
 //! wall's work-precision figure (largest error against the wall time for the 0.5 s, one curve
 //! per configuration through its step sizes) to `OUT/work_precision_BLOCKS.svg`
-//! (docs/method.md, "A wall that slides whole, against its closed form").
+//! (docs/walls.md, "A wall that slides whole, against its closed form").
 //!
 //! A sliding wall's path is decided at round-off, and so is its cost: `--paths K` runs every
 //! configuration on K paths, the pulse's amplitude times `1 + k 1e-12` (k = 0 .. K-1), as the

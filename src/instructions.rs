@@ -1,12 +1,12 @@
 //! Instructions an engine's steps execute, counted by callgrind (`valgrind --tool=callgrind`).
 //!
 //! Wall time a step depends on the machine and on whatever else it runs: on the 2-core machines
-//! of docs/method.md the same binary's step on the same wall moved by up to 50 % between runs of
+//! of docs/walls.md the same binary's step on the same wall moved by up to 50 % between runs of
 //! a day. The instructions executed do not: callgrind counts them for a given binary, input and
 //! environment, whatever the load (tests/instructions.rs: a run counted twice gives the same
 //! count). A count is not a time: instructions a second differ between programs and machines
 //! (on those machines the native engine's wall steps ran at 7-10 thousand million a second,
-//! rapier's at 6.6-9.0; docs/method.md, "The walls' figures in instructions"). But two engines'
+//! rapier's at 6.6-9.0; docs/walls.md, "The walls' figures in instructions"). But two engines'
 //! counts on one scene, and one engine's counts over a series of scenes, compare their work
 //! independently of the machine.
 //!

@@ -1,6 +1,6 @@
 //! Sensitivity studies: a scene run as ensembles, one per configuration, to tell whether two
 //! settings (or engines) give different answers where the answer is decided at round-off (a
-//! wall in motion; docs/method.md, "A sliding wall's answer is decided at round-off").
+//! wall in motion; docs/walls.md, "A sliding wall's answer is decided at round-off").
 //!
 //! Each configuration runs the scene `members` times, member `k` with one scene value set to
 //! `VALUE (1 + k epsilon)` (1e-12: a perturbation at round-off level). Per run: every block's

@@ -1,7 +1,7 @@
 //! The closed form of a rigid block sliding on the ground under Coulomb friction: pushed
 //! relative to the ground at a constant acceleration for a while (a rectangular pulse of ground
 //! acceleration above `mu g`, or none), then slowed at `mu g` until it stops. The reference of
-//! the sliding cases and of a wall that slides whole (reference-data/, docs/method.md).
+//! the sliding cases and of a wall that slides whole (reference-data/, docs/walls.md).
 
 /// A sliding block: starts with velocity `v0` relative to the ground, is first accelerated
 /// relative to the ground by `a_rel` for `t_push` s (0: no push), then slides with constant

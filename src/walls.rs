@@ -50,7 +50,7 @@ impl WallSpec {
         }
     }
 
-    /// The wall that slides whole (docs/method.md, "A wall that slides whole"): the benchmark's
+    /// The wall that slides whole (docs/walls.md, "A wall that slides whole"): the benchmark's
     /// wall on a ground at friction `SLIDING_GROUND_FRICTION` (its bed joints at 0.7) under a
     /// rectangular pulse `SLIDING_PULSE`, run to rest (`SLIDING_DURATION`). Where the 0.5 g the
     /// sliding base transmits is inside the wall's rest interval, every block ends where the

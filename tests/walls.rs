@@ -505,7 +505,7 @@ fn block_speeds(s: &Scene, steps: usize) -> Vec<f64> {
 /// interval (`native::sleep::rest_interval`, a linear program on the closed points, solved by
 /// Clarabel) against the stepper under rectangular pulses just below and just above it. The
 /// wall of 10 courses of 6 blocks (0.6 x 0.25 m, friction 0.7) has the interval of the
-/// 215-block wall of the dynamic series, +-0.6315 g (docs/method.md), below the friction
+/// 215-block wall of the dynamic series, +-0.6315 g (docs/walls.md), below the friction
 /// coefficient: what gives way is part of the wall along a stepped diagonal, not the wall
 /// sliding on the ground. Measured: at 0.99 of the interval the largest speed stays at
 /// 1.7-2.4e-8 m/s over 0.5 s (at 0.95, round-off: 5e-13); at 1.02, after 10 steps, the blocks
@@ -649,7 +649,7 @@ fn sliding_whole_error(courses: usize, set: &[&str]) -> f64 {
 
 /// A wall that slides whole. With its base sliding the wall accelerates at 0.5 g: every bed
 /// joint carries 0.5 of the weight above it, inside its cone, and the load is below the walls'
-/// rest intervals under the associative law (0.7 g at 5 courses, 0.6315 g at 10: docs/method.md,
+/// rest intervals under the associative law (0.7 g at 5 courses, 0.6315 g at 10: docs/walls.md,
 /// "Which walls of the series move"), so every block ends where the sliding block's closed form
 /// puts it. Measured: 7.5e-7 m on the 215- and 430-block walls under the associative law with
 /// its impacts located (the sliding base lifts by mu |slip| and lands again), 1.13e-6 m with

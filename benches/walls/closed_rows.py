@@ -11,7 +11,7 @@ it at its bound:
 
 An exact method that finds the closed set by changing it (an active-set method, or a factor
 followed by rank-one updates) changes it at least once for each row that entered or left it,
-so these counts bound what such a method costs on a step (docs/method.md, "Walls": "How many
+so these counts bound what such a method costs on a step (docs/walls.md, "How many
 rows a moving wall's step changes, and what an exact solve of it costs"). Beside them: how many
 contact points closed or opened, how many of the entering rows are the other edge of a point
 that was closed (a slip that reverses), and the factorisations the native back-end spent on the

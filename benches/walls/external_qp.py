@@ -6,7 +6,7 @@ native back-end's solutions of it, warm from the earlier steps and cold, with th
 solves each problem with Clarabel, PIQP, ProxQP, QPALM, OSQP and HiGHS, cold, and those whose
 start works here (QPALM, OSQP) also warm, from the previous step's solution (its displacement,
 and its multipliers matched by contact key). `make bench-walls-external-qp` runs it on the sliding
-walls' ten pulse steps (docs/method.md, "Walls": "Independent QP solvers on a sliding wall's
+walls' ten pulse steps (docs/walls.md, "Independent QP solvers on a sliding wall's
 steps").
 
 The problem is the one the native back-ends solve (docs/FORMULATION, `StepProblem::scaled` and

@@ -22,7 +22,7 @@ three reduced forms have the whole problem's answer: what changes is only the it
 form is solved at each of `TOLERANCES`; its answer is judged in metres of the step's
 displacement against the whole problem's, and by the largest violation of any of the whole
 problem's rows. `make bench-walls-ipm-rows` runs it on the sliding walls' ten pulse steps
-(docs/method.md, "Walls": "What sets the interior point's count on a sliding wall").
+(docs/walls.md, "What sets the interior point's count on a sliding wall").
 """
 
 from __future__ import annotations

@@ -10,11 +10,11 @@ the same runs:
   at the end of their step (every block in motion);
 - `long`: the same pulse on walls of 10 courses grown along their length instead (21 / 42 / 84
   blocks a course: 215, 425 and 845 blocks), whose Newton matrices keep their envelope's width
-  where the issue's series widens it to a course (docs/method.md, "Walls grown along their
+  where the issue's series widens it to a course (docs/walls.md, "Walls grown along their
   length").
 
 It prints, and writes to DIR/targets.md, one row a target: what was measured and whether it
-is met. The targets (docs/method.md, "Walls"):
+is met. The targets (docs/walls.md):
 
 - the 215-block wall at most `WALL_215_MS` a step, no slower than rapier, no fallback;
 - the standing series' cost growing with log-log slope at most `SLOPE` in the blocks;

@@ -6,7 +6,7 @@
 //! static theorem of limit analysis: exact for the associative law) bounds where the scene can
 //! stay at rest: while the ground acceleration stays inside it, the blocks do not move (the
 //! step problems' optimality conditions hold with `dq = 0`); once it leaves it, a mechanism can
-//! start. The walls of the dynamic series start to move exactly there (docs/method.md, "Which
+//! start. The walls of the dynamic series start to move exactly there (docs/walls.md, "Which
 //! walls of the series move, and when").
 
 use super::stepper_for;

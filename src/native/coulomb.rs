@@ -25,7 +25,7 @@ pub const COULOMB_PLAIN: usize = 3;
 /// `COULOMB_ROUNDOFF (1 + s / COULOMB_SCALE)` m: the tolerance to which the sparse and dense
 /// back-ends hold every row (`ROW_TOLERANCE`, 1e-11 (1 + |r|)), so a loaded point lifts or
 /// sinks by no more than any row may. On large walls the back-end's solutions carry round-off
-/// of a few 1e-13 m, below which the offsets cannot settle (docs/method.md, "A wall that
+/// of a few 1e-13 m, below which the offsets cannot settle (docs/walls.md, "A wall that
 /// slides whole").
 pub const COULOMB_ROUNDOFF: f64 = 1e-11;
 

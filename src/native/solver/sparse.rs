@@ -73,7 +73,7 @@ pub const RHO: f64 = 1e4;
 /// 0.92 / 1.2 factorisations a step), the 860-block wall's first second 5.20 / 3.46 / 2.58 / 2.17 /
 /// 2.04 ms a step (13.9 / 7.5 / 4.7 / 3.2 / 2.7 Newton steps): from a stiff start the warm-started
 /// multipliers settle in one or two updates where the ladder from 1e4 took up to ten (see
-/// docs/method.md). The 430-block wall's cold last retries fail from 1e7 (at 4.216 s, every retry
+/// docs/walls.md). The 430-block wall's cold last retries fail from 1e7 (at 4.216 s, every retry
 /// and Clarabel) and not from 1e4.
 pub const RHO_WIDE: f64 = 1e7;
 /// A problem on a narrower envelope starts from `RHO_WIDE` too when it has the rows of the
@@ -137,11 +137,11 @@ const MAX_NEWTON_WIDE: usize = 15;
 /// Newton step the line search cuts below this factor goes to the interior-point rescue at once
 /// (not while a rescue's solution is settled, nor on the last retry). Such a step marks a warm
 /// start that fails: along its direction rows that carry no force are crossed at once ("Why
-/// the warm starts fail there", docs/method.md), and such starts went on to fail after 4-8
+/// the warm starts fail there", docs/walls.md), and such starts went on to fail after 4-8
 /// factorisations and to the rescue all the same. Traced on the located 215-block wall (ten
 /// steps, 10383 factorisations): the 311 rescued problems had spent 2014 factorisations in
 /// their failed warm starts (6.5 each), the 173 wide problems solved warm 326 (1.9 each).
-/// Measured (`wall_steps`, all factorisations; docs/method.md, "Warm starts given up at a
+/// Measured (`wall_steps`, all factorisations; docs/walls.md, "Warm starts given up at a
 /// stalled step"): the sliding walls of 215 / 430 / 860 blocks (ten pulse steps at step ends)
 /// 474 / 726 / 1229 -> 389 / 641 / 1075, the located 215-block wall (ten steps) 10383 -> 9806.
 /// Other factors and the `K`-th such step instead of the first, without the envelope's width
@@ -210,7 +210,7 @@ const LARGE_PROBLEM: usize = 300;
 /// before this was accepted there they failed warm and cold (60 Newton steps and some 25
 /// factorisations each) before the last retry solved them. Whether the point is a solution is
 /// then the multiplier loop's test of every row. Narrow envelopes keep the strict test: there
-/// stagnation accepted on every solve moved the sleep test's wall (docs/method.md).
+/// stagnation accepted on every solve moved the sleep test's wall (docs/walls.md).
 const STAGNATION_TOLERANCE: f64 = 1e-9;
 /// On a problem whose rows are homogeneous (every `r_i = 0`: the impact stepper's velocity
 /// problems, where `g' u` is exactly the work of the residual `g` of the minimisation), steps
@@ -958,7 +958,7 @@ impl SparseSolver {
     /// step, which differs from the first by its drift), solved from the warm start as the
     /// rescue's solution was settled: the rows the rescue held stay in the Newton matrix. From
     /// the warm start alone its Newton steps stall as the first problem's did ("Why the warm
-    /// starts fail there", docs/method.md). If this fails, the problem is solved as any other,
+    /// starts fail there", docs/walls.md). If this fails, the problem is solved as any other,
     /// from the same warm start.
     ///
     /// Only a problem that starts from the rescued problem's velocities (its step, or a
@@ -966,7 +966,7 @@ impl SparseSolver {
     /// keys, but the rows the rescue held no longer match its solution, and there the Newton
     /// steps with them zigzag (the exact line search stretching them 1.5 to 2.9 times,
     /// alternately, up to 4.1 in the first steps) until `MAX_NEWTON` runs out. Measured
-    /// (`wall_steps`, ten steps of the 0.8 g pulse; docs/method.md, "A rigidly sliding wall"):
+    /// (`wall_steps`, ten steps of the 0.8 g pulse; docs/walls.md, "A rigidly sliding wall"):
     /// the 215-block wall sliding as one piece (its base at friction 0.5) 274 -> 247
     /// factorisations and 11.1 -> 7.8 ms a step at step ends, 216 -> 195 and 9.2 -> 6.5 ms
     /// located; the located sliding 107-block wall 45.0 -> 27.3 factorisations and 8.8 -> 5.1 ms

@@ -202,7 +202,7 @@ pub struct Stepper {
     /// The back-end of the projections of a penetration (`project_out_penetration`), of the
     /// velocity problems' kind, apart from them for the same reason: a projection's warm start
     /// is the last projection's, not the last settled end velocity's (and the next settled
-    /// velocity's is not a projection's). See docs/method.md, "Walls".
+    /// velocity's is not a projection's). See docs/walls.md.
     projection_solver: Box<dyn ContactSolver>,
     /// Contacts of the last step (for inspection and tests).
     pub last_contacts: Vec<ContactPoint>,
