@@ -988,7 +988,7 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
     Ok(res)
 }
 
-/// The Housner engine's note on a block whose friction lets it slide ([`housner::sliding_note`]).
+/// The Housner engine's note on a block whose friction lets it slide ([`crate::engines::housner::sliding_note`]).
 fn housner_sliding_note(engine: &str, base: &Scene) -> Option<String> {
     use crate::engines::housner::{self, HousnerBlock, HousnerSettings};
     if engine != "housner" || base.blocks.len() != 1 {
