@@ -69,10 +69,13 @@ fn source_hash() {
 }
 
 /// `RB_WORKER_HASH`: FNV-1a of the Python sources of the MuJoCo and PyBullet worker
-/// (python/rockbench/worker.py and python/rockbench/engines/*.py), part of the run cache's
-/// keys of those engines.
+/// (python/rockbench/worker.py and python/rockbench/engines/*.py) and of the Siconos worker
+/// (python/rockbench/siconos_worker.py), part of the run stores' keys of those engines.
 fn worker_hash() {
-    let mut files = vec![PathBuf::from("python/rockbench/worker.py")];
+    let mut files = vec![
+        PathBuf::from("python/rockbench/worker.py"),
+        PathBuf::from("python/rockbench/siconos_worker.py"),
+    ];
     println!("cargo:rerun-if-changed=python/rockbench/engines");
     if let Ok(rd) = std::fs::read_dir("python/rockbench/engines") {
         for e in rd.flatten() {

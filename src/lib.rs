@@ -54,6 +54,7 @@ pub mod paper;
 #[cfg(feature = "python")]
 pub mod python;
 pub mod report;
+pub mod run_store;
 pub mod scene;
 pub mod sensitivity;
 pub mod sliding;

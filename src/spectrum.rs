@@ -44,6 +44,7 @@ use crate::scene::{ExcitationSpec, MotionSpec, Scene, num};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
+use std::path::Path;
 use std::time::Instant;
 
 /// A single block below this fraction of its tipping energy after the pulse is safe (early stop).
@@ -302,7 +303,7 @@ impl Stop {
 }
 
 /// The outcome of one run.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Outcome {
     pub amplitude: f64,
     pub overturned: bool,
@@ -325,6 +326,21 @@ pub struct Spectrum<'a> {
     pub alpha: f64,
     /// Engine settings and version of the last run.
     pub engine_settings: std::cell::RefCell<Option<(serde_json::Value, String)>>,
+    /// The run store ([`crate::run_store`]) the runs are read from and kept in, if any.
+    pub store: Option<&'a Path>,
+    /// Runs read from the store.
+    pub from_store: std::cell::Cell<usize>,
+}
+
+/// Bumped when the meaning of a stored spectrum run changes.
+const STORE_FORMAT: u32 = 1;
+
+/// A spectrum run as kept in the run store: its outcome and, for the runs that report them,
+/// the engine's settings and version.
+#[derive(Serialize, Deserialize)]
+struct StoredRun {
+    outcome: Outcome,
+    engine_settings: Option<(serde_json::Value, String)>,
 }
 
 impl<'a> Spectrum<'a> {
@@ -343,7 +359,15 @@ impl<'a> Spectrum<'a> {
             p,
             alpha,
             engine_settings: std::cell::RefCell::new(None),
+            store: None,
+            from_store: std::cell::Cell::new(0),
         }
+    }
+
+    /// The same, its runs read from the run store `dir` when there and kept in it when made.
+    pub fn with_store(mut self, dir: Option<&'a Path>) -> Self {
+        self.store = dir;
+        self
     }
 
     /// The scene of one run: the base scene (its initial state kept) with the pulse as its
@@ -395,6 +419,44 @@ impl<'a> Spectrum<'a> {
     /// Run at (ratio, amplitude) and decide.
     pub fn run(&self, ratio: f64, amplitude: f64) -> Result<Outcome, EngineError> {
         let scene = self.scene(ratio, amplitude);
+        let Some(dir) = self.store else {
+            return self.simulate(&scene, amplitude);
+        };
+        let key = crate::run_store::key(
+            self.engine.name(),
+            serde_json::json!({
+                "kind": "spectrum-run",
+                "format": STORE_FORMAT,
+                "scene": scene.to_json(),
+                "early_stop": self.settings.early_stop,
+            }),
+        );
+        if let Some(stored) = crate::run_store::load::<StoredRun>(dir, &key) {
+            self.from_store.set(self.from_store.get() + 1);
+            if stored.engine_settings.is_some() {
+                *self.engine_settings.borrow_mut() = stored.engine_settings;
+            }
+            return Ok(stored.outcome);
+        }
+        // The settings this run reports, if it reports any (the last run's are kept otherwise).
+        let before = self.engine_settings.take();
+        let outcome = self.simulate(&scene, amplitude);
+        let reported = self.engine_settings.borrow().clone();
+        if reported.is_none() {
+            *self.engine_settings.borrow_mut() = before;
+        }
+        let stored = StoredRun {
+            outcome: outcome?,
+            engine_settings: reported,
+        };
+        crate::run_store::store(dir, &key, &stored)
+            .map_err(|e| EngineError::Io(format!("the run store: {e}")))?;
+        Ok(stored.outcome)
+    }
+
+    /// One run made (not read from the store).
+    fn simulate(&self, scene: &Scene, amplitude: f64) -> Result<Outcome, EngineError> {
+        let scene = scene.clone();
         let early = self.settings.early_stop;
         let (tr, exact, stop) = if self.engine.name() == "native" && early {
             let (tr, stop) = native_early_stop(&scene)?;
@@ -811,6 +873,8 @@ pub struct Request {
     /// Also search the lowest amplitude that overturns without impact.
     pub no_impact: bool,
     pub settings: Settings,
+    /// The run store the runs are read from and kept in (`None`: every run is made).
+    pub store: Option<std::path::PathBuf>,
 }
 
 impl Request {
@@ -869,6 +933,8 @@ pub struct Results {
     pub p: f64,
     pub alpha: f64,
     pub wall_s: f64,
+    /// Runs read from the run store rather than made.
+    pub from_store: usize,
 }
 
 fn native_version() -> String {
@@ -892,6 +958,7 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
         p,
         alpha,
         wall_s: 0.0,
+        from_store: 0,
     };
     req.check_lists()?;
     for name in &req.engines {
@@ -902,10 +969,16 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
             progress(&format!("{name}: {note}"));
         }
         for &pulse in &req.pulses {
-            let sp = Spectrum::new(base, eng.as_ref(), pulse, &req.settings);
+            let sp = Spectrum::new(base, eng.as_ref(), pulse, &req.settings)
+                .with_store(req.store.as_deref());
             sp.check_longest_run(req.ratios.iter().chain(&req.map_ratios))?;
+            let stored = |since: usize| match sp.from_store.get() - since {
+                0 => String::new(),
+                n => format!(", {n} from the store"),
+            };
             for &r in &req.ratios {
                 let t0 = Instant::now();
+                let since = sp.from_store.get();
                 let m = sp.minimum(r, |o| o.overturned).map_err(fail)?;
                 let w = if req.no_impact {
                     Some(sp.minimum(r, |o| o.without_impact).map_err(fail)?)
@@ -923,7 +996,7 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                     wall_s: t0.elapsed().as_secs_f64(),
                 };
                 progress(&format!(
-                    "{name} {} Pi={r}: A_min {}{} ({} runs, {:.2} s)",
+                    "{name} {} Pi={r}: A_min {}{} ({} runs{}, {:.2} s)",
                     pulse.name(),
                     row.minimum
                         .amplitude
@@ -933,19 +1006,22 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                         .and_then(|w| w.amplitude)
                         .map_or(String::new(), |a| format!(", without impact {a:.5}")),
                     row.minimum.runs + row.without_impact.as_ref().map_or(0, |w| w.runs),
+                    stored(since),
                     row.wall_s
                 ));
                 res.minima.push(row);
             }
             for &r in &req.map_ratios {
                 let t0 = Instant::now();
+                let since = sp.from_store.get();
                 let cells = sp.map(&[r], &req.map_amplitudes).map_err(fail)?;
                 let n = cells.iter().filter(|(_, o)| o.overturned).count();
                 progress(&format!(
-                    "{name} {} Pi={r}: map {n}/{} overturn ({:.2} s)",
+                    "{name} {} Pi={r}: map {n}/{} overturn ({:.2} s{})",
                     pulse.name(),
                     cells.len(),
-                    t0.elapsed().as_secs_f64()
+                    t0.elapsed().as_secs_f64(),
+                    stored(since)
                 ));
                 res.map
                     .extend(cells.into_iter().map(|(ratio, outcome)| MapCell {
@@ -977,6 +1053,7 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                     .clone()
                     .unwrap_or((serde_json::Value::Null, String::new()))
             };
+            res.from_store += sp.from_store.get();
             let mut entry = serde_json::json!({"version": version, "settings": settings});
             if let Some(note) = &note {
                 entry["notes"] = serde_json::json!([note]);

@@ -256,11 +256,14 @@ fn spectrum_similarity_law() {
     assert!(diff < 0.01, "native: phi/alpha differ by {diff}");
 }
 
+/// Run the program; a spectrum makes every run (the run store is the subject of its own test).
 fn rockbench(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_rockbench"))
-        .args(args)
-        .output()
-        .unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_rockbench"));
+    cmd.args(args);
+    if args.first() == Some(&"spectrum") && !args.contains(&"--cache-dir") {
+        cmd.arg("--no-cache");
+    }
+    let out = cmd.output().unwrap();
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -472,4 +475,85 @@ fn spectrum_notes_when_housner_ignores_the_sliding_its_friction_allows() {
             assert!(notes.is_null(), "friction {friction}: {notes}");
         }
     }
+}
+
+/// A spectrum keeps each run in its run store and reads it back: run again, every run comes
+/// from the store and the minima and map are the same; with one ratio more (a spectrum that
+/// was stopped before it, resumed) only that ratio's runs are made. `--no-cache` makes them all.
+#[test]
+fn spectrum_runs_are_kept_in_the_store_and_read_back() {
+    let scratch = common::tmp("rb-spectrum", "store");
+    let store = scratch.join("store");
+    let run = |ratios: &str, out: &str, extra: &[&str]| {
+        let dir = scratch.join(out);
+        let mut args = vec![
+            "spectrum",
+            "0.2x2",
+            "--pulse",
+            "half-sine",
+            "--ratios",
+            ratios,
+            "--amplitudes",
+            "1:4:4",
+            "--engines",
+            "housner,native",
+            "--cache-dir",
+            store.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let (ok, stdout, stderr) = rockbench(&args);
+        assert!(ok, "{stdout}{stderr}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("spectrum.json")).unwrap())
+                .unwrap();
+        // Every column but minimum.csv's last, the wall time, which a run read back does not
+        // repeat.
+        let strip = |name: &str| -> Vec<String> {
+            std::fs::read_to_string(dir.join(name))
+                .unwrap()
+                .lines()
+                .map(|l| match name {
+                    "minimum.csv" => l.rsplit_once(',').map_or(l, |(head, _)| head).to_string(),
+                    _ => l.to_string(),
+                })
+                .collect()
+        };
+        let runs: u64 = json["minima"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["minimum"]["runs"].as_u64().unwrap())
+            .sum();
+        let stored = json["runs_from_store"].as_u64().unwrap();
+        (
+            strip("minimum.csv"),
+            strip("map.csv"),
+            runs + 2 * 4,
+            stored,
+            stderr,
+        )
+    };
+    // A first spectrum reads from the store only the runs it repeats itself (a map cell at an
+    // amplitude the search already ran).
+    let (min1, map1, total1, stored1, _) = run("2", "first", &[]);
+    assert!(stored1 < total1 / 4, "{stored1} of {total1}");
+    let (min2, map2, total2, stored2, log2) = run("2", "again", &[]);
+    assert_eq!((min2, map2), (min1.clone(), map1.clone()));
+    assert_eq!(stored2, total2, "{log2}");
+    assert_eq!(total2, total1);
+    assert!(log2.contains("from the store"), "{log2}");
+    let (min3, map3, total3, stored3, _) = run("2,3", "more", &[]);
+    assert!(
+        stored3 >= total1,
+        "{stored3} < {total1}: ratio 2 is made again"
+    );
+    assert!(
+        stored3 < total3 - total1 / 2,
+        "ratio 3 is made: {stored3} of {total3}"
+    );
+    assert!(min3.starts_with(&min1[..2]) && map3.len() > map1.len());
+    let (_, _, _, stored4, _) = run("2", "fresh", &["--no-cache"]);
+    assert_eq!(stored4, 0);
 }

@@ -60,6 +60,14 @@ pub struct SpectrumArgs {
     /// Run every native run to its end (no early stop at overturning, rest or low energy).
     #[arg(long)]
     no_early_stop: bool,
+    /// Run store: each run's outcome is kept here under the content hash of its scene, engine
+    /// and program, and read back by a later spectrum, so an interrupted spectrum resumes and an
+    /// unchanged one costs nothing.
+    #[arg(long, default_value = ".cache/rockbench/spectrum")]
+    cache_dir: PathBuf,
+    /// Make every run again (the store is neither read nor written).
+    #[arg(long)]
+    no_cache: bool,
     #[arg(long, default_value = "out/spectrum")]
     out: PathBuf,
 }
@@ -159,6 +167,13 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         map_amplitudes: amplitudes,
         no_impact: a.no_impact,
         settings,
+        store: if a.no_cache {
+            None
+        } else {
+            std::fs::create_dir_all(&a.cache_dir)
+                .map_err(|e| anyhow!("--cache-dir: {}: {e}", a.cache_dir.display()))?;
+            Some(a.cache_dir.clone())
+        },
     };
     if let (Some((other, ratio, _)), Some(first)) = (&similar, a.engines.first()) {
         let eng = spectrum::engine(first).map_err(|e| anyhow!(e))?;
@@ -279,16 +294,19 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         "engines": res.engines,
         "minima": res.minima,
         "wall_s": res.wall_s,
+        "runs_from_store": res.from_store,
+        "store": req.store.as_ref().map(|d| d.display().to_string()),
     });
     write(
         "spectrum.json",
         serde_json::to_string_pretty(&json).expect("json") + "\n",
     )?;
     println!(
-        "{} minima, {} map cells in {:.1} s; wrote {}",
+        "{} minima, {} map cells in {:.1} s ({} runs from the store); wrote {}",
         res.minima.len(),
         res.map.len(),
         res.wall_s,
+        res.from_store,
         out.display()
     );
     Ok(())

@@ -18,13 +18,14 @@ pub mod run;
 pub mod study;
 
 use crate::excitation::suite::SuiteRecord;
+use crate::run_store;
 use crate::scene::{ExcitationSpec, InitialSpec, MotionSpec, Scene};
 use fit::{Lognormal, Rng};
 use rayon::prelude::*;
 use run::{RunOutcome, RunSpec, Stop};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -230,50 +231,6 @@ pub struct Results {
     pub engine_versions: BTreeMap<String, String>,
 }
 
-/// Whether `key` is a run's content hash: 64 hexadecimal digits.
-pub fn is_run_key(key: &str) -> bool {
-    key.len() == 64 && key.bytes().all(|b| b.is_ascii_hexdigit())
-}
-
-/// Where the outcome of the run with content hash `key` ([`is_run_key`]) is stored in the
-/// cache `dir`.
-pub fn cache_path(dir: &Path, key: &str) -> PathBuf {
-    dir.join(&key[..2]).join(format!("{key}.json"))
-}
-
-/// The stored outcome of the run with content hash `key`, if the cache has a whole one (none
-/// for a string that is not a run key).
-pub fn cache_load(dir: &Path, key: &str) -> Option<RunOutcome> {
-    if !is_run_key(key) {
-        return None;
-    }
-    let text = std::fs::read_to_string(cache_path(dir, key)).ok()?;
-    serde_json::from_str::<RunOutcome>(&text).ok()
-}
-
-/// Store an outcome: written to a temporary file unique to this process and thread, then
-/// renamed over the entry. Renames are atomic: readers (other threads, processes or machines
-/// sharing the folder) see no entry or a whole one, and two writers of the same run (the same
-/// content, as runs are deterministic) leave one entry.
-pub fn cache_store(dir: &Path, key: &str, o: &RunOutcome) -> Result<(), String> {
-    static SEQ: AtomicUsize = AtomicUsize::new(0);
-    let path = cache_path(dir, key);
-    let parent = path.parent().expect("entries are in a sub-folder");
-    std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
-    let host = std::env::var("HOSTNAME").unwrap_or_default();
-    let tmp = path.with_extension(format!(
-        "tmp-{host}-{}-{}",
-        std::process::id(),
-        SEQ.fetch_add(1, Ordering::Relaxed)
-    ));
-    let text = serde_json::to_string(o).expect("outcomes serialise");
-    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, &path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("{}: {e}", path.display())
-    })
-}
-
 /// The run cache and the progress line.
 pub struct Runner {
     dir: PathBuf,
@@ -318,13 +275,15 @@ impl Runner {
         self
     }
 
-    /// The outcome of a run: from the cache, or run and stored ([`cache_store`]: an
+    /// The outcome of a run: from the cache, or run and stored ([`run_store::store`]: an
     /// interrupted study leaves whole entries only).
     pub fn get(&self, spec: &RunSpec) -> Result<(RunOutcome, bool), String> {
         let key = spec.key();
         // An entry that cannot be this run's (another block count, a value not finite) is run
         // again and replaced.
-        if let Some(o) = cache_load(&self.dir, &key).filter(|o| o.fits(spec.scene.blocks.len())) {
+        if let Some(o) = run_store::load::<RunOutcome>(&self.dir, &key)
+            .filter(|o| o.fits(spec.scene.blocks.len()))
+        {
             self.cached.fetch_add(1, Ordering::Relaxed);
             self.tick(o.stop);
             return Ok((o, true));
@@ -340,7 +299,7 @@ impl Runner {
         })?;
         *self.run_wall.lock().expect("not poisoned") += o.wall_s;
         // A run that cannot be stored would leave a study that cannot resume: an error.
-        cache_store(&self.dir, &key, &o).map_err(|e| format!("the run cache: {e}"))?;
+        run_store::store(&self.dir, &key, &o).map_err(|e| format!("the run cache: {e}"))?;
         self.made_runs
             .lock()
             .expect("not poisoned")

@@ -131,28 +131,12 @@ impl RunSpec {
             "scale": self.scale,
             "early_stop": self.early_stop,
             "rockbench": env!("CARGO_PKG_VERSION"),
-            "build": build_id(),
-            "worker": worker_id(&self.engine),
+            "build": crate::run_store::program_id(),
+            "worker": crate::run_store::worker_id(&self.engine),
         });
         let text = serde_json::to_string(&key).expect("keys serialise");
         crate::digest::sha256_hex(text.as_bytes())
     }
-}
-
-/// The running program's identity in cache keys: the version and the source's content (the
-/// package's `src/` as compiled, [`crate::build_info::SOURCE_HASH`]), so a changed engine never
-/// reuses an old outcome.
-fn build_id() -> &'static str {
-    crate::build_info::SOURCE_HASH
-}
-
-/// The Python worker's sources (`RB_WORKER_HASH`) for the engines it runs, as compiled with
-/// this program (the worker of this source tree's `.venv`), so a changed worker never reuses
-/// an old outcome; `None` for the other engines.
-fn worker_id(engine: &str) -> Option<&'static str> {
-    ["mujoco", "pybullet"]
-        .contains(&engine)
-        .then_some(env!("RB_WORKER_HASH"))
 }
 
 /// Run one unit of work.

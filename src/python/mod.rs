@@ -562,13 +562,13 @@ fn fragility_ida_batch(
 fn fragility_store(cache: PathBuf, runs: Vec<(String, String)>) -> PyResult<usize> {
     let mut new = 0;
     for (key, text) in runs {
-        if !crate::fragility::is_run_key(&key) {
+        if !crate::run_store::is_key(&key) {
             return Err(PyValueError::new_err(format!("not a run key: {key:?}")));
         }
         let o: crate::fragility::run::RunOutcome = serde_json::from_str(&text)
             .map_err(|e| PyValueError::new_err(format!("run {key}: outcome: {e}")))?;
-        if crate::fragility::cache_load(&cache, &key).is_none() {
-            crate::fragility::cache_store(&cache, &key, &o).map_err(PyRuntimeError::new_err)?;
+        if crate::run_store::load::<crate::fragility::run::RunOutcome>(&cache, &key).is_none() {
+            crate::run_store::store(&cache, &key, &o).map_err(PyRuntimeError::new_err)?;
             new += 1;
         }
     }
@@ -608,7 +608,9 @@ fn fragility_run_batch(
 fn fragility_cache_has(py: Python<'_>, cache: PathBuf, keys: Vec<String>) -> Vec<bool> {
     py.detach(|| {
         keys.iter()
-            .map(|k| crate::fragility::cache_load(&cache, k).is_some())
+            .map(|k| {
+                crate::run_store::load::<crate::fragility::run::RunOutcome>(&cache, k).is_some()
+            })
             .collect()
     })
 }
@@ -650,7 +652,7 @@ fn fragility_worker_outcome(
     let spec = parse_spec(spec)?;
     let o = crate::fragility::run::outcome_from_worker_output(&spec, &out_dir, wall_s)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    crate::fragility::cache_store(&cache, &spec.key(), &o).map_err(PyRuntimeError::new_err)?;
+    crate::run_store::store(&cache, &spec.key(), &o).map_err(PyRuntimeError::new_err)?;
     Ok(serde_json::to_string(&o).expect("outcomes serialise"))
 }
 

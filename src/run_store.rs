@@ -1,0 +1,125 @@
+//! A content-addressed store of run results: each entry is one JSON file named by the SHA-256
+//! of what produced it (the run's inputs and the program that ran it), written whole or not at
+//! all. Fragility studies, spectra and stability maps keep their runs in one, so that an
+//! interrupted study resumes where it stopped and an unchanged one costs nothing.
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The running program's identity in keys: the source's content (the package's `src/` as
+/// compiled, [`crate::build_info::SOURCE_HASH`]), so a changed engine never reuses an old
+/// result.
+pub fn program_id() -> &'static str {
+    crate::build_info::SOURCE_HASH
+}
+
+/// The Python workers' sources (`RB_WORKER_HASH`: MuJoCo's and PyBullet's worker and Siconos'
+/// own) for the engines they run, as compiled with this program, so a changed worker never
+/// reuses an old result; `None` for the engines of this program.
+pub fn worker_id(engine: &str) -> Option<&'static str> {
+    ["mujoco", "pybullet", "siconos"]
+        .contains(&engine)
+        .then_some(env!("RB_WORKER_HASH"))
+}
+
+/// The key of the result of `inputs` (everything that decides it, as JSON) run by this program
+/// with `engine`'s worker: the SHA-256 of both, in hexadecimal.
+pub fn key(engine: &str, inputs: serde_json::Value) -> String {
+    let key = serde_json::json!({
+        "inputs": inputs,
+        "engine": engine,
+        "rockbench": env!("CARGO_PKG_VERSION"),
+        "build": program_id(),
+        "worker": worker_id(engine),
+    });
+    let text = serde_json::to_string(&key).expect("keys serialise");
+    crate::digest::sha256_hex(text.as_bytes())
+}
+
+/// Whether `key` is a content hash: 64 hexadecimal digits.
+pub fn is_key(key: &str) -> bool {
+    key.len() == 64 && key.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
+/// Where the entry of `key` ([`is_key`]) is kept in the store `dir`.
+pub fn entry_path(dir: &Path, key: &str) -> PathBuf {
+    dir.join(&key[..2]).join(format!("{key}.json"))
+}
+
+/// The entry of `key`, if the store has a whole one that reads as a `T` (none for a string that
+/// is not a key).
+pub fn load<T: DeserializeOwned>(dir: &Path, key: &str) -> Option<T> {
+    if !is_key(key) {
+        return None;
+    }
+    let text = std::fs::read_to_string(entry_path(dir, key)).ok()?;
+    serde_json::from_str::<T>(&text).ok()
+}
+
+/// Store an entry: written to a temporary file unique to this process and thread, then renamed
+/// over the entry. Renames are atomic: readers (other threads, processes or machines sharing the
+/// folder) see no entry or a whole one, and two writers of the same run (the same content, as
+/// runs are deterministic) leave one entry.
+pub fn store<T: Serialize>(dir: &Path, key: &str, entry: &T) -> Result<(), String> {
+    static SEQ: AtomicUsize = AtomicUsize::new(0);
+    if !is_key(key) {
+        return Err(format!("`{key}` is not a content hash"));
+    }
+    let path = entry_path(dir, key);
+    let parent = path.parent().expect("entries are in a sub-folder");
+    std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+    let host = std::env::var("HOSTNAME").unwrap_or_default();
+    let tmp = path.with_extension(format!(
+        "tmp-{host}-{}-{}",
+        std::process::id(),
+        SEQ.fetch_add(1, Ordering::Relaxed)
+    ));
+    let text = serde_json::to_string(entry).expect("entries serialise");
+    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, &path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("{}: {e}", path.display())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_entry_is_read_back_whole_and_a_changed_input_has_another_key() {
+        let dir = std::env::temp_dir().join(format!("rb-run-store-{}", std::process::id()));
+        let k = key(
+            "native",
+            serde_json::json!({"scene": "a", "amplitude": 1.5}),
+        );
+        assert!(is_key(&k));
+        assert_ne!(
+            k,
+            key(
+                "native",
+                serde_json::json!({"scene": "a", "amplitude": 1.6})
+            )
+        );
+        assert_ne!(
+            k,
+            key(
+                "rapier",
+                serde_json::json!({"scene": "a", "amplitude": 1.5})
+            )
+        );
+        assert_eq!(load::<Vec<f64>>(&dir, &k), None);
+        store(&dir, &k, &vec![1.0, 2.5]).unwrap();
+        assert_eq!(load::<Vec<f64>>(&dir, &k), Some(vec![1.0, 2.5]));
+        // An entry that does not read as the type asked for is no entry.
+        assert_eq!(load::<String>(&dir, &k), None);
+        // A truncated entry is no entry.
+        std::fs::write(entry_path(&dir, &k), "[1.0, 2").unwrap();
+        assert_eq!(load::<Vec<f64>>(&dir, &k), None);
+        assert!(store(&dir, "../escape", &1).is_err());
+        assert_eq!(load::<i32>(&dir, "../escape"), None);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
