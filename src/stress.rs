@@ -394,7 +394,7 @@ pub fn grid(quick: bool) -> Vec<Cell> {
 }
 
 /// Outcome of one cell for one engine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Status {
     Finished,
@@ -454,6 +454,22 @@ pub struct Issue {
 }
 
 impl CellResult {
+    /// A cell's result before its run: finished, nothing measured.
+    fn blank(engine: &str, cell: &Cell) -> Self {
+        CellResult {
+            engine: engine.to_string(),
+            factor: cell.factor.to_string(),
+            value: cell.value,
+            label: cell.label.clone(),
+            status: Status::Finished,
+            reason: String::new(),
+            wall_s: 0.0,
+            steps: 0,
+            invariants: InvariantReport::default(),
+            judged: Vec::new(),
+            issues: Vec::new(),
+        }
+    }
     /// Checks beyond the strict tolerance but within the engine's contract.
     pub fn beyond_strict(&self) -> Vec<&Judged> {
         self.judged
@@ -586,31 +602,33 @@ pub fn run_cell_with(
     timeout: Duration,
     judge: &Judge,
 ) -> CellResult {
-    let mut r = CellResult {
-        engine: engine.to_string(),
-        factor: cell.factor.to_string(),
-        value: cell.value,
-        label: cell.label.clone(),
-        status: Status::Finished,
-        reason: String::new(),
-        wall_s: 0.0,
-        steps: 0,
-        invariants: InvariantReport::default(),
-        judged: Vec::new(),
-        issues: Vec::new(),
-    };
+    let (r, _) = measure(engine, make, cell, tol, timeout);
+    finish(r, judge, cell.scene.as_ref().ok())
+}
+
+/// One engine's run of one cell, not yet judged, and whether it is the run's own answer, to be
+/// kept in a run store: a finished run, one the engine refused or one that failed with an
+/// engine's error. A timeout, a panic or a thread that did not start depend on the machine.
+fn measure(
+    engine: &str,
+    make: EngineFactory,
+    cell: &Cell,
+    tol: &Tolerances,
+    timeout: Duration,
+) -> (CellResult, bool) {
+    let mut r = CellResult::blank(engine, cell);
     let scene = match &cell.scene {
         Ok(s) => s.clone(),
         Err(e) => {
             r.status = Status::Failed;
             r.reason = format!("the generated scene is invalid: {e}");
-            return finish(r, judge, None);
+            return (r, false);
         }
     };
     if let Err(e) = make(engine) {
         r.status = Status::Skipped;
         r.reason = e.to_string();
-        return r;
+        return (r, false);
     }
     let (tx, rx) = mpsc::channel();
     let name = engine.to_string();
@@ -642,13 +660,14 @@ pub fn run_cell_with(
     if let Err(e) = spawned {
         r.status = Status::Failed;
         r.reason = format!("cannot start a worker thread: {e}");
-        return finish(r, judge, None);
+        return (r, false);
     }
-    match rx.recv_timeout(timeout) {
+    let keep = match rx.recv_timeout(timeout) {
         Ok(Ok(Ok((steps, wall, report)))) => {
             r.steps = steps;
             r.wall_s = wall;
             r.invariants = report;
+            true
         }
         Ok(Ok(Err(e))) => {
             r.wall_s = start.elapsed().as_secs_f64();
@@ -662,11 +681,13 @@ pub fn run_cell_with(
                     r.reason = other.to_string();
                 }
             }
+            true
         }
         Ok(Err(panic)) => {
             r.wall_s = start.elapsed().as_secs_f64();
             r.status = Status::Failed;
             r.reason = format!("panic: {panic}");
+            false
         }
         Err(_) => {
             r.wall_s = start.elapsed().as_secs_f64();
@@ -675,9 +696,118 @@ pub fn run_cell_with(
                 "timed out after {} s (run abandoned)",
                 timeout.as_secs_f64()
             );
+            false
+        }
+    };
+    (r, keep)
+}
+
+/// Bumped when the meaning of a stored stress run changes.
+const STORE_FORMAT: u32 = 1;
+
+/// A cell's run as kept in the run store ([`crate::run_store`]): what was measured, before it
+/// is judged (the contracts and the known list are applied to it afresh).
+#[derive(Serialize, Deserialize)]
+struct StoredCell {
+    status: Status,
+    reason: String,
+    wall_s: f64,
+    steps: u64,
+    checks: Vec<StoredCheck>,
+}
+
+/// An invariant check as stored: [`crate::invariants::Check`] with its name as a string.
+#[derive(Serialize, Deserialize)]
+struct StoredCheck {
+    name: String,
+    applies: bool,
+    passed: bool,
+    value: f64,
+    limit: f64,
+    detail: String,
+}
+
+impl StoredCell {
+    fn of(r: &CellResult) -> Self {
+        StoredCell {
+            status: r.status,
+            reason: r.reason.clone(),
+            wall_s: r.wall_s,
+            steps: r.steps,
+            checks: r
+                .invariants
+                .checks
+                .iter()
+                .map(|c| StoredCheck {
+                    name: c.name.to_string(),
+                    applies: c.applies,
+                    passed: c.passed,
+                    value: c.value,
+                    limit: c.limit,
+                    detail: c.detail.clone(),
+                })
+                .collect(),
         }
     }
-    finish(r, judge, cell.scene.as_ref().ok())
+
+    /// Put the stored measurements in `r`; `None` if a check's name is not one of
+    /// [`CHECK_NAMES`] (an entry of another program).
+    fn into_result(self, mut r: CellResult) -> Option<CellResult> {
+        let mut checks = Vec::new();
+        for c in self.checks {
+            let name = CHECK_NAMES.iter().find(|&&n| n == c.name)?;
+            checks.push(crate::invariants::Check {
+                name,
+                applies: c.applies,
+                passed: c.passed,
+                value: c.value,
+                limit: c.limit,
+                detail: c.detail,
+            });
+        }
+        r.status = self.status;
+        r.reason = self.reason;
+        r.wall_s = self.wall_s;
+        r.steps = self.steps;
+        r.invariants = InvariantReport { checks };
+        Some(r)
+    }
+}
+
+/// [`run_cell`] through the run store `dir`: the cell's run read back when the store has it (and
+/// `true`), else made, and kept when it is the run's own answer ([`measure`]). A run that cannot
+/// be kept is an error (a map that cannot resume is not run).
+pub fn run_cell_stored(
+    engine: &str,
+    cell: &Cell,
+    tol: &Tolerances,
+    timeout: Duration,
+    judge: &Judge,
+    dir: &Path,
+) -> Result<(CellResult, bool), String> {
+    let Ok(scene) = &cell.scene else {
+        return Ok((run_cell(engine, cell, tol, timeout, judge), false));
+    };
+    let key = crate::run_store::key(
+        engine,
+        serde_json::json!({
+            "kind": "stress-cell",
+            "format": STORE_FORMAT,
+            "scene": scene.to_json(),
+            "tolerances": tol,
+        }),
+    );
+    if let Some(r) = crate::run_store::load::<StoredCell>(dir, &key)
+        .and_then(|stored| stored.into_result(CellResult::blank(engine, cell)))
+    {
+        return Ok((finish(r, judge, Some(scene)), true));
+    }
+    let (r, keep) = measure(engine, Arc::new(engine_by_name), cell, tol, timeout);
+    if keep {
+        crate::run_store::store(dir, &key, &StoredCell::of(&r))
+            .map_err(|e| format!("the run store: {e}"))?;
+    }
+    Ok((finish(r, judge, Some(scene)), false))
 }
 
 /// The mirror and rerun checks of an already finished run.

@@ -330,11 +330,13 @@ fn mirror_check_measures_the_round_off_amplification_of_chattering_contacts() {
 
 /// `rockbench stress` exits 0 when every engine keeps its contract, and 1 (one line) when a
 /// contract is broken: rapier's settling column is within its soft-contact contract, not
-/// within round-off.
+/// within round-off. The runs are kept in the run store and read back by the later maps, which
+/// judge them afresh against the contract they are given.
 #[test]
 fn stress_exits_on_a_broken_contract_only() {
     let scratch = common::tmp("rb-stress", "contract");
     let out = scratch.join("out");
+    let store = scratch.join("store");
     let run = |extra: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_rockbench"))
             .args([
@@ -346,6 +348,7 @@ fn stress_exits_on_a_broken_contract_only() {
                 "blocks",
             ])
             .args(["--out", out.to_str().unwrap()])
+            .args(["--cache-dir", store.to_str().unwrap()])
             .args(extra)
             .current_dir(env!("CARGO_MANIFEST_DIR"))
             .output()
@@ -370,8 +373,23 @@ fn stress_exits_on_a_broken_contract_only() {
         so.contains("rapier: soft contact"),
         "the closing note lists the contracts: {so}"
     );
+    assert!(!so.contains("(stored)"), "{so}");
+    let first_csv = std::fs::read_to_string(out.join("stress.csv")).unwrap();
     let index = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(index.contains("id=\"contract-rapier\""));
+    // Again: every run from the store, the same map.
+    let o = run(&[]);
+    let so = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{so}");
+    let cells = so.lines().filter(|l| l.contains(" blocks ")).count();
+    assert!(cells > 0 && so.matches("(stored)").count() == cells, "{so}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("stress.csv")).unwrap(),
+        first_csv
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stress.json")).unwrap()).unwrap();
+    assert_eq!(json["runs_from_store"].as_u64(), Some(cells as u64));
     let o = run(&["--contract", "rapier.standing=1e-9"]);
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);

@@ -3,7 +3,8 @@
 use crate::engines::registry;
 use crate::invariants::Tolerances;
 use crate::stress::{
-    CellResult, Contracts, Judge, KnownList, csv, grid, html, index_html, run_cell, totals,
+    CellResult, Contracts, Judge, KnownList, csv, grid, html, index_html, run_cell,
+    run_cell_stored, totals,
 };
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
@@ -35,6 +36,15 @@ pub struct StressArgs {
     /// `--contract rapier.standing=1e-9` to hold rapier to round-off.
     #[arg(long = "contract", value_name = "ENGINE.CHECK=LIMIT")]
     contract: Vec<String>,
+    /// Run store: each cell's run (what it measured, before it is judged) is kept here under the
+    /// content hash of its scene, engine, tolerances and program, and read back by a later map,
+    /// so an interrupted map resumes and an unchanged one costs nothing (timeouts and panics are
+    /// not kept).
+    #[arg(long, default_value = ".cache/rockbench/stress")]
+    cache_dir: PathBuf,
+    /// Make every run again (the store is neither read nor written).
+    #[arg(long)]
+    no_cache: bool,
 }
 
 /// The list of known violations read when `--known` is not given, where it exists.
@@ -94,12 +104,25 @@ pub fn stress(a: StressArgs) -> Result<()> {
         "engines": engines,
         "contracts": engines.iter().map(|e| judge.contracts.of(e)).collect::<Vec<_>>(),
     });
+    let store = if a.no_cache {
+        None
+    } else {
+        std::fs::create_dir_all(&a.cache_dir)
+            .with_context(|| format!("--cache-dir: {}", a.cache_dir.display()))?;
+        Some(a.cache_dir.clone())
+    };
+    let mut from_store = 0usize;
     let mut all: Vec<CellResult> = Vec::new();
     let mut unexplained = 0;
     for engine in &engines {
         let mut results = Vec::new();
         for cell in &cells {
-            let r = run_cell(engine, cell, &tol, timeout, &judge);
+            let (r, stored) = match &store {
+                Some(dir) => run_cell_stored(engine, cell, &tol, timeout, &judge, dir)
+                    .map_err(anyhow::Error::msg)?,
+                None => (run_cell(engine, cell, &tol, timeout, &judge), false),
+            };
+            from_store += usize::from(stored);
             if r.status != crate::stress::Status::Skipped {
                 let issues: Vec<String> = r
                     .issues
@@ -123,11 +146,12 @@ pub fn stress(a: StressArgs) -> Result<()> {
                     }))
                     .collect();
                 println!(
-                    "{engine:<8} {:<14} {:<8} {:<11} {:>8.3} s  {}",
+                    "{engine:<8} {:<14} {:<8} {:<11} {:>8.3} s{} {}",
                     r.factor,
                     r.label,
                     r.status.as_str(),
                     r.wall_s,
+                    if stored { " (stored)" } else { "" },
                     if issues.is_empty() {
                         String::new()
                     } else {
@@ -181,6 +205,8 @@ pub fn stress(a: StressArgs) -> Result<()> {
         .collect();
     let mut m = meta;
     m["totals"] = per_engine.into();
+    m["runs_from_store"] = from_store.into();
+    m["store"] = store.as_ref().map(|d| d.display().to_string()).into();
     m["cells"] = serde_json::to_value(&all)?;
     std::fs::write(
         a.out.join("stress.json"),
