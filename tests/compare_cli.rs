@@ -145,7 +145,8 @@ fn two_block_compare_writes_every_file_and_lists_skipped_engines() {
 
 /// A reference file or a setting that cannot give a comparison is one line naming it, exit 1,
 /// nothing written: a file that is not a trajectory, one sample, a value that is not finite, a
-/// window outside the run, a window of one time, no job or no timing run.
+/// window outside the run, a window of one time, no job, no timing run or too many, a common
+/// grid too fine or too coarse for the run.
 #[test]
 fn bad_reference_file_or_setting_is_one_line_naming_it() {
     let out = tmp("badref");
@@ -199,7 +200,29 @@ fn bad_reference_file_or_setting_is_one_line_naming_it() {
             "--window: two times T0,T1 (got 1 value(s))",
         ),
         (["--jobs", "0"], "--jobs: at least 1 (got 0)"),
-        (["--timing-runs", "0"], "--timing-runs: at least 1 (got 0)"),
+        (["--timing-runs", "0"], "--timing-runs: from 1 to 1000 (got 0)"),
+        (
+            ["--timing-runs", "4294967297"],
+            "--timing-runs: from 1 to 1000 (got 4294967297)",
+        ),
+        // A grid of 4e300 points panicked; of 4e10 it aborted out of memory; of one point
+        // (spacing 1e300 s) it compared the runs at t = 0 alone and reported them agreeing.
+        (
+            ["--grid-dt", "1e-300"],
+            "--grid-dt: 1e-300 s makes 3.9999999999999996e300 points over the compared 4 s",
+        ),
+        (
+            ["--grid-dt", "1e-10"],
+            "--grid-dt: 0.0000000001 s makes 40000000001 points over the compared 4 s; at most 1e7",
+        ),
+        (
+            ["--grid-dt", "1e300"],
+            "--grid-dt: 1e300 s leaves fewer than 10 intervals in the compared 4 s",
+        ),
+        (
+            ["--window", "1e300,1e301"],
+            "--window: 1e300,1e301 s lies outside the scene's run",
+        ),
     ] {
         cases.push((setting.map(String::from).to_vec(), message.to_string()));
     }

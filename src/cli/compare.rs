@@ -58,14 +58,11 @@ pub struct CompareArgs {
     video: Option<String>,
 }
 
+/// The most runs of each engine `--timing-runs` may ask for.
+const MAX_TIMING_RUNS: usize = 1000;
+
 pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     super::check_out_dir(&a.out)?;
-    if !(a.grid_dt > 0.0 && a.grid_dt.is_finite()) {
-        bail!(
-            "--grid-dt: must be a positive number of seconds (got {})",
-            crate::scene::num(a.grid_dt)
-        );
-    }
     if a.up_to_impacts.contains(&0) {
         bail!("--up-to-impacts: impacts are counted from 1");
     }
@@ -84,19 +81,31 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
             bail!("--window: two times T0,T1 (got {} value(s))", w.len());
         };
         if t1 <= t0 || !t0.is_finite() || !t1.is_finite() {
-            bail!("--window: T1 must be greater than T0 (got {t0},{t1})");
+            bail!(
+                "--window: T1 must be greater than T0 (got {},{})",
+                crate::scene::num(t0),
+                crate::scene::num(t1)
+            );
         }
         if t1 <= 0.0 || t0 >= scene.duration {
             bail!(
-                "--window: {t0},{t1} s lies outside the scene's run, 0 to {} s",
-                scene.duration
+                "--window: {},{} s lies outside the scene's run, 0 to {} s",
+                crate::scene::num(t0),
+                crate::scene::num(t1),
+                crate::scene::num(scene.duration)
             );
         }
         opts.metrics.window = Some((t0, t1));
     }
+    let (t0, t1) = opts.metrics.window.unwrap_or((0.0, scene.duration));
+    let span = t1.min(scene.duration) - t0.max(0.0);
+    crate::metrics::check_grid(a.grid_dt, span).map_err(|e| anyhow::anyhow!("--grid-dt: {e}"))?;
     super::check_jobs(a.jobs)?;
-    if a.timing_runs == 0 {
-        bail!("--timing-runs: at least 1 (got 0)");
+    if a.timing_runs == 0 || a.timing_runs > MAX_TIMING_RUNS {
+        bail!(
+            "--timing-runs: from 1 to {MAX_TIMING_RUNS} (got {})",
+            a.timing_runs
+        );
     }
     opts.jobs = a.jobs.unwrap_or_else(default_jobs);
     opts.progress = !a.quiet;

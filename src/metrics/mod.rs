@@ -311,8 +311,8 @@ pub enum MetricsError {
         last: f64,
         duration: f64,
     },
-    #[error("grid spacing must be a positive number of seconds (got {0})")]
-    Grid(f64),
+    #[error("grid spacing: {0}")]
+    Grid(String),
     #[error("{run}: {samples} sample(s); a reference needs at least two")]
     TooShort { run: String, samples: usize },
     #[error("{run}: `{column}` is not finite at sample {index}")]
@@ -440,16 +440,50 @@ pub struct ErrorHistory {
     pub series: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)>,
 }
 
+/// The most points of the common grid (a finer grid is a slip of units, and its histories
+/// would not fit in memory).
+pub const MAX_GRID_POINTS: f64 = 1e7;
+/// The fewest intervals of the common grid over the compared span (a coarser one measures the
+/// histories at a handful of instants).
+pub const MIN_GRID_INTERVALS: f64 = 10.0;
+
+/// Whether a common grid of spacing `dt` over `span` seconds can compare two runs: `dt`
+/// positive, at most [`MAX_GRID_POINTS`] points and at least [`MIN_GRID_INTERVALS`] intervals.
+pub fn check_grid(dt: f64, span: f64) -> Result<(), String> {
+    let num = crate::scene::num;
+    if !(dt > 0.0 && dt.is_finite()) {
+        return Err(format!(
+            "must be a positive number of seconds (got {})",
+            num(dt)
+        ));
+    }
+    let intervals = span / dt;
+    if intervals > MAX_GRID_POINTS {
+        return Err(format!(
+            "{} s makes {} points over the compared {} s; at most {MAX_GRID_POINTS:e}",
+            num(dt),
+            num(intervals.floor() + 1.0),
+            num(span)
+        ));
+    }
+    if intervals < MIN_GRID_INTERVALS {
+        return Err(format!(
+            "{} s leaves fewer than {MIN_GRID_INTERVALS} intervals in the compared {} s",
+            num(dt),
+            num(span)
+        ));
+    }
+    Ok(())
+}
+
 pub fn error_history(
     scene: &Scene,
     run: &Run,
     reference: &Run,
     settings: &MetricSettings,
 ) -> Result<ErrorHistory, MetricsError> {
-    if !(settings.grid_dt > 0.0 && settings.grid_dt.is_finite()) {
-        return Err(MetricsError::Grid(settings.grid_dt));
-    }
     let (t0, t1) = common_window(run, reference, settings)?;
+    check_grid(settings.grid_dt, t1 - t0).map_err(MetricsError::Grid)?;
     let g = grid::uniform_grid(t0, t1, settings.grid_dt);
     let series = series_of(scene)
         .iter()
