@@ -126,18 +126,32 @@ pub fn check_engines_and_steps(
     dts: &[f64],
 ) -> Result<(), String> {
     crate::engines::registry::check_names("--engines", engines.iter().map(String::as_str))?;
+    let num = crate::scene::num;
     for (k, &dt) in dts.iter().enumerate() {
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(format!("--dt: step sizes must be positive (got {dt})"));
+            return Err(format!(
+                "--dt: step sizes must be positive (got {})",
+                num(dt)
+            ));
         }
         if dt > scene.duration {
             return Err(format!(
-                "--dt: {dt} s is longer than the scene's run, {} s",
-                scene.duration
+                "--dt: {} s is longer than the scene's run, {} s",
+                num(dt),
+                num(scene.duration)
+            ));
+        }
+        if scene.duration / dt > crate::scene::MAX_STEPS {
+            return Err(format!(
+                "--dt: {} s makes {} steps of the scene's {} s; at most {:e}",
+                num(dt),
+                num((scene.duration / dt).ceil()),
+                num(scene.duration),
+                crate::scene::MAX_STEPS
             ));
         }
         if dts[..k].contains(&dt) {
-            return Err(format!("--dt: {dt} s is given twice"));
+            return Err(format!("--dt: {} s is given twice", num(dt)));
         }
     }
     Ok(())

@@ -94,22 +94,33 @@ pub struct Run {
     pub final_dx: Vec<f64>,
 }
 
+/// The most members of a configuration.
+pub const MAX_MEMBERS: usize = 1000;
+/// The smallest relative perturbation between neighbouring members.
+pub const MIN_EPSILON: f64 = 1e-14;
+
 impl Study {
     /// Check the study: its numbers, every configuration's scene, and the runs already in
     /// `out` (refused if they are another study's). Returns the blocks' names and those runs.
     pub fn check(&self, out: &Path) -> anyhow::Result<(Vec<String>, Vec<Run>)> {
-        if self.members < 2 {
-            bail!("--members: must be 2 or more (got {})", self.members);
-        }
-        if !(self.epsilon > 0.0 && self.epsilon < 1e-3) {
+        if !(2..=MAX_MEMBERS).contains(&self.members) {
             bail!(
-                "--epsilon: must be positive and below 1e-3 (got {})",
-                self.epsilon
+                "--members: from 2 to {MAX_MEMBERS} (got {}): each is a run of every configuration",
+                self.members
+            );
+        }
+        if !(self.epsilon >= MIN_EPSILON && self.epsilon < 1e-3) {
+            bail!(
+                "--epsilon: must be from {MIN_EPSILON:e} (some 45 units in the last place: below it the members' values round to the same number) to below 1e-3 (got {})",
+                crate::scene::num(self.epsilon)
             );
         }
         let (key, value) = &self.perturb;
         if !(value.is_finite() && *value != 0.0) {
-            bail!("--perturb: {key} must be finite and non-zero (got {value})");
+            bail!(
+                "--perturb: {key} must be finite and non-zero (got {})",
+                crate::scene::num(*value)
+            );
         }
         if self.configs.is_empty() {
             bail!("--configs: none given");

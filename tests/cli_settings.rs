@@ -48,6 +48,36 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
             ],
             "--dt: 10 s is longer than the scene's run, 4 s".into(),
         ),
+        // Steps too short for any engine: every cell failed, exit 0, outputs written.
+        (
+            vec!["bench", scene, "--engines", "native", "--dt", "1e-300"],
+            "--dt: 1e-300 s makes 3.9999999999999996e300 steps of the scene's 4 s; at most 1e9"
+                .into(),
+        ),
+        (
+            vec![
+                "converge",
+                scene,
+                "--engines",
+                "native",
+                "--dt",
+                "2e-3,1e-300",
+            ],
+            "--dt: 1e-300 s makes".into(),
+        ),
+        (
+            vec![
+                "bench",
+                scene,
+                "--engines",
+                "native",
+                "--dt",
+                "1e-3",
+                "--repeat",
+                "4294967297",
+            ],
+            "--repeat: from 1 to 1000 (got 4294967297)".into(),
+        ),
         (
             vec!["converge", scene, "--engines", "bogus", "--dt", "1e-3,5e-4"],
             bogus.clone(),

@@ -200,7 +200,10 @@ fn bad_reference_file_or_setting_is_one_line_naming_it() {
             "--window: two times T0,T1 (got 1 value(s))",
         ),
         (["--jobs", "0"], "--jobs: at least 1 (got 0)"),
-        (["--timing-runs", "0"], "--timing-runs: from 1 to 1000 (got 0)"),
+        (
+            ["--timing-runs", "0"],
+            "--timing-runs: from 1 to 1000 (got 0)",
+        ),
         (
             ["--timing-runs", "4294967297"],
             "--timing-runs: from 1 to 1000 (got 4294967297)",

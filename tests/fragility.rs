@@ -239,6 +239,15 @@ fn bad_studies_stop_before_running_with_one_line() {
     fails_with(&study, &out, &["ida.tolerance", "must be at least 1e-12"]);
     std::fs::write(&study, text.clone() + "\n[ida]\nfill = 1000000000\n").unwrap();
     fails_with(&study, &out, &["ida.fill", "at most 100 levels"]);
+    // A hunt of some thousand doublings from a start of 1e-300, or of steps of 1e-9.
+    std::fs::write(&study, text.clone() + "\n[ida]\nstart = 1e-300\n").unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["ida.start", "the hunt from 1e-300", "at most 200"],
+    );
+    std::fs::write(&study, text.clone() + "\n[ida]\nfactor = 1.000000001\n").unwrap();
+    fails_with(&study, &out, &["ida.factor", "steps; at most 200"]);
     let r0 = d.join("r0.AT2");
     let record = std::fs::read_to_string(&r0).unwrap();
     std::fs::write(&r0, record.replace("DT= 0.0100", "DT= 1e12")).unwrap();

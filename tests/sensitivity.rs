@@ -212,6 +212,12 @@ fn bad_studies_say_what_is_wrong_and_write_nothing() {
         (&["--configs", "bogus"][..], "unknown engine"),
         (&["--members", "1"][..], "--members"),
         (&["--epsilon", "0.1"][..], "--epsilon"),
+        // Members that would run for ever, or all be the same scene.
+        (
+            &["--members", "4294967297"][..],
+            "--members: from 2 to 1000 (got 4294967297)",
+        ),
+        (&["--epsilon", "1e-300"][..], "(got 1e-300)"),
         (
             &["--perturb", "excitation.horizontal.amplitud=4.9"][..],
             "amplitud",

@@ -32,10 +32,16 @@ pub struct BenchArgs {
     out: PathBuf,
 }
 
+/// The most timed runs of each configuration.
+const MAX_REPEAT: usize = 1000;
+
 pub fn run(a: BenchArgs) -> Result<()> {
     super::check_out_dir(&a.out)?;
-    if a.repeat == 0 {
-        return Err(anyhow!("--repeat: must be at least 1"));
+    if !(1..=MAX_REPEAT).contains(&a.repeat) {
+        return Err(anyhow!(
+            "--repeat: from 1 to {MAX_REPEAT} (got {})",
+            a.repeat
+        ));
     }
     let opts = BenchOptions {
         engines: a.engines,

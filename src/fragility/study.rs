@@ -102,6 +102,8 @@ fn d_tol() -> f64 {
 }
 /// The most levels an IDA fills in below its bracket.
 pub const MAX_FILL: usize = 100;
+/// The most steps of an IDA hunt from its start to its highest level.
+const MAX_HUNT_STEPS: f64 = 200.0;
 
 /// The strongest scaled record a study may run, in g (the strongest recorded ground motions are
 /// a few g): a level or a record beyond it is taken for a slip, as a unit or an exponent.
@@ -339,6 +341,25 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                     "the hunt starts at {} and may go no higher than {}: the start must be below the highest level",
                     num(start),
                     num(max)
+                ),
+            ));
+        }
+        // Each of the hunt's steps is a run per record and limit state.
+        let steps = (max / start).ln() / ida.factor.ln();
+        if steps > MAX_HUNT_STEPS {
+            let field = if ida.start.is_some() {
+                "ida.start"
+            } else {
+                "ida.factor"
+            };
+            return Err(err(
+                field,
+                format!(
+                    "the hunt from {} to {} by factors of {} takes {} steps; at most {MAX_HUNT_STEPS} (each is a run per record and limit state)",
+                    num(start),
+                    num(max),
+                    num(ida.factor),
+                    num(steps.ceil())
                 ),
             ));
         }
