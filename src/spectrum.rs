@@ -384,9 +384,11 @@ impl<'a> Spectrum<'a> {
         });
         s.duration = self.pulse.duration(omega_p) + self.settings.tail / self.p;
         s.name = format!(
-            "{} {} Pi={ratio} A={amplitude}",
+            "{} {} Pi={} A={}",
             self.base.name,
-            self.pulse.name()
+            self.pulse.name(),
+            num(ratio),
+            num(amplitude)
         );
         s
     }
@@ -729,7 +731,14 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
 /// checked between chunks. Returns the trajectory (the engine's centroid states), the impact
 /// instants above the noise floor and the stop.
 pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop), EngineError> {
-    use crate::engines::housner::{self, HousnerBlock, Span};
+    use crate::engines::housner::{self, HousnerBlock, HousnerEngine, Span};
+    if let Some(reason) = HousnerEngine.cannot_model(scene) {
+        return Err(EngineError::Unsupported {
+            engine: "housner",
+            scene: scene.name.clone(),
+            reason,
+        });
+    }
     let gm = GroundMotion::from_scene(scene)?;
     let b = &scene.blocks[0];
     let hs = housner::HousnerSettings::of(scene)?;
@@ -811,13 +820,12 @@ pub fn block_scene(
     friction: f64,
     overrides: &[String],
 ) -> Result<Scene, String> {
+    let (w, h) = (num(width), num(height));
     if !(width.is_finite() && width > 0.0 && height.is_finite() && height > 0.0) {
-        return Err(format!(
-            "a block is BxH with B, H > 0 metres (got {width}x{height})"
-        ));
+        return Err(format!("a block is BxH with B, H > 0 metres (got {w}x{h})"));
     }
     let text = format!(
-        "name = \"block {width}x{height}\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = {width:?}\nheight = {height:?}\n\n[contact]\nfriction = {friction:?}\n"
+        "name = \"block {w}x{h}\"\nduration = 1.0\n\n[[blocks]]\nname = \"block\"\nwidth = {width:?}\nheight = {height:?}\n\n[contact]\nfriction = {friction:?}\n"
     );
     let s = crate::scene::parse_scene_str(&text, false, "block", overrides)
         .map_err(|e| e.to_string())?;
@@ -996,8 +1004,9 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                     wall_s: t0.elapsed().as_secs_f64(),
                 };
                 progress(&format!(
-                    "{name} {} Pi={r}: A_min {}{} ({} runs{}, {:.2} s)",
+                    "{name} {} Pi={}: A_min {}{} ({} runs{}, {:.2} s)",
                     pulse.name(),
+                    num(r),
                     row.minimum
                         .amplitude
                         .map_or("none".into(), |a| format!("{a:.5}")),
@@ -1017,8 +1026,9 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                 let cells = sp.map(&[r], &req.map_amplitudes).map_err(fail)?;
                 let n = cells.iter().filter(|(_, o)| o.overturned).count();
                 progress(&format!(
-                    "{name} {} Pi={r}: map {n}/{} overturn ({:.2} s{})",
+                    "{name} {} Pi={}: map {n}/{} overturn ({:.2} s{})",
                     pulse.name(),
+                    num(r),
                     cells.len(),
                     t0.elapsed().as_secs_f64(),
                     stored(since)

@@ -296,6 +296,41 @@ fn housner_refuses_stacks_with_a_clear_message() {
     assert!(e.contains("single block") && e.contains("2 blocks"), "{e}");
 }
 
+/// An initial rotation rate is about the pivot corner, where the Housner model has it: the
+/// engine takes it (it refused it as a sliding velocity) and rocks as the native engine does;
+/// a sliding velocity it still refuses.
+#[test]
+fn housner_takes_an_initial_rotation_rate_and_refuses_a_sliding_one() {
+    let s = scene(
+        "housner-slender.toml",
+        &["initial.blocks.block.omega=0.3", "duration=1"],
+    );
+    let (h, _) = run("housner", &s);
+    let (n, _) = run("native", &s);
+    let at = |out: &rockbench::engines::RunOutput, t: f64| {
+        let k = out.trajectory.t.partition_point(|&x| x < t - 1e-12);
+        (out.trajectory.t[k], out.trajectory.blocks[0].phi[k])
+    };
+    // Without the rate the block would turn back from 0.15 rad at once.
+    let (t, phi) = at(&h, 0.3);
+    assert!((t - 0.3).abs() < 1e-9 && phi > 0.185, "{phi}");
+    for t in [0.1, 0.3, 0.5, 1.0] {
+        let (th, ph) = at(&h, t);
+        let (tn, pn) = at(&n, t);
+        assert!((th - tn).abs() < 1e-9);
+        assert!((ph - pn).abs() < 1e-5, "t = {t}: housner {ph}, native {pn}");
+    }
+    let e = engine_by_name("housner")
+        .unwrap()
+        .run(&scene(
+            "housner-slender.toml",
+            &["initial.blocks.block.vx=0.1"],
+        ))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("does not slide; initial vx must be 0"), "{e}");
+}
+
 /// The tests' scratch directories (`common::tmp`) are removed when their test ends, and kept
 /// for inspection when it panics.
 #[test]

@@ -357,6 +357,11 @@ fn spectrum_bad_input_one_line_errors() {
             vec!["0.2x4", "--amplitudes", "1,2,1"],
             "--amplitudes: 1 is given twice",
         ),
+        // Below it the Housner model's angles underflow: no minimum was found, exit 0.
+        (
+            vec!["1e-200x1", "--engines", "housner", "--amplitudes", "none"],
+            "B/H = 1e-200 is below 1e-100",
+        ),
         (
             vec!["0.2x4", "--pulse", "half-sine,rectangular,half-sine"],
             "--pulse: half-sine is given twice",
