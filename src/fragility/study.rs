@@ -105,9 +105,8 @@ pub const MAX_FILL: usize = 100;
 /// The most steps of an IDA hunt from its start to its highest level.
 const MAX_HUNT_STEPS: f64 = 200.0;
 
-/// The strongest scaled record a study may run, in g (the strongest recorded ground motions are
-/// a few g): a level or a record beyond it is taken for a slip, as a unit or an exponent.
-pub const MAX_PEAK_G: f64 = 1000.0;
+/// The strongest scaled record a study may run, in g: a scene's ([`crate::scene::MAX_PEAK_G`]).
+pub use crate::scene::MAX_PEAK_G;
 
 fn d_fill() -> usize {
     3

@@ -23,7 +23,9 @@ pub use load::{
 };
 pub(crate) use load::{toml_error_at, toml_fields};
 pub(crate) use validate::num;
-pub use validate::{MAX_FRICTION, MAX_STEPS, MIN_EVENT_TOLERANCE_REL, check_samples, check_step};
+pub use validate::{
+    MAX_FRICTION, MAX_PEAK_G, MAX_STEPS, MIN_EVENT_TOLERANCE_REL, check_samples, check_step,
+};
 
 use serde::{Deserialize, Serialize, Serializer};
 use std::collections::BTreeMap;

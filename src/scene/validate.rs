@@ -108,6 +108,24 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                 format!("|rotation| must be below pi/2 (got {})", num(s.rotation)),
             );
         }
+        // Speeds beyond MAX_INITIAL_SPEED are a slip; rapier clamped them (to 400 m/s) and the
+        // native engine's first contact problem lost its scale.
+        let b = &scene.blocks[scene.index_of(name).expect("checked above")];
+        let rim = s.omega.abs() * b.width.hypot(b.height);
+        for (k, speed, what) in [
+            ("vx", s.vx.abs(), "a sliding speed"),
+            ("omega", rim, "a rim speed"),
+        ] {
+            if speed > MAX_INITIAL_SPEED {
+                return err(
+                    f(k),
+                    format!(
+                        "{what} of {} m/s is above {MAX_INITIAL_SPEED} m/s",
+                        num(speed)
+                    ),
+                );
+            }
+        }
     }
     if scene.initial.tilt.abs() >= std::f64::consts::FRAC_PI_2 {
         return err(
@@ -308,9 +326,52 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                 );
             }
         }
+        // A pulse's amplitude or a scaled record's peak beyond MAX_PEAK_G is a slip (a unit, an
+        // exponent): engines would clamp or overflow it.
+        let limit = MAX_PEAK_G * crate::excitation::records::STANDARD_GRAVITY;
+        for (comp, m) in [("horizontal", &exc.horizontal), ("vertical", &exc.vertical)] {
+            let amplitude = match m {
+                Some(
+                    MotionSpec::HalfSine { amplitude, .. }
+                    | MotionSpec::OneSine { amplitude, .. }
+                    | MotionSpec::OneCosine { amplitude, .. }
+                    | MotionSpec::Ricker { amplitude, .. }
+                    | MotionSpec::Rectangular { amplitude, .. },
+                ) => *amplitude,
+                _ => continue,
+            };
+            if amplitude.abs() > limit {
+                return err(
+                    format!("excitation.{comp}.amplitude"),
+                    format!(
+                        "{} m/s^2 is above {MAX_PEAK_G} g ({} m/s^2): the strongest recorded ground motions are a few g",
+                        num(amplitude),
+                        num(limit)
+                    ),
+                );
+            }
+        }
         // Loading checks the record files themselves; a record that starts after the run
         // would never act, as such a pulse.
         let motion = crate::excitation::GroundMotion::from_scene(scene)?;
+        for (comp, c) in [
+            ("horizontal", &motion.horizontal),
+            ("vertical", &motion.vertical),
+        ] {
+            if let Some(crate::excitation::Component::AccelerationRecord { a, .. }) = c {
+                let peak = a.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                if !(peak <= limit) {
+                    return err(
+                        format!("excitation.{comp}.scale"),
+                        format!(
+                            "the scaled record peaks at {} m/s^2, above {MAX_PEAK_G} g ({} m/s^2): the strongest recorded ground motions are a few g",
+                            num(peak),
+                            num(limit)
+                        ),
+                    );
+                }
+            }
+        }
         for (comp, c) in [
             ("horizontal", &motion.horizontal),
             ("vertical", &motion.vertical),
@@ -353,6 +414,14 @@ pub(crate) fn num(v: f64) -> String {
 /// `n +- mu t` lose their scale above it (the solver fails on a block's first step from 1e5 on;
 /// a rocking block's history is the same within 7e-8 m from 0.7 to 3e4).
 pub const MAX_FRICTION: f64 = 1e4;
+
+/// The strongest ground acceleration a scene may give, in g: a pulse's amplitude or a scaled
+/// record's peak beyond it is taken for a slip, as a unit or an exponent.
+pub const MAX_PEAK_G: f64 = 1000.0;
+
+/// The fastest initial motion a block may be given, m/s: a sliding speed, or a rotation rate
+/// times the block's diagonal (its rim speed about its pivot).
+pub const MAX_INITIAL_SPEED: f64 = 100.0;
 
 /// Most time steps a run may take (duration / dt): beyond this a scene is almost surely a
 /// unit slip (ms for s) and would run for days.
