@@ -184,7 +184,8 @@ fn an_out_that_is_a_file_is_refused_before_any_run() {
 
 /// A flag's seconds beyond some 30 years (`--progress-interval`, `--checkpoint-interval`,
 /// `stress --timeout`) are one line naming the flag, not a panic converting them to a duration;
-/// so is `spectrum --friction` above the largest friction a scene may give.
+/// so is `spectrum --friction` above the largest friction a scene may give, and a stop after
+/// step 0 (it was ignored: the whole run was made).
 #[test]
 fn seconds_and_friction_out_of_range_are_one_line_naming_the_flag() {
     let dir = common::tmp("rb-settings", "seconds");
@@ -207,6 +208,17 @@ fn seconds_and_friction_out_of_range_are_one_line_naming_the_flag() {
                 "2e9",
             ],
             "--checkpoint-interval: must be a number of seconds >= 0 and at most 1e9 (got 2000000000)",
+        ),
+        (
+            vec![
+                "run",
+                scene,
+                "--checkpoint",
+                checkpoint,
+                "--stop-after-step",
+                "0",
+            ],
+            "--stop-after-step: steps are counted from 1 (got 0)",
         ),
         (
             vec!["stress", "--quick", "--timeout", "1e300"],

@@ -147,6 +147,9 @@ pub fn run(a: RunArgs) -> Result<()> {
                     e.name()
                 );
             }
+            if a.stop_after_step == Some(0) {
+                anyhow::bail!("--stop-after-step: steps are counted from 1 (got 0)");
+            }
             let checkpointing = Checkpointing {
                 path: path.clone(),
                 interval: super::seconds("--checkpoint-interval", a.checkpoint_interval, true)?,

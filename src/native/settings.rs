@@ -190,6 +190,10 @@ pub struct NativeSettings {
     pub sleep: bool,
 }
 
+/// The largest `rest_velocity`: a block moving faster is not still (a block released tilted was
+/// declared at rest, and frozen, with a threshold of 1e300 m/s).
+pub const MAX_REST_VELOCITY: f64 = 1e-3;
+
 fn d_rest_velocity() -> f64 {
     1e-9
 }
@@ -232,27 +236,37 @@ impl Default for NativeSettings {
 impl NativeSettings {
     pub fn validate(&self, file: &str) -> Result<(), SceneError> {
         let e = |f: &str, m: String| Err(SceneError::new(file, format!("native.{f}"), m));
+        let num = crate::scene::num;
         if !self.theta.is_finite() || !(0.5..=1.0).contains(&self.theta) {
-            return e("theta", format!("must be in [0.5, 1] (got {})", self.theta));
+            return e(
+                "theta",
+                format!("must be in [0.5, 1] (got {})", num(self.theta)),
+            );
         }
         if !self.dt.is_finite() || self.dt <= 0.0 {
             return e(
                 "dt",
-                format!("must be a positive number of seconds (got {})", self.dt),
+                format!(
+                    "must be a positive number of seconds (got {})",
+                    num(self.dt)
+                ),
             );
         }
         if !self.tolerance.is_finite() || self.tolerance <= 0.0 || self.tolerance >= 1e-2 {
             return e(
                 "tolerance",
-                format!("must be in (0, 1e-2) (got {})", self.tolerance),
+                format!("must be in (0, 1e-2) (got {})", num(self.tolerance)),
             );
         }
-        if !self.rest_velocity.is_finite() || self.rest_velocity <= 0.0 {
+        if !self.rest_velocity.is_finite()
+            || self.rest_velocity <= 0.0
+            || self.rest_velocity > MAX_REST_VELOCITY
+        {
             return e(
                 "rest_velocity",
                 format!(
-                    "must be a positive speed in m/s (got {})",
-                    self.rest_velocity
+                    "must be a positive speed of at most {MAX_REST_VELOCITY:e} m/s (a block moving faster is not still) (got {})",
+                    num(self.rest_velocity)
                 ),
             );
         }
@@ -261,7 +275,7 @@ impl NativeSettings {
                 "locate_speed",
                 format!(
                     "must be a speed in m/s, zero or more (got {})",
-                    self.locate_speed
+                    num(self.locate_speed)
                 ),
             );
         }
@@ -277,7 +291,10 @@ impl NativeSettings {
         if !self.contact_reach.is_finite() || self.contact_reach <= 0.0 {
             return e(
                 "contact_reach",
-                format!("must be a positive fraction (got {})", self.contact_reach),
+                format!(
+                    "must be a positive fraction (got {})",
+                    num(self.contact_reach)
+                ),
             );
         }
         Ok(())
