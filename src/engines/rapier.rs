@@ -363,8 +363,9 @@ impl RapierSim {
                 return Err(EngineError::Failed {
                     engine: "rapier",
                     message: format!(
-                        "block `{}` reached rapier's speed limit rapier.max_linear_velocity = {cap} m/s at t = {t1:.6} s; rapier would clamp its motion",
-                        self.names[i]
+                        "block `{}` reached rapier's speed limit rapier.max_linear_velocity = {} m/s at t = {t1:.6} s; rapier would clamp its motion",
+                        self.names[i],
+                        crate::scene::num(cap)
                     ),
                 });
             }

@@ -67,6 +67,11 @@ fn d_stabilization() -> u32 {
 fn d_frequency() -> f64 {
     240.0
 }
+/// The smallest positive contact damping ratio rapier's soft contact takes.
+pub const MIN_DAMPING_RATIO: f64 = 1e-12;
+/// The largest contact damping ratio rapier's soft contact takes.
+pub const MAX_DAMPING_RATIO: f64 = 1e12;
+
 fn d_damping_ratio() -> f64 {
     10.0
 }
@@ -284,6 +289,20 @@ impl RapierSettings {
             }
             Ok(())
         };
+        // Rapier's soft contact turns a ratio below 1e-12 or above 1e12 (but 0) into a NaN
+        // state (measured at 1e-300 and 1e300 on housner-slender; 1e-100 and 1e30 run).
+        let damping_ratio = |f: &str, v: f64| {
+            if !(v == 0.0 || (MIN_DAMPING_RATIO..=MAX_DAMPING_RATIO).contains(&v)) {
+                return e(
+                    f,
+                    format!(
+                        "must be 0 or from {MIN_DAMPING_RATIO:e} to {MAX_DAMPING_RATIO:e} (got {})",
+                        crate::scene::num(v)
+                    ),
+                );
+            }
+            Ok(())
+        };
         positive("dt", self.dt, " of seconds")?;
         if self.dt > 0.1 {
             return e(
@@ -318,16 +337,15 @@ impl RapierSettings {
             );
         }
         positive("contact_frequency", self.contact_frequency, " of Hz")?;
-        non_negative("contact_damping_ratio", self.contact_damping_ratio, "")?;
+        damping_ratio("contact_damping_ratio", self.contact_damping_ratio)?;
         positive(
             "static_contact_frequency",
             self.static_contact_frequency,
             " of Hz",
         )?;
-        non_negative(
+        damping_ratio(
             "static_contact_damping_ratio",
             self.static_contact_damping_ratio,
-            "",
         )?;
         non_negative(
             "prediction_distance",
@@ -392,6 +410,22 @@ mod tests {
             |s| s.static_contact_damping_ratio = -1.0,
             "static_contact_damping_ratio",
         );
+        // Ratios that made rapier's state NaN; 0 and the bounds themselves are taken.
+        bad(
+            |s| s.contact_damping_ratio = 1e-300,
+            "contact_damping_ratio",
+        );
+        bad(
+            |s| s.static_contact_damping_ratio = 1e300,
+            "static_contact_damping_ratio",
+        );
+        for ratio in [0.0, MIN_DAMPING_RATIO, MAX_DAMPING_RATIO] {
+            let s = RapierSettings {
+                contact_damping_ratio: ratio,
+                ..RapierSettings::default()
+            };
+            assert!(s.validate("s.toml").is_ok(), "{ratio}");
+        }
         bad(|s| s.prediction_distance = -1e-3, "prediction_distance");
         bad(|s| s.restitution = 1.5, "restitution");
         bad(|s| s.warmstart_coefficient = 2.0, "warmstart_coefficient");
