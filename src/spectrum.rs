@@ -403,7 +403,8 @@ impl<'a> Spectrum<'a> {
         let Some(lowest) = ratios.copied().reduce(f64::min) else {
             return Ok(());
         };
-        let scene = self.scene(lowest, 1.0);
+        // No amplitude: the run's length is the subject here ([`check_largest_amplitude`]).
+        let scene = self.scene(lowest, 0.0);
         crate::engines::registry::check(&scene).map_err(|e| {
             format!(
                 "--tail {}: the longest run, {} at omega_p/p = {}, lasts {:e} s (the pulse, then --tail / p with p = {:e} 1/s), too long: {}: {}",
@@ -954,6 +955,31 @@ fn native_version() -> String {
     )
 }
 
+/// The largest amplitude a spectrum may run (the scan's highest, `--scan-to` or one factor above
+/// `--scan-from`, and the map's) as a ground acceleration `a_p = A g tan(alpha)`: at most a
+/// scene's [`crate::scene::MAX_PEAK_G`].
+fn check_largest_amplitude(base: &Scene, req: &Request) -> Result<(), String> {
+    let st = &req.settings;
+    let largest = req.map_amplitudes.iter().copied().fold(
+        st.scan_to.max(st.scan_from * (1.0 + st.scan_step)),
+        f64::max,
+    );
+    let (_, alpha) = p_alpha(base);
+    let unit = base.gravity * alpha.tan();
+    let limit = crate::scene::MAX_PEAK_G * crate::excitation::records::STANDARD_GRAVITY;
+    if largest * unit > limit {
+        return Err(format!(
+            "the largest amplitude scanned or mapped, {} g tan(alpha), is a ground acceleration of {} m/s^2 (g tan(alpha) = {} m/s^2), above {} g ({} m/s^2): lower --scan-to or --amplitudes",
+            num(largest),
+            num(largest * unit),
+            num(unit),
+            crate::scene::MAX_PEAK_G,
+            num(limit)
+        ));
+    }
+    Ok(())
+}
+
 /// Run a whole spectrum; `progress` gets one line per minimum and per map row.
 pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<Results, String> {
     req.settings.check()?;
@@ -969,6 +995,16 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
         from_store: 0,
     };
     req.check_lists()?;
+    // The strongest pulse and every engine's longest run under every pulse are checked before
+    // any run.
+    check_largest_amplitude(base, req)?;
+    for name in &req.engines {
+        let eng = engine(name)?;
+        for &pulse in &req.pulses {
+            Spectrum::new(base, eng.as_ref(), pulse, &req.settings)
+                .check_longest_run(req.ratios.iter().chain(&req.map_ratios))?;
+        }
+    }
     for name in &req.engines {
         let eng = engine(name)?;
         let fail = |e: EngineError| format!("{name}: {e}");
@@ -979,7 +1015,6 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
         for &pulse in &req.pulses {
             let sp = Spectrum::new(base, eng.as_ref(), pulse, &req.settings)
                 .with_store(req.store.as_deref());
-            sp.check_longest_run(req.ratios.iter().chain(&req.map_ratios))?;
             let stored = |since: usize| match sp.from_store.get() - since {
                 0 => String::new(),
                 n => format!(", {n} from the store"),

@@ -357,6 +357,22 @@ fn spectrum_bad_input_one_line_errors() {
             vec!["0.2x4", "--amplitudes", "1,2,1"],
             "--amplitudes: 1 is given twice",
         ),
+        // A block so stocky that the scan's amplitudes are thousands of g (it printed a note,
+        // then blamed --tail), and a similarity block without a finite inertia.
+        (
+            vec![
+                "4294967297x1",
+                "--engines",
+                "housner",
+                "--amplitudes",
+                "none",
+            ],
+            "the largest amplitude scanned or mapped, 100 g tan(alpha), is a ground acceleration of 4.2133618093001963e12 m/s^2",
+        ),
+        (
+            vec!["0.2x4", "--amplitudes", "none", "--similarity", "1e300x1"],
+            "--similarity 1e300x1: block: blocks[0]: mass 2.5000000000000002e303 kg/m",
+        ),
         // Below it the Housner model's angles underflow: no minimum was found, exit 0.
         (
             vec!["1e-200x1", "--engines", "housner", "--amplitudes", "none"],

@@ -148,7 +148,8 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
                 ));
             }
             Some((
-                spectrum::block_scene(b, h, a.friction, &a.set).map_err(|e| anyhow!(e))?,
+                spectrum::block_scene(b, h, a.friction, &a.set)
+                    .map_err(|e| anyhow!("--similarity {bh}: {e}"))?,
                 at[0],
                 at[1],
             ))
