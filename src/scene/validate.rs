@@ -360,7 +360,7 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
         ] {
             if let Some(crate::excitation::Component::AccelerationRecord { a, .. }) = c {
                 let peak = a.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-                if !(peak <= limit) {
+                if peak.is_nan() || peak > limit {
                     return err(
                         format!("excitation.{comp}.scale"),
                         format!(
