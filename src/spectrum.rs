@@ -218,7 +218,7 @@ impl Settings {
             if x.is_finite() && x > 0.0 {
                 Ok(())
             } else {
-                Err(format!("{name} must be a positive number (got {x})"))
+                Err(format!("{name} must be a positive number (got {})", num(x)))
             }
         };
         pos("--tail", self.tail)?;
@@ -864,7 +864,7 @@ pub fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
         return Err(format!("{what}: empty list"));
     }
     if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
-        return Err(format!("{what} must be finite and > 0 (got {x})"));
+        return Err(format!("{what} must be finite and > 0 (got {})", num(*x)));
     }
     Ok(v)
 }

@@ -420,21 +420,32 @@ pub fn housner_step(blk: &HousnerBlock, hs: &HousnerSettings) -> f64 {
 /// A note when friction `mu` lets the block slide where the Housner model, which has no
 /// sliding, rocks it ([`HousnerBlock::friction_to_rock`]).
 pub fn sliding_note(blk: &HousnerBlock, mu: f64) -> Option<String> {
+    // Three decimals, or scientific notation where they would say nothing or too much.
+    let short = |x: f64| {
+        if (1e-3..1e6).contains(&x) {
+            format!("{x:.3}")
+        } else {
+            format!("{x:.3e}")
+        }
+    };
     let (to_start, at_impact) = blk.friction_to_rock();
     let mut why = Vec::new();
     if mu < to_start {
         why.push(format!(
-            "B/H = {to_start:.3} for the block to rock before it slides"
+            "B/H = {} for the block to rock before it slides",
+            short(to_start)
         ));
     }
     if mu < at_impact {
         why.push(format!(
-            "{at_impact:.3} for the pivot not to slip at impact"
+            "{} for the pivot not to slip at impact",
+            short(at_impact)
         ));
     }
     (!why.is_empty()).then(|| {
         format!(
-            "friction {mu} is below {}; the Housner model ignores sliding",
+            "friction {} is below {}; the Housner model ignores sliding",
+            crate::scene::num(mu),
             why.join(" and ")
         )
     })

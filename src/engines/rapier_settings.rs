@@ -368,13 +368,19 @@ impl RapierSettings {
         {
             return e(
                 "warmstart_coefficient",
-                format!("must be in [0, 1] (got {})", self.warmstart_coefficient),
+                format!(
+                    "must be in [0, 1] (got {})",
+                    crate::scene::num(self.warmstart_coefficient)
+                ),
             );
         }
         if !self.restitution.is_finite() || !(0.0..=1.0).contains(&self.restitution) {
             return e(
                 "restitution",
-                format!("must be in [0, 1] (got {})", self.restitution),
+                format!(
+                    "must be in [0, 1] (got {})",
+                    crate::scene::num(self.restitution)
+                ),
             );
         }
         non_negative("min_friction", self.min_friction, "")?;

@@ -216,7 +216,10 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
         if !(g.tolerance.is_finite() && g.tolerance >= 0.0) {
             return Err(err(
                 at("tolerance"),
-                format!("must be a finite number >= 0 (got {})", g.tolerance),
+                format!(
+                    "must be a finite number >= 0 (got {})",
+                    crate::scene::num(g.tolerance)
+                ),
             ));
         }
         if let Some(t) = g.target
