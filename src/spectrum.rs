@@ -208,6 +208,9 @@ impl Default for Settings {
     }
 }
 
+/// The tail beyond `ln(1 / tolerance)`, in units of 1/p, that a spectrum's runs must have.
+const TAIL_MARGIN: f64 = 3.0;
+
 /// The amplitude below which the downward scan stops: a minimum under it is reported as 0.
 const SCAN_FLOOR: f64 = 1e-3;
 
@@ -251,7 +254,22 @@ impl Settings {
         if self.tolerance >= self.scan_step {
             return Err(format!(
                 "--tolerance {} must be below --scan-step {}",
-                self.tolerance, self.scan_step
+                num(self.tolerance),
+                num(self.scan_step)
+            ));
+        }
+        // A run within the tolerance of the boundary leaves the unstable equilibrium as
+        // exp(p t): it overturns some ln(1 / tolerance) / p after the pulse, and a shorter run
+        // calls it safe (a half-sine minimum at omega_p / p = 2 came out 1.80270 at --tail 3
+        // and 1.87881 at 1, against 1.80129 from 5 to 30).
+        let shortest = (1.0 / self.tolerance).ln() + TAIL_MARGIN;
+        if self.tail < shortest {
+            return Err(format!(
+                "--tail {}: runs within --tolerance {} of the boundary take some ln(1 / tolerance) = {:.1} / p to overturn after the pulse; the tail must be at least {:.1} (in units of 1/p)",
+                num(self.tail),
+                num(self.tolerance),
+                (1.0 / self.tolerance).ln(),
+                shortest
             ));
         }
         Ok(())

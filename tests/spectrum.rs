@@ -373,6 +373,11 @@ fn spectrum_bad_input_one_line_errors() {
             vec!["0.2x4", "--amplitudes", "none", "--similarity", "1e300x1"],
             "--similarity 1e300x1: block: blocks[0]: mass 2.5000000000000002e303 kg/m",
         ),
+        // Runs cut before a block near the boundary can overturn: a wrong minimum, exit 0.
+        (
+            vec!["0.2x4", "--tail", "5"],
+            "--tail 5: runs within --tolerance 0.0001 of the boundary take some ln(1 / tolerance) = 9.2 / p to overturn after the pulse; the tail must be at least 12.2",
+        ),
         // Below it the Housner model's angles underflow: no minimum was found, exit 0.
         (
             vec!["1e-200x1", "--engines", "housner", "--amplitudes", "none"],
