@@ -585,7 +585,9 @@ omega = OMEGA
     }
 
     /// A state that becomes infinite, and a block that reaches rapier's speed limit (where
-    /// rapier would silently clamp the motion), end the run with an error naming the block.
+    /// rapier would silently clamp the motion), end the run with an error naming the block. A
+    /// scene file cannot ask for the first (a record scaled beyond 1000 g is refused at load), so
+    /// its scale is set on the loaded scene.
     #[test]
     fn runaway_states_are_errors() {
         let rec = ("acc.csv", "t,a\n0,0\n0.1,1\n0.2,0\n".to_string());
@@ -594,15 +596,36 @@ omega = OMEGA
                 "name = \"runaway\"\nduration = 0.5\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[excitation]\nhorizontal = {{ kind = \"record\", file = \"acc.csv\", scale = {scale} }}\n"
             )
         };
-        for (k, (scale, want)) in [("1e305", "NaN or infinite"), ("1e4", "max_linear_velocity")]
-            .iter()
-            .enumerate()
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("rapier-runaway-refused");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("acc.csv"), &rec.1).unwrap();
+        std::fs::write(dir.join("scene.toml"), text("1e305")).unwrap();
+        let refused = load_scene(&dir.join("scene.toml")).unwrap_err().to_string();
+        assert!(
+            refused.contains("excitation.horizontal.scale") && refused.contains("1000 g"),
+            "{refused}"
+        );
+        // 9000 m/s^2 for 0.1 s: some 900 m/s, beyond rapier's 400.
+        for (k, (scale, set, want)) in [
+            ("1", Some(1e305), "NaN or infinite"),
+            ("9000", None, "max_linear_velocity"),
+        ]
+        .iter()
+        .enumerate()
         {
-            let scene = temp_scene(
+            let mut scene = temp_scene(
                 &format!("runaway{k}"),
                 &text(scale),
                 std::slice::from_ref(&rec),
             );
+            if let Some(big) = set
+                && let Some(rockbench::scene::MotionSpec::Record { scale, .. }) = scene
+                    .excitation
+                    .as_mut()
+                    .and_then(|e| e.horizontal.as_mut())
+            {
+                *scale = *big;
+            }
             let e = engine_by_name("rapier").unwrap();
             let err = run_timed(e.as_ref(), &scene).expect_err("the run must fail");
             let msg = err.to_string();
