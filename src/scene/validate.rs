@@ -298,15 +298,8 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
         // A pulse acts from its `start` on: one that starts before the run would be cut (the
         // ground's motion before 0 s missing), one that starts after it would never act.
         for (comp, m) in [("horizontal", &exc.horizontal), ("vertical", &exc.vertical)] {
-            let start = match m {
-                Some(
-                    MotionSpec::HalfSine { start, .. }
-                    | MotionSpec::OneSine { start, .. }
-                    | MotionSpec::OneCosine { start, .. }
-                    | MotionSpec::Ricker { start, .. }
-                    | MotionSpec::Rectangular { start, .. },
-                ) => *start,
-                _ => continue,
+            let Some((_, start)) = m.as_ref().and_then(pulse_amplitude_and_start) else {
+                continue;
             };
             let field = format!("excitation.{comp}.start");
             if start < 0.0 {
@@ -330,15 +323,8 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
         // exponent): engines would clamp or overflow it.
         let limit = MAX_PEAK_G * crate::excitation::records::STANDARD_GRAVITY;
         for (comp, m) in [("horizontal", &exc.horizontal), ("vertical", &exc.vertical)] {
-            let amplitude = match m {
-                Some(
-                    MotionSpec::HalfSine { amplitude, .. }
-                    | MotionSpec::OneSine { amplitude, .. }
-                    | MotionSpec::OneCosine { amplitude, .. }
-                    | MotionSpec::Ricker { amplitude, .. }
-                    | MotionSpec::Rectangular { amplitude, .. },
-                ) => *amplitude,
-                _ => continue,
+            let Some((amplitude, _)) = m.as_ref().and_then(pulse_amplitude_and_start) else {
+                continue;
             };
             if amplitude.abs() > limit {
                 return err(
@@ -397,6 +383,28 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
         None => check_samples(scene)?,
     }
     Ok(())
+}
+
+/// A pulse's amplitude (m/s^2) and start (s); `None` for a record.
+fn pulse_amplitude_and_start(m: &MotionSpec) -> Option<(f64, f64)> {
+    match m {
+        MotionSpec::HalfSine {
+            amplitude, start, ..
+        }
+        | MotionSpec::OneSine {
+            amplitude, start, ..
+        }
+        | MotionSpec::OneCosine {
+            amplitude, start, ..
+        }
+        | MotionSpec::Ricker {
+            amplitude, start, ..
+        }
+        | MotionSpec::Rectangular {
+            amplitude, start, ..
+        } => Some((*amplitude, *start)),
+        MotionSpec::Record { .. } | MotionSpec::Displacement { .. } => None,
+    }
 }
 
 /// A number as written in messages: plain when short, otherwise in scientific notation
