@@ -775,8 +775,9 @@ impl StoredCell {
 }
 
 /// [`run_cell`] through the run store `dir`: the cell's run read back when the store has it (and
-/// `true`), else made, and kept when it is the run's own answer ([`measure`]). A run that cannot
-/// be kept is an error (a map that cannot resume is not run).
+/// `true`), else made, and kept when it is the run's own answer (a finished run, one the engine
+/// refused, or an engine's error; not a timeout or a panic). A run that cannot be kept is an
+/// error (a map that cannot resume is not run).
 pub fn run_cell_stored(
     engine: &str,
     cell: &Cell,
