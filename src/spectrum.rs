@@ -343,7 +343,7 @@ pub struct Spectrum<'a> {
     pub p: f64,
     pub alpha: f64,
     /// Engine settings and version of the last run.
-    pub engine_settings: std::cell::RefCell<Option<(serde_json::Value, String)>>,
+    pub engine_settings: std::cell::RefCell<Option<EngineReport>>,
     /// The run store ([`crate::run_store`]) the runs are read from and kept in, if any.
     pub store: Option<&'a Path>,
     /// Runs read from the store.
@@ -358,8 +358,11 @@ const STORE_FORMAT: u32 = 1;
 #[derive(Serialize, Deserialize)]
 struct StoredRun {
     outcome: Outcome,
-    engine_settings: Option<(serde_json::Value, String)>,
+    engine_settings: Option<EngineReport>,
 }
+
+/// An engine's settings and version, as a run reports them.
+pub type EngineReport = (serde_json::Value, String);
 
 impl<'a> Spectrum<'a> {
     pub fn new(
@@ -440,61 +443,70 @@ impl<'a> Spectrum<'a> {
     /// Run at (ratio, amplitude) and decide.
     pub fn run(&self, ratio: f64, amplitude: f64) -> Result<Outcome, EngineError> {
         let scene = self.scene(ratio, amplitude);
-        let Some(dir) = self.store else {
-            return self.simulate(&scene, amplitude);
-        };
-        let key = crate::run_store::key(
-            self.engine.name(),
-            serde_json::json!({
-                "kind": "spectrum-run",
-                "format": STORE_FORMAT,
-                "scene": scene.to_json(),
-                "early_stop": self.settings.early_stop,
-            }),
-        );
-        if let Some(stored) = crate::run_store::load::<StoredRun>(dir, &key) {
-            self.from_store.set(self.from_store.get() + 1);
-            if stored.engine_settings.is_some() {
-                *self.engine_settings.borrow_mut() = stored.engine_settings;
+        let key = self.store.map(|dir| {
+            let key = crate::run_store::key(
+                self.engine.name(),
+                serde_json::json!({
+                    "kind": "spectrum-run",
+                    "format": STORE_FORMAT,
+                    "scene": scene.to_json(),
+                    "early_stop": self.settings.early_stop,
+                }),
+            );
+            (dir, key)
+        });
+        let stored = key
+            .as_ref()
+            .and_then(|(dir, key)| crate::run_store::load::<StoredRun>(dir, key));
+        let run = match stored {
+            Some(stored) => {
+                self.from_store.set(self.from_store.get() + 1);
+                stored
             }
-            return Ok(stored.outcome);
-        }
-        // The settings this run reports, if it reports any (the last run's are kept otherwise).
-        let before = self.engine_settings.take();
-        let outcome = self.simulate(&scene, amplitude);
-        let reported = self.engine_settings.borrow().clone();
-        if reported.is_none() {
-            *self.engine_settings.borrow_mut() = before;
-        }
-        let stored = StoredRun {
-            outcome: outcome?,
-            engine_settings: reported,
+            None => {
+                let (outcome, engine_settings) = self.simulate(&scene, amplitude)?;
+                let run = StoredRun {
+                    outcome,
+                    engine_settings,
+                };
+                if let Some((dir, key)) = &key {
+                    crate::run_store::store(dir, key, &run)
+                        .map_err(|e| EngineError::Io(format!("the run store: {e}")))?;
+                }
+                run
+            }
         };
-        crate::run_store::store(dir, &key, &stored)
-            .map_err(|e| EngineError::Io(format!("the run store: {e}")))?;
-        Ok(stored.outcome)
+        // The last run that reports its engine's settings and version sets them.
+        if run.engine_settings.is_some() {
+            *self.engine_settings.borrow_mut() = run.engine_settings;
+        }
+        Ok(run.outcome)
     }
 
-    /// One run made (not read from the store).
-    fn simulate(&self, scene: &Scene, amplitude: f64) -> Result<Outcome, EngineError> {
-        let scene = scene.clone();
+    /// One run made (not read from the store): its outcome, and its engine's settings and
+    /// version where the engine reports them (not the early-stopped native and Housner runs).
+    fn simulate(
+        &self,
+        scene: &Scene,
+        amplitude: f64,
+    ) -> Result<(Outcome, Option<EngineReport>), EngineError> {
+        let mut reported = None;
         let early = self.settings.early_stop;
         let (tr, exact, stop) = if self.engine.name() == "native" && early {
-            let (tr, stop) = native_early_stop(&scene)?;
+            let (tr, stop) = native_early_stop(scene)?;
             (tr, None, stop)
         } else if self.engine.name() == "housner" && early && scene.blocks.len() == 1 {
-            let (tr, impacts, stop) = housner_early_stop(&scene)?;
+            let (tr, impacts, stop) = housner_early_stop(scene)?;
             (tr, Some(vec![impacts]), stop)
         } else {
-            let out = self.engine.run(&scene)?;
+            let out = self.engine.run(scene)?;
             if !out.trajectory.is_finite() {
                 return Err(EngineError::Failed {
                     engine: self.engine.name(),
                     message: "the trajectory contains NaN or infinity".into(),
                 });
             }
-            *self.engine_settings.borrow_mut() =
-                Some((out.settings.clone(), out.engine_version.clone()));
+            reported = Some((out.settings.clone(), out.engine_version.clone()));
             (out.trajectory, out.exact_impacts, Stop::End)
         };
         let layout = scene.layout();
@@ -532,14 +544,15 @@ impl<'a> Spectrum<'a> {
                 first = Some((t_over, clean));
             }
         }
-        Ok(Outcome {
+        let outcome = Outcome {
             amplitude,
             overturned: first.is_some(),
             without_impact: first.is_some_and(|(_, c)| c),
             p_t_overturn: first.map(|(t, _)| t * self.p),
             stop,
             p_t_end: tr.t.last().copied().unwrap_or(0.0) * self.p,
-        })
+        };
+        Ok((outcome, reported))
     }
 
     /// Lowest amplitude at `ratio` for which `pred` holds (see the module docs): the bracket
