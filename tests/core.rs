@@ -331,6 +331,30 @@ fn housner_takes_an_initial_rotation_rate_and_refuses_a_sliding_one() {
     assert!(e.contains("does not slide; initial vx must be 0"), "{e}");
 }
 
+/// A block placed by its absolute `x` is reported there by the Housner engine, as by the
+/// native one (it was reported at the origin).
+#[test]
+fn housner_reports_a_block_placed_by_x_where_it_is() {
+    let text = "name = \"placed\"\nduration = 0.5\n[[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1.0\nx = 5.0\n[initial]\ntilt = 0.1\n";
+    let s = rockbench::scene::parse_scene_str(text, false, "placed", &[]).unwrap();
+    let (h, _) = run("housner", &s);
+    let (n, _) = run("native", &s);
+    let (xh, xn) = (&h.trajectory.blocks[0].x, &n.trajectory.blocks[0].x);
+    assert!(
+        (xh[0] - xn[0]).abs() < 1e-12 && (xh[0] - 4.95).abs() < 0.01,
+        "{} {}",
+        xh[0],
+        xn[0]
+    );
+    let last = |x: &Vec<f64>| *x.last().unwrap();
+    assert!(
+        (last(xh) - last(xn)).abs() < 1e-4,
+        "{} {}",
+        last(xh),
+        last(xn)
+    );
+}
+
 /// The tests' scratch directories (`common::tmp`) are removed when their test ends, and kept
 /// for inspection when it panics.
 #[test]

@@ -314,7 +314,15 @@ def distribute(
 # The API.
 
 
+# The longest wait for a Dask scheduler, s (a longer one is a slip: it waited for ever).
+MAX_TIMEOUT = 3600.0
+
+
 def _paths(study: PathLike, cache: PathLike | None) -> tuple[Path, Path]:
+    if str(study) == "":
+        raise ValueError("study: an empty path")
+    if cache is not None and str(cache) == "":
+        raise ValueError("cache: an empty path (it would be the working directory)")
     path = Path(study).resolve()
     cache_dir = Path(cache).resolve() if cache is not None else Path(fragility_cache_dir(path))
     return path, cache_dir
@@ -480,6 +488,9 @@ def main(argv: list[str] | None = None) -> int:
         a.runs_per_task is not None and a.runs_per_task < 1
     ):
         print("--task-seconds must be positive and --runs-per-task at least 1", file=sys.stderr)
+        return 2
+    if not (math.isfinite(a.timeout) and 0 < a.timeout <= MAX_TIMEOUT):
+        print(f"--timeout: seconds to wait for the scheduler, above 0 and at most {MAX_TIMEOUT:g} (got {a.timeout:g})", file=sys.stderr)
         return 2
     try:
         fragility_run_specs(a.study)  # read and check everything before connecting or running

@@ -515,7 +515,8 @@ impl Engine for HousnerEngine {
         );
         let mut tr = Trajectory::new(std::slice::from_ref(&b.name));
         for (t, mut s) in run.trajectory {
-            s[0] += b.offset;
+            // The centre's place on the ground: `x` where the scene gives it, else `offset`.
+            s[0] += b.x.unwrap_or(b.offset);
             tr.push(t, &[s]);
         }
         let impacts: Vec<f64> = run

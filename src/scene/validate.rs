@@ -68,6 +68,15 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
         positive(&f("width"), b.width)?;
         positive(&f("height"), b.height)?;
         positive(&f("density"), b.density)?;
+        if !(MIN_DENSITY..=MAX_DENSITY).contains(&b.density) {
+            return err(
+                f("density"),
+                format!(
+                    "{} kg/m^3 is outside {MIN_DENSITY:e} to {MAX_DENSITY:e} (rapier and PyBullet froze blocks of 1e20 and 1e-300)",
+                    num(b.density)
+                ),
+            );
+        }
         if !(b.mass().is_finite() && b.mass() > 0.0 && b.inertia().is_finite() && b.inertia() > 0.0)
         {
             return err(
@@ -81,6 +90,19 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
             );
         }
         finite(&f("offset"), b.offset)?;
+        // Far from the origin a position keeps too few digits for a block's motion (a block at
+        // x = 1e15 m rocked to another answer, and rapier's not at all).
+        for (k, v) in [("offset", b.offset), ("x", b.x.unwrap_or(0.0))] {
+            if v.abs() > MAX_POSITION {
+                return err(
+                    f(k),
+                    format!(
+                        "{} m is farther than {MAX_POSITION:e} m from the origin: positions there keep too few digits for a block's motion",
+                        num(v)
+                    ),
+                );
+            }
+        }
         if let Some(x) = b.x {
             finite(&f("x"), x)?;
             if b.offset != 0.0 {
@@ -204,7 +226,9 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                     format!("blocks[{i}].offset"),
                     format!(
                         "block `{}` does not rest on block `{}` (offset {} leaves no overlap)",
-                        b.name, below.name, b.offset
+                        b.name,
+                        below.name,
+                        num(b.offset)
                     ),
                 );
             }
@@ -430,6 +454,14 @@ pub const MAX_PEAK_G: f64 = 1000.0;
 /// The fastest initial motion a block may be given, m/s: a sliding speed, or a rotation rate
 /// times the block's diagonal (its rim speed about its pivot).
 pub const MAX_INITIAL_SPEED: f64 = 100.0;
+
+/// The lightest and heaviest block material a scene may give, kg/m^3 (the stress map's stacks
+/// reach 2.5e6).
+pub const MIN_DENSITY: f64 = 1e-3;
+/// See [`MIN_DENSITY`].
+pub const MAX_DENSITY: f64 = 1e7;
+/// The farthest from the origin a block may be placed, m.
+pub const MAX_POSITION: f64 = 1e4;
 
 /// Most time steps a run may take (duration / dt): beyond this a scene is almost surely a
 /// unit slip (ms for s) and would run for days.

@@ -279,6 +279,19 @@ def test_the_command_rejects_bad_input_in_one_line(study: Path, tmp_path: Path) 
         )
         assert r.returncode == 2 and r.stderr.startswith("--task-seconds must be positive"), r.stderr
         assert not (tmp_path / "o").exists()
+    # A wait of 1e300 s for an unreachable scheduler hung; NaN was Dask's 400-character KeyError.
+    for timeout in ["1e300", "nan", "0"]:
+        r = subprocess.run(
+            [sys.executable, "-m", "rockbench.study", str(study), "--scheduler", "tcp://127.0.0.1:9", "--timeout", timeout, "--out", str(tmp_path / "o")],
+            capture_output=True, text=True, timeout=60,
+        )
+        assert r.returncode == 2 and r.stderr.startswith("--timeout: seconds to wait for the scheduler"), r.stderr
+        assert r.stderr.count("\n") == 1 and not (tmp_path / "o").exists()
+    # An empty cache path would have been the working directory.
+    with pytest.raises(ValueError, match="cache: an empty path"):
+        rockbench.fragility(study, cache="")
+    with pytest.raises(ValueError, match="study: an empty path"):
+        rockbench.fragility("")
 
 
 def test_mujoco_and_pybullet_runs_in_the_workers_python_equal_the_worker_process_runs(
