@@ -391,7 +391,7 @@ def _is_study(x: Any) -> bool:
     try:
         with open(x, "rb") as f:
             return "suite" in tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError):
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
         return False
 
 
@@ -448,6 +448,11 @@ def run_many(
     else:
         scenes = list(scenes_or_study)
     check_engine_names("run_many: engines", list(engines))
+    for k, s in enumerate(scenes):
+        if not isinstance(s, (str, os.PathLike, dict, Scene)):
+            raise TypeError(
+                f"run_many: scenes[{k}] is a {type(s).__name__}; a scene is a path, a dict or a Scene"
+            )
     items = [
         (s.to_dict() if isinstance(s, Scene) else (os.fspath(s) if isinstance(s, os.PathLike) else s), e)
         for s in scenes

@@ -368,6 +368,24 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
             ("horizontal", &motion.horizontal),
             ("vertical", &motion.vertical),
         ] {
+            // A displacement record's acceleration is impulses at its samples: its velocity
+            // steps are what it imposes (1e8 m/s made a solver fail, not a field named).
+            if let Some(crate::excitation::Component::DisplacementRecord { t, d }) = c {
+                let peak = t
+                    .windows(2)
+                    .zip(d.windows(2))
+                    .map(|(t, d)| ((d[1] - d[0]) / (t[1] - t[0])).abs())
+                    .fold(0.0_f64, f64::max);
+                if peak.is_nan() || peak > MAX_GROUND_VELOCITY {
+                    return err(
+                        format!("excitation.{comp}.scale"),
+                        format!(
+                            "the scaled displacement record moves the ground at up to {} m/s, above {MAX_GROUND_VELOCITY} m/s: the strongest recorded ground velocities are a few m/s",
+                            num(peak)
+                        ),
+                    );
+                }
+            }
             if let Some(crate::excitation::Component::AccelerationRecord { a, .. }) = c {
                 let peak = a.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
                 if peak.is_nan() || peak > limit {
@@ -462,6 +480,9 @@ pub const MIN_DENSITY: f64 = 1e-3;
 pub const MAX_DENSITY: f64 = 1e7;
 /// The farthest from the origin a block may be placed, m.
 pub const MAX_POSITION: f64 = 1e4;
+
+/// The fastest ground a displacement record may move, m/s.
+pub const MAX_GROUND_VELOCITY: f64 = 10.0;
 
 /// Most time steps a run may take (duration / dt): beyond this a scene is almost surely a
 /// unit slip (ms for s) and would run for days.
