@@ -390,3 +390,17 @@ def test_run_many_refuses_no_engine_and_unknown_engines_before_any_run() -> None
         rockbench.run_many([_block_dict()], engines=[])
     with pytest.raises(ValueError, match="run_many: engines: unknown engine `nope`"):
         rockbench.run_many([_block_dict()], engines=["native", "nope"])
+    # A scene that is none (it was an AttributeError from inside the runs).
+    for bad in (None, 5, b"x"):
+        with pytest.raises(TypeError, match=r"run_many: scenes\[1\] is a \w+; a scene is a path, a dict or a Scene"):
+            rockbench.run_many([_block_dict(), bad])
+
+
+def test_run_many_reports_a_binary_file_as_a_failed_run(tmp_path: Path) -> None:
+    """A `.toml` that is not text is a scene that cannot be read (a failed row), not a study
+    and not a UnicodeDecodeError."""
+    path = tmp_path / "binary.toml"
+    path.write_bytes(b"\x9f\x00\xff garbage")
+    rows = rockbench.run_many(str(path))
+    assert len(rows) == 1 and rows["status"][0].startswith("failed:"), rows
+    assert "cannot read" in rows["status"][0]
