@@ -241,3 +241,33 @@ fn seconds_and_friction_out_of_range_are_one_line_naming_the_flag() {
     }
     assert!(!Path::new(checkpoint).exists());
 }
+
+/// A command line clap cannot parse (an unknown flag, a number that is not one, an unknown
+/// subcommand) is one line on stderr naming what is wrong (and the command's usage where clap
+/// gives it), exit 2, as every other refusal is one line.
+#[test]
+fn a_command_line_that_does_not_parse_is_one_line() {
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &["run", "--dt", "1e-3", "s.toml"],
+            "unexpected argument '--dt'",
+        ),
+        (
+            &["stress", "--quick", "--timeout", "soon"],
+            "invalid value 'soon' for '--timeout",
+        ),
+        (&["bogus"], "unrecognized subcommand 'bogus'"),
+    ];
+    for (args, says) in cases {
+        let o = bin().args(args).current_dir(root()).output().unwrap();
+        let se = String::from_utf8_lossy(&o.stderr).trim().to_string();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {se}");
+        assert_eq!(se.lines().count(), 1, "{args:?}: {se}");
+        assert!(
+            se.starts_with("error: ") && se.contains(says),
+            "{args:?}: {se}"
+        );
+        assert!(se.ends_with("see --help)"), "{args:?}: {se}");
+        assert!(o.stdout.is_empty(), "{args:?}");
+    }
+}

@@ -108,6 +108,16 @@ class FragilityResult:
 
     # The parts of fragility.json the tables read.
     PARTS = ("study", "limit_states", "rows", "fits", "capacities", "differences", "counts")
+    # What each part is: a table (a list of objects) or one object.
+    KINDS: dict[str, type] = {
+        "study": dict,
+        "limit_states": list,
+        "rows": list,
+        "fits": list,
+        "capacities": list,
+        "differences": list,
+        "counts": dict,
+    }
 
     def __init__(self, data: dict[str, Any], distributed: dict[str, Any] | None = None) -> None:
         missing = [k for k in self.PARTS if k not in data] if isinstance(data, dict) else ["all"]
@@ -115,6 +125,19 @@ class FragilityResult:
             raise ValueError(
                 "FragilityResult: not a fragility study's results (fragility.json): "
                 f"missing {', '.join(missing)}"
+            )
+        wrong = [
+            k
+            for k, kind in self.KINDS.items()
+            if not isinstance(data[k], kind)
+            or (kind is list and not all(isinstance(x, dict) for x in data[k]))
+        ]
+        if not wrong and not all(isinstance(ls.get("name"), str) for ls in data["limit_states"]):
+            wrong = ["limit_states (each needs a name)"]
+        if wrong:
+            raise ValueError(
+                "FragilityResult: not a fragility study's results (fragility.json): "
+                f"wrong type of {', '.join(wrong)}"
             )
         self.json = data
         self.distributed = distributed

@@ -153,9 +153,41 @@ pub(crate) fn check_out_dir(out: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
+/// A command line clap refuses, as one line: its message, its tips and the usage of the
+/// command it was parsing (clap's own text spreads these over several lines).
+fn parse_error_line(rendered: &str) -> String {
+    let mut message = String::new();
+    let mut usage = None;
+    for line in rendered.lines().map(str::trim).filter(|l| !l.is_empty()) {
+        if let Some(u) = line.strip_prefix("Usage:") {
+            usage = Some(u.trim().to_string());
+        } else if line.starts_with("For more information") {
+            continue;
+        } else if message.is_empty() {
+            message = line.to_string();
+        } else if message.ends_with(':') {
+            message = format!("{message} {line}");
+        } else {
+            message = format!("{message}; {line}");
+        }
+    }
+    match usage {
+        Some(u) => format!("{message} (usage: {u}; see --help)"),
+        None => format!("{message} (see --help)"),
+    }
+}
+
 /// Parse the command line and run it.
 pub fn main() -> Result<()> {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // `--help` and `--version` print to standard output and succeed.
+        Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) => {
+            eprintln!("{}", parse_error_line(&e.render().to_string()));
+            std::process::exit(e.exit_code());
+        }
+    };
     match cli.command {
         Command::Run(a) => run::run(a),
         Command::Bench(a) => bench::run(a),
@@ -170,5 +202,39 @@ pub fn main() -> Result<()> {
         Command::Animate(a) => animate::animate(a),
         Command::Spectrum(a) => spectrum::run(a),
         Command::Fragility(a) => fragility::run(a),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_command_line_is_one_line_with_its_tip_and_usage() {
+        let e = match Cli::try_parse_from(["rockbench", "run", "--dt", "1e-3", "s.toml"]) {
+            Err(e) => e,
+            Ok(_) => panic!("`run --dt` parsed"),
+        };
+        let line = parse_error_line(&e.render().to_string());
+        assert!(!line.contains('\n'), "{line}");
+        assert!(
+            line.starts_with("error: unexpected argument '--dt' found"),
+            "{line}"
+        );
+        assert!(line.contains("tip: to pass '--dt' as a value"), "{line}");
+        assert!(
+            line.ends_with("(usage: rockbench run [OPTIONS] <SCENE>; see --help)"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn help_is_not_an_error() {
+        let e = match Cli::try_parse_from(["rockbench", "--help"]) {
+            Err(e) => e,
+            Ok(_) => panic!("`--help` ran a command"),
+        };
+        assert!(!e.use_stderr());
+        assert_eq!(e.exit_code(), 0);
     }
 }

@@ -470,6 +470,34 @@ pub fn ida_jobs(study: &Study) -> Vec<(usize, String, String)> {
     out
 }
 
+/// IDA jobs checked against their study (jobs may come from elsewhere: a Dask task): each
+/// names a scene, an engine and a record of the study, and the study has an `[ida]` table.
+/// Returns each job's record.
+pub fn check_ida_jobs<'a>(
+    study: &'a Study,
+    jobs: &[(usize, String, String)],
+) -> Result<Vec<&'a SuiteRecord>, String> {
+    if study.file.ida.is_none() && !jobs.is_empty() {
+        return Err(format!(
+            "{} IDA jobs given, but the study has no [ida] table",
+            jobs.len()
+        ));
+    }
+    jobs.iter()
+        .map(|(si, e, id)| {
+            if *si >= study.scenes.len() || !study.file.engines.contains(e) {
+                return Err(format!("IDA job ({si}, {e}, {id}) is not in the study"));
+            }
+            study
+                .suite
+                .records
+                .iter()
+                .find(|r| &r.id == id)
+                .ok_or_else(|| format!("IDA job ({si}, {e}, {id}): no such record in the suite"))
+        })
+        .collect()
+}
+
 /// Run IDA jobs of [`ida_jobs`] through `runner` (its cache): the runs a distributed study
 /// hands out record by record, as the hunt and fill of a record is sequential. Returns the
 /// jobs' rows and capacities.
@@ -478,20 +506,11 @@ pub fn run_ida_jobs(
     runner: &Runner,
     jobs: &[(usize, String, String)],
 ) -> Result<Vec<IdaRecord>, String> {
-    let mut out = Vec::new();
-    for (si, e, id) in jobs {
-        if *si >= study.scenes.len() || !study.file.engines.contains(e) {
-            return Err(format!("IDA job ({si}, {e}, {id}) is not in the study"));
-        }
-        let r = study
-            .suite
-            .records
-            .iter()
-            .find(|r| &r.id == id)
-            .ok_or_else(|| format!("IDA job ({si}, {e}, {id}): no such record in the suite"))?;
-        out.push(ida_record(study, runner, *si, e, r)?);
-    }
-    Ok(out)
+    let records = check_ida_jobs(study, jobs)?;
+    jobs.iter()
+        .zip(records)
+        .map(|((si, e, _), r)| ida_record(study, runner, *si, e, r))
+        .collect()
 }
 
 /// The hunt and fill of one record (scene `si`, engine `e`) for every limit state.

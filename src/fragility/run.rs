@@ -111,6 +111,43 @@ impl RunOutcome {
             && self.sliding.iter().flatten().all(|s| s.is_finite())
             && self.t_end.is_finite()
     }
+
+    /// An outcome that can be a run's at all, whatever its scene (one handed over from
+    /// elsewhere, before it is stored): a value for each of at least one block, rotations and
+    /// residual slides finite and not negative, no residual slide for a block that
+    /// overturned, and times finite and not negative.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.rotation.len();
+        if n == 0 || !self.fits(n) {
+            return Err(format!(
+                "rotation, overturned and sliding must give one finite value for each block \
+                 (got {} / {} / {})",
+                n,
+                self.overturned.len(),
+                self.sliding.len()
+            ));
+        }
+        if let Some(i) = self.rotation.iter().position(|&r| r < 0.0) {
+            return Err(format!("rotation[{i}] = {} is negative", self.rotation[i]));
+        }
+        for (i, (s, &over)) in self.sliding.iter().zip(&self.overturned).enumerate() {
+            match s {
+                Some(_) if over => {
+                    return Err(format!(
+                        "sliding[{i}]: block {i} overturned and has no residual slide"
+                    ));
+                }
+                Some(s) if *s < 0.0 => return Err(format!("sliding[{i}] = {s} is negative")),
+                _ => {}
+            }
+        }
+        for (field, v) in [("t_end", self.t_end), ("wall_s", self.wall_s)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{field} = {v} is not a time >= 0"));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// An engine name a study accepts (`auto`: Housner where valid, else native).

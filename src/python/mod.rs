@@ -196,8 +196,8 @@ impl PyScene {
 
     /// Ground motion at the times `t` (a number or a 1-D sequence of them, s): a dict of
     /// arrays `ax`, `az` (m/s^2), `vx`, `vz` (m/s), `dx`, `dz` (m), from the same definitions
-    /// the Rust engines use (zero without excitation). A time that is not finite is a
-    /// `ValueError`.
+    /// the Rust engines use (zero without excitation). A time that is not finite, or not a
+    /// real number, is a `ValueError`.
     fn ground_motion<'py>(
         &self,
         py: Python<'py>,
@@ -205,10 +205,21 @@ impl PyScene {
     ) -> PyResult<Bound<'py, PyDict>> {
         let gm = GroundMotion::from_scene(&self.inner)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let numpy = py.import("numpy")?;
+        // Real numbers only: NumPy would drop a complex time's imaginary part and read
+        // booleans as 0 and 1.
+        let kind: String = numpy
+            .call_method1("asarray", (t,))?
+            .getattr("dtype")?
+            .getattr("kind")?
+            .extract()?;
+        if !matches!(kind.as_str(), "f" | "i" | "u") {
+            return Err(PyValueError::new_err(format!(
+                "ground_motion: t must be real numbers of seconds (got an array of NumPy kind '{kind}')"
+            )));
+        }
         // At least 1-D, contiguous float64 (a number becomes one time).
-        let t = py
-            .import("numpy")?
-            .call_method1("ascontiguousarray", (t, "float64"))?;
+        let t = numpy.call_method1("ascontiguousarray", (t, "float64"))?;
         let ndim: usize = t.getattr("ndim")?.extract()?;
         if ndim != 1 {
             return Err(PyValueError::new_err(format!(
@@ -477,6 +488,17 @@ fn load_study(study: &std::path::Path) -> PyResult<crate::fragility::study::Stud
     crate::fragility::study::load_study(study).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
+/// A run cache folder given to a function: an empty path is refused (it would be the working
+/// directory, filled with run files).
+fn cache_path(function: &str, cache: PathBuf) -> PyResult<PathBuf> {
+    if cache.as_os_str().is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{function}: cache: an empty path (name the run cache folder)"
+        )));
+    }
+    Ok(cache)
+}
+
 /// A fragility study (`rockbench fragility`): read and check STUDY.toml, run it (GIL
 /// released; cached runs reused) and return fragility.json as a dict; with `out`, also write
 /// the outputs there; with `cache`, use that run cache instead of the study's.
@@ -491,7 +513,7 @@ fn fragility_study(
 ) -> PyResult<Py<PyAny>> {
     let mut st = load_study(&study)?;
     if let Some(c) = cache {
-        st.cache_dir = c;
+        st.cache_dir = cache_path("fragility_study", c)?;
     }
     if let Some(dir) = &out {
         crate::fragility::report::replaceable_out(dir).map_err(PyValueError::new_err)?;
@@ -539,6 +561,9 @@ fn fragility_ida_batch(
     cache: PathBuf,
 ) -> PyResult<IdaBatch> {
     let st = load_study(&study)?;
+    let cache = cache_path("fragility_ida_batch", cache)?;
+    crate::fragility::check_ida_jobs(&st, &jobs)
+        .map_err(|e| PyValueError::new_err(format!("fragility_ida_batch: {e}")))?;
     py.detach(|| -> Result<_, String> {
         let runner = crate::fragility::Runner::new(cache, true);
         crate::fragility::run_ida_jobs(&st, &runner, &jobs)?;
@@ -560,12 +585,15 @@ fn fragility_ida_batch(
 /// where it has no entry yet (atomically, as every run is stored). Returns how many were new.
 #[pyfunction]
 fn fragility_store(cache: PathBuf, runs: Vec<(String, String)>) -> PyResult<usize> {
+    let cache = cache_path("fragility_store", cache)?;
     let mut new = 0;
     for (key, text) in runs {
         if !crate::run_store::is_key(&key) {
             return Err(PyValueError::new_err(format!("not a run key: {key:?}")));
         }
         let o: crate::fragility::run::RunOutcome = serde_json::from_str(&text)
+            .map_err(|e| PyValueError::new_err(format!("run {key}: outcome: {e}")))?;
+        o.check()
             .map_err(|e| PyValueError::new_err(format!("run {key}: outcome: {e}")))?;
         if crate::run_store::load::<crate::fragility::run::RunOutcome>(&cache, &key).is_none() {
             crate::run_store::store(&cache, &key, &o).map_err(PyRuntimeError::new_err)?;
@@ -589,6 +617,7 @@ fn fragility_run_batch(
         .map(|s| serde_json::from_str(s))
         .collect::<Result<_, _>>()
         .map_err(|e| PyValueError::new_err(format!("spec: {e}")))?;
+    let cache = cache_path("fragility_run_batch", cache)?;
     py.detach(|| {
         let runner = crate::fragility::Runner::new(cache, true);
         specs
@@ -605,21 +634,25 @@ fn fragility_run_batch(
 
 /// Which of the runs `keys` (content hashes) have an outcome in the run cache `cache`.
 #[pyfunction]
-fn fragility_cache_has(py: Python<'_>, cache: PathBuf, keys: Vec<String>) -> Vec<bool> {
-    py.detach(|| {
+fn fragility_cache_has(py: Python<'_>, cache: PathBuf, keys: Vec<String>) -> PyResult<Vec<bool>> {
+    let cache = cache_path("fragility_cache_has", cache)?;
+    Ok(py.detach(|| {
         keys.iter()
             .map(|k| {
                 crate::run_store::load::<crate::fragility::run::RunOutcome>(&cache, k).is_some()
             })
             .collect()
-    })
+    }))
 }
 
 /// Whether runs of `engine` are Python worker runs (MuJoCo, PyBullet), which a Dask worker
-/// runs in its own Python (`rockbench.worker.run`) instead of a worker process per run.
+/// runs in its own Python (`rockbench.worker.run`) instead of a worker process per run. An
+/// engine name the registry does not know is a `ValueError`.
 #[pyfunction]
-fn fragility_is_python_worker(engine: &str) -> bool {
-    crate::fragility::run::is_python_worker(engine)
+fn fragility_is_python_worker(engine: &str) -> PyResult<bool> {
+    crate::fragility::run::check_engine(engine)
+        .map_err(|e| PyValueError::new_err(format!("fragility_is_python_worker: {e}")))?;
+    Ok(crate::fragility::run::is_python_worker(engine))
 }
 
 /// The scene of a run spec as the JSON a Python worker reads (`Scene::to_json`).
@@ -650,6 +683,7 @@ fn fragility_worker_outcome(
     cache: PathBuf,
 ) -> PyResult<String> {
     let spec = parse_spec(spec)?;
+    let cache = cache_path("fragility_worker_outcome", cache)?;
     let o = crate::fragility::run::outcome_from_worker_output(&spec, &out_dir, wall_s)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     crate::run_store::store(&cache, &spec.key(), &o).map_err(PyRuntimeError::new_err)?;

@@ -337,6 +337,10 @@ def test_ground_motion_takes_numbers_and_sequences_and_refuses_times_that_are_no
             sc.ground_motion([0.5, bad])
     with pytest.raises(ValueError, match="1-D sequence of times .got 2 dimensions"):
         sc.ground_motion(np.zeros((2, 2)))
+    # A complex time's imaginary part is not dropped, nor booleans read as 0 and 1 s.
+    for bad, kind in (([0.5, 1.0 + 2.0j], "c"), ([True, False], "b"), (["1.5"], "U")):
+        with pytest.raises(ValueError, match=f"real numbers of seconds .*kind '{kind}'"):
+            sc.ground_motion(bad)
 
 
 def _block_dict(**extra: Any) -> dict[str, Any]:

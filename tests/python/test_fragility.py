@@ -167,10 +167,59 @@ def test_specs_keys_and_cache_entries_from_elsewhere_are_checked(
     cache = tmp_path / "cache"
     assert _native.fragility_cache_has(str(cache), ["a\u00e90000", "", key]) == [False] * 3
     good = json.loads(rockbench.fragility_run(spec))
-    wrong = dict(good, rotation=[], overturned=[], sliding=[])
+    # An outcome no run can have is refused before it is stored.
+    n = len(good["rotation"])
+    for bad, says in (
+        (dict(good, rotation=[], overturned=[], sliding=[]), "one finite value for each block"),
+        (dict(good, rotation=[-1.0] * n), r"rotation\[0\] = -1 is negative"),
+        (dict(good, overturned=[True] * n, sliding=[0.0] * n), "overturned and has no residual"),
+        (dict(good, t_end=-1.0), "t_end = -1 is not a time"),
+    ):
+        with pytest.raises(ValueError, match=f"run {key}: outcome: .*{says}"):
+            _native.fragility_store(str(cache), [(key, json.dumps(bad))])
+    assert not cache.exists(), "a refused outcome was stored"
+    for call in (
+        lambda: _native.fragility_store("", [(key, json.dumps(good))]),
+        lambda: _native.fragility_cache_has("", [key]),
+        lambda: _native.fragility_run_batch([spec], ""),
+    ):
+        with pytest.raises(ValueError, match="cache: an empty path"):
+            call()
+    with pytest.raises(ValueError, match="unknown engine `bogus`"):
+        rockbench.fragility_is_python_worker("bogus")
+    # An outcome that can be a run's, but not this one's (two blocks): stored, then run again.
+    wrong = {k: v * 2 if isinstance(v, list) else v for k, v in good.items()}
     assert _native.fragility_store(str(cache), [(key, json.dumps(wrong))]) == 1
     ((k, made, text),) = _native.fragility_run_batch([spec], str(cache))
     assert k == key and made, "an entry of another block count was taken as the run"
     assert json.loads(text)["rotation"] == good["rotation"]
     ((_, made, _),) = _native.fragility_run_batch([spec], str(cache))
     assert not made, "the run made again was not stored"
+
+
+def test_ida_jobs_from_elsewhere_are_checked_against_their_study(
+    tmp_path: Path,
+    study: dict,  # type: ignore[type-arg]
+) -> None:
+    """IDA jobs handed to a worker name a scene, an engine and a record of a study with an
+    [ida] table; others are a ValueError before any run, not an empty answer."""
+    from rockbench import _native
+
+    path = Path(study["study_file"])
+    ((si, engine, record), *_) = _native.fragility_ida_jobs(path)
+    cache = str(tmp_path / "cache")
+    for job, says in (
+        ((si, "rapier", record), "is not in the study"),
+        ((si + 5, engine, record), "is not in the study"),
+        ((si, engine, "nowhere"), "no such record in the suite"),
+    ):
+        with pytest.raises(ValueError, match=f"fragility_ida_batch: IDA job .*{says}"):
+            _native.fragility_ida_batch(path, [job], cache)
+    for f in ("block.toml", "suite.toml") + tuple(f"r{k}.AT2" for k in range(10)):
+        (tmp_path / f).write_text((path.parent / f).read_text())
+    no_ida = tmp_path / "study.toml"
+    no_ida.write_text(path.read_text().split("[ida]")[0] + "[fit]\nbootstrap = 50\n")
+    assert _native.fragility_ida_jobs(no_ida) == []
+    with pytest.raises(ValueError, match=r"1 IDA jobs given, but the study has no \[ida\] table"):
+        _native.fragility_ida_batch(no_ida, [(si, engine, record)], cache)
+    assert not (tmp_path / "cache").exists()

@@ -341,3 +341,6 @@ def test_results_read_back_from_fragility_json_and_other_json_is_refused(
     for data in ({}, summary):
         with pytest.raises(ValueError, match="not a fragility study's results .*: missing study"):
             rockbench.FragilityResult(data)
+    for part, value in (("limit_states", ["overturn"]), ("rows", {}), ("counts", [])):
+        with pytest.raises(ValueError, match=f"not a fragility study's results .*wrong type of {part}"):
+            rockbench.FragilityResult(dict(again.json, **{part: value}))
