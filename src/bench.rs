@@ -157,14 +157,23 @@ pub fn check_engines_and_steps(
     Ok(())
 }
 
-/// The reference run: an engine run on `scene`, or a trajectory file.
-pub fn reference_run(spec: &ReferenceSpec, scene: &Scene) -> Result<Run, String> {
+/// The reference run: an engine run on `scene` through `runner`, or a trajectory file.
+pub fn reference_run(
+    spec: &ReferenceSpec,
+    scene: &Scene,
+    runner: &crate::compare::Runner,
+) -> Result<Run, String> {
     Ok(match spec {
         ReferenceSpec::Engine(name) => {
-            let e = engine_by_name(name).map_err(|e| format!("--reference: {e}"))?;
-            let (out, s) = run_timed(e.as_ref(), scene)
-                .map_err(|e| format!("--reference {name} did not run: {e}"))?;
-            run_of(name, &out, &s)
+            engine_by_name(name).map_err(|e| format!("--reference: {e}"))?;
+            let run = runner(name, scene);
+            match (&run.output, &run.summary) {
+                (Some(out), Some(s)) => run_of(name, out, s),
+                _ => {
+                    let why = run.status.reason().unwrap_or("no output");
+                    return Err(format!("--reference {name} did not run: {why}"));
+                }
+            }
         }
         ReferenceSpec::File(p) => {
             let run = Run {
@@ -188,7 +197,7 @@ pub fn bench(
 ) -> Result<Vec<BenchRow>, String> {
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
     check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
-    let reference = reference_run(&opts.reference, &base)?;
+    let reference = reference_run(&opts.reference, &base, &crate::compare::run_engine)?;
     let mut rows = Vec::new();
     for engine in &opts.engines {
         let variants = if engine == "native" {

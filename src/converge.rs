@@ -16,10 +16,8 @@
 //! Runs that fail stay listed with their reason.
 
 use crate::bench::{reference_run, step_setting};
-use crate::compare::ReferenceSpec;
-use crate::compare::run_of;
+use crate::compare::{ReferenceSpec, Runner, Status, run_of};
 use crate::engines::registry::load_scene_with_overrides;
-use crate::engines::{engine_by_name, run_timed};
 use crate::metrics::{MetricRow, MetricSettings, Run, compare_runs, series_of};
 use crate::report::svg::{Curve, Plot};
 use serde::Serialize;
@@ -93,6 +91,8 @@ pub struct ConvergeRun {
     pub engine_version: Option<String>,
     /// The engine's settings as run (from its summary).
     pub settings: Option<serde_json::Value>,
+    /// Read back from the run cache (its wall time is that of the run that made it).
+    pub cached: bool,
 }
 
 impl ConvergeRun {
@@ -162,16 +162,18 @@ fn error_of(quantity: &str, row: &MetricRow) -> Option<f64> {
     }
 }
 
-/// Run the study. `progress` is called with each finished run.
+/// Run the study, each engine run through `runner` (the run cache, or
+/// [`crate::compare::run_engine`]). `progress` is called with each finished run.
 pub fn converge(
     scene_path: &Path,
     opts: &ConvergeOptions,
+    runner: &Runner,
     progress: &dyn Fn(&ConvergeRun),
 ) -> Result<Convergence, String> {
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
     crate::bench::check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
     let common = match &opts.reference {
-        ConvergeReference::Common(spec) => Some(reference_run(spec, &base)?),
+        ConvergeReference::Common(spec) => Some(reference_run(spec, &base, runner)?),
         ConvergeReference::Finest => None,
     };
     let labels: Vec<String> = series_of(&base)
@@ -194,6 +196,7 @@ pub fn converge(
                 steps: None,
                 engine_version: None,
                 settings: None,
+                cached: false,
             };
             progress(&r);
             runs.push(r);
@@ -212,32 +215,38 @@ pub fn converge(
                 steps: None,
                 engine_version: None,
                 settings: None,
+                cached: false,
             };
-            let outcome = load_scene_with_overrides(scene_path, &set)
-                .map_err(|e| e.to_string())
-                .and_then(|scene| {
-                    let e = engine_by_name(engine).map_err(|e| {
-                        r.status = crate::compare::classify(&e).word().to_string();
-                        e.to_string()
-                    })?;
-                    run_timed(e.as_ref(), &scene).map_err(|e| {
-                        r.status = crate::compare::classify(&e).word().to_string();
-                        e.to_string()
-                    })
-                });
-            match outcome {
-                Ok((out, s)) => {
-                    r.wall_time_s = Some(s.wall_time_s);
-                    r.steps = Some(s.steps);
-                    r.engine_version = Some(s.engine_version.clone());
-                    r.settings = Some(s.settings.clone());
-                    done.push((dt, run_of(engine, &out, &s)));
-                }
-                Err(reason) => {
-                    if r.status == "ok" {
-                        r.status = "failed".into();
+            match load_scene_with_overrides(scene_path, &set) {
+                Ok(scene) => {
+                    let run = runner(engine, &scene);
+                    r.cached = run.cached;
+                    match (&run.status, &run.output, &run.summary) {
+                        (Status::Ok, Some(out), Some(s)) => {
+                            r.wall_time_s = Some(s.wall_time_s);
+                            r.steps = Some(s.steps);
+                            r.engine_version = Some(s.engine_version.clone());
+                            r.settings = Some(s.settings.clone());
+                            done.push((dt, run_of(engine, out, s)));
+                        }
+                        (status, ..) => {
+                            r.status = match status {
+                                Status::Ok => "failed",
+                                other => other.word(),
+                            }
+                            .into();
+                            r.reason = Some(
+                                status
+                                    .reason()
+                                    .unwrap_or("the run gave no output")
+                                    .replace('\n', " "),
+                            );
+                        }
                     }
-                    r.reason = Some(reason.replace('\n', " "));
+                }
+                Err(e) => {
+                    r.status = "failed".into();
+                    r.reason = Some(e.to_string().replace('\n', " "));
                 }
             }
             progress(&r);
@@ -465,6 +474,7 @@ pub fn markdown(c: &Convergence, command: &str) -> String {
         md += "\n";
     }
     md += "\n## Runs\n\n| engine | dt (s) | status | wall (s) | steps |\n|---|---|---|---|---|\n";
+    // A run read back from the run cache shows the wall time of the run that made it.
     for r in &c.runs {
         let _ = writeln!(
             md,
@@ -476,7 +486,9 @@ pub fn markdown(c: &Convergence, command: &str) -> String {
                 .as_ref()
                 .map(|x| format!(": {x}"))
                 .unwrap_or_default(),
-            r.wall_time_s.map(|w| format!("{w:.4}")).unwrap_or_default(),
+            r.wall_time_s
+                .map(|w| format!("{w:.4}{}", if r.cached { " (cached)" } else { "" }))
+                .unwrap_or_default(),
             r.steps.map(|s| s.to_string()).unwrap_or_default()
         );
     }

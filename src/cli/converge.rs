@@ -2,6 +2,7 @@
 //! order of accuracy of every engine (see `crate::converge`).
 
 use crate::converge::{ConvergeOptions, ConvergeReference, converge, write};
+use crate::gates::cache::RunCache;
 use anyhow::{Result, anyhow};
 use std::path::PathBuf;
 
@@ -24,6 +25,14 @@ pub struct ConvergeArgs {
     /// Also write DIR/paper/ (LaTeX tables, figures as SVG, PDF and CSV).
     #[arg(long)]
     paper: bool,
+    /// Run cache directory (also $ROCKBENCH_CACHE_DIR), shared with `gate` and `validate`:
+    /// runs made before (the same scene, settings, step, engine and build) are read back, so
+    /// an interrupted study resumes and a repeated one runs nothing.
+    #[arg(long, env = "ROCKBENCH_CACHE_DIR", default_value = ".cache/rockbench")]
+    cache_dir: PathBuf,
+    /// Run every engine again (the cache is neither read nor written).
+    #[arg(long)]
+    no_cache: bool,
     #[arg(long, default_value = "out/converge")]
     out: PathBuf,
 }
@@ -39,22 +48,31 @@ pub fn run(a: ConvergeArgs) -> Result<()> {
     if a.dt.len() < 2 {
         return Err(anyhow!("--dt: an order needs at least two step sizes"));
     }
+    let cache = RunCache::new(if a.no_cache {
+        None
+    } else {
+        std::fs::create_dir_all(&a.cache_dir)
+            .map_err(|e| anyhow!("--cache-dir: {}: {e}", a.cache_dir.display()))?;
+        Some(a.cache_dir.clone())
+    });
     let opts = ConvergeOptions {
         engines: a.engines,
         dts: a.dt,
         reference,
         overrides: a.set,
     };
-    let c = converge(&a.scene, &opts, &|r| {
+    let runner = |engine: &str, scene: &crate::scene::Scene| cache.run(engine, scene);
+    let c = converge(&a.scene, &opts, &runner, &|r| {
         eprintln!(
-            "{} dt={}: {}{}",
+            "{} dt={}: {}{}{}",
             r.engine,
             r.dt_label(),
             r.status,
             r.wall_time_s
                 .map(|w| format!(" {w:.4} s"))
                 .or(r.reason.as_ref().map(|x| format!(" ({x})")))
-                .unwrap_or_default()
+                .unwrap_or_default(),
+            if r.cached { " (cached)" } else { "" }
         )
     })
     .map_err(|e| anyhow!(e))?;
