@@ -270,4 +270,12 @@ fn a_command_line_that_does_not_parse_is_one_line() {
         assert!(se.ends_with("see --help)"), "{args:?}: {se}");
         assert!(o.stdout.is_empty(), "{args:?}");
     }
+    // No subcommand at all: the help, as clap prints it, and a failure.
+    let o = bin().current_dir(root()).output().unwrap();
+    let se = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{se}");
+    assert!(
+        se.lines().count() > 10 && se.contains("Commands:\n"),
+        "{se}"
+    );
 }

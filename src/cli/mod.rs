@@ -181,8 +181,14 @@ fn parse_error_line(rendered: &str) -> String {
 pub fn main() -> Result<()> {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        // `--help` and `--version` print to standard output and succeed.
-        Err(e) if !e.use_stderr() => e.exit(),
+        // `--help` and `--version` print to standard output and succeed; a command line
+        // without its subcommand prints the help (and fails) as clap does.
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
         Err(e) => {
             eprintln!("{}", parse_error_line(&e.render().to_string()));
             std::process::exit(e.exit_code());
