@@ -384,11 +384,7 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
                 }
             });
             let text = read(&path, file, field)?;
-            let (s, unit) = match fmt {
-                RecordFormat::At2 => (records::parse_at2(&text), records::STANDARD_GRAVITY),
-                RecordFormat::Csv => (records::parse_two_column(&text), 1.0),
-            };
-            let s = s.map_err(|e| {
+            let (s, unit) = records::parse_acceleration(fmt, &text).map_err(|e| {
                 SceneError::new(
                     file,
                     format!("{field}.file"),

@@ -2,8 +2,60 @@
 //!
 //! Errors are plain strings naming the line; the caller prefixes the file and scene field.
 
+use crate::scene::RecordFormat;
+
 /// Standard gravity used to convert `.AT2` accelerations (in g) to m/s^2.
 pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// An acceleration record of `format`: its samples, and the factor that makes its values
+/// m/s^2 (a CSV record is in m/s^2; an `.AT2` record in the units its third line states).
+pub fn parse_acceleration(format: RecordFormat, text: &str) -> Result<(Samples, f64), String> {
+    match format {
+        RecordFormat::Csv => Ok((parse_two_column(text)?, 1.0)),
+        RecordFormat::At2 => {
+            let unit = at2_unit(text)?;
+            Ok((parse_at2(text)?, unit))
+        }
+    }
+}
+
+/// The factor to m/s^2 of the values of an `.AT2` record, from its third line (`ACCELERATION
+/// TIME SERIES IN UNITS OF G`): g where it names no units; cm/s^2 and m/s^2 read as such; a
+/// velocity or displacement series, or other units, an error.
+fn at2_unit(text: &str) -> Result<f64, String> {
+    let Some(line) = text.trim_start_matches('\u{feff}').lines().nth(2) else {
+        return Ok(STANDARD_GRAVITY); // too short: parse_at2 says so
+    };
+    let up = line.to_ascii_uppercase();
+    for kind in ["VELOCITY", "DISPLACEMENT"] {
+        if up.contains(kind) {
+            return Err(format!(
+                "line 3: `{}`: a {} series; an .AT2 record must be accelerations",
+                line.trim(),
+                kind.to_ascii_lowercase()
+            ));
+        }
+    }
+    let Some(at) = up.find("UNITS OF") else {
+        return Ok(STANDARD_GRAVITY);
+    };
+    let unit: String = up[at + "UNITS OF".len()..]
+        .split_whitespace()
+        .next()
+        .unwrap_or("")
+        .trim_end_matches(['.', ',', ';'])
+        .replace("SEC", "S")
+        .replace("**", "^");
+    match unit.as_str() {
+        "G" => Ok(STANDARD_GRAVITY),
+        "CM/S/S" | "CM/S2" | "CM/S^2" | "GAL" | "GALS" => Ok(0.01),
+        "MM/S/S" | "MM/S2" | "MM/S^2" => Ok(0.001),
+        "M/S/S" | "M/S2" | "M/S^2" => Ok(1.0),
+        _ => Err(format!(
+            "line 3: units `{unit}`: expected an acceleration in G, CM/S/S, MM/S/S or M/S/S"
+        )),
+    }
+}
 
 /// A sampled history: strictly increasing times and one value per time.
 #[derive(Debug, Clone, PartialEq)]
@@ -16,6 +68,8 @@ pub struct Samples {
 /// (the first line that is not blank or a `#` comment, its first field not a number) and `#`
 /// comment lines are skipped; any other line that is not two numbers is an error, never dropped.
 pub fn parse_two_column(text: &str) -> Result<Samples, String> {
+    // A byte-order mark (some spreadsheets write one) is not part of the first field.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut t = Vec::new();
     let mut v = Vec::new();
     let mut first = true;
@@ -44,6 +98,13 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
                 if !n[0].is_finite() || !n[1].is_finite() {
                     return Err(format!("line {}: value is not finite", ln + 1));
                 }
+                if t.is_empty() && n[0] < 0.0 {
+                    return Err(format!(
+                        "line {}: time {} is before 0 (a record starts at t >= 0, the start of the run)",
+                        ln + 1,
+                        n[0]
+                    ));
+                }
                 if let Some(&last) = t.last()
                     && n[0] <= last
                 {
@@ -68,6 +129,7 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
 /// form) or `N  DT` followed by words (older form), then NPTS values in g, several per line.
 /// Returns accelerations in g at `t_i = i * DT`.
 pub fn parse_at2(text: &str) -> Result<Samples, String> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let lines: Vec<&str> = text.lines().collect();
     if lines.len() < 4 {
         return Err(format!(
@@ -81,6 +143,13 @@ pub fn parse_at2(text: &str) -> Result<Samples, String> {
     if npts < 2 {
         return Err(format!(
             "line 4: NPTS = {npts}; at least 2 samples are needed"
+        ));
+    }
+    if let Some(unit) = at2_dt_unit(header)
+        && !matches!(unit.as_str(), "SEC" | "SECS" | "S" | "SECOND" | "SECONDS")
+    {
+        return Err(format!(
+            "line 4: DT in `{unit}`: expected seconds (SEC)"
         ));
     }
     if !(dt.is_finite() && dt > 0.0) {
@@ -123,6 +192,22 @@ pub fn parse_at2(text: &str) -> Result<Samples, String> {
     }
     let t = (0..npts).map(|i| i as f64 * dt).collect();
     Ok(Samples { t, v })
+}
+
+/// The word after DT's value in the `NPTS= N, DT= .005 SEC` form (`SEC`), if any.
+fn at2_dt_unit(line: &str) -> Option<String> {
+    let up = line.to_ascii_uppercase();
+    if !up.contains("NPTS") {
+        return None;
+    }
+    let rest = up[up.find("DT")? + 2..].trim_start().strip_prefix('=')?.trim_start();
+    let rest = rest.trim_start_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | 'E' | '-' | '+'));
+    let word: String = rest
+        .trim_start()
+        .chars()
+        .take_while(|c| c.is_ascii_alphabetic())
+        .collect();
+    (!word.is_empty()).then_some(word)
 }
 
 fn parse_at2_header(line: &str) -> Option<(usize, f64)> {
@@ -203,6 +288,54 @@ mod tests {
         assert_eq!(e, "line 1: not two numbers: `0.00,5.0g`");
         let e = parse_two_column("time,acc\ns,m/s2\n0,0\n0.1,1\n").unwrap_err();
         assert!(e.starts_with("line 2: not two numbers"), "{e}");
+    }
+
+    /// The third line's units are read: cm/s^2 and m/s^2 converted, g by default, a velocity
+    /// series or units that are not an acceleration refused; DT must be in seconds.
+    #[test]
+    fn at2_units_are_read_from_the_third_line() {
+        let unit = |line: &str| {
+            let text = NEW.replace("ACCELERATION TIME SERIES IN UNITS OF G", line);
+            parse_acceleration(RecordFormat::At2, &text).map(|(s, u)| (s.v, u))
+        };
+        let (v, g) = unit("ACCELERATION TIME SERIES IN UNITS OF G").unwrap();
+        assert_eq!((v[0], g), (0.1, STANDARD_GRAVITY));
+        assert_eq!(unit("Test record").unwrap().1, STANDARD_GRAVITY);
+        for (line, factor) in [
+            ("ACCELERATION TIME SERIES IN UNITS OF CM/S/S", 0.01),
+            ("ACCELERATION TIME SERIES IN UNITS OF cm/sec^2", 0.01),
+            ("ACCELERATION IN UNITS OF GAL", 0.01),
+            ("ACCELERATION TIME SERIES IN UNITS OF M/S2", 1.0),
+            ("ACCELERATION TIME SERIES IN UNITS OF MM/S/S", 0.001),
+        ] {
+            assert_eq!(unit(line).unwrap().1, factor, "{line}");
+        }
+        let e = unit("VELOCITY TIME SERIES IN UNITS OF CM/S").unwrap_err();
+        assert!(e.contains("a velocity series"), "{e}");
+        let e = unit("DISPLACEMENT TIME SERIES IN UNITS OF CM").unwrap_err();
+        assert!(e.contains("a displacement series"), "{e}");
+        let e = unit("ACCELERATION TIME SERIES IN UNITS OF FT/S/S").unwrap_err();
+        assert_eq!(
+            e,
+            "line 3: units `FT/S/S`: expected an acceleration in G, CM/S/S, MM/S/S or M/S/S"
+        );
+        let e = parse_at2(&NEW.replace(".0100 SEC", ".0100 MSEC")).unwrap_err();
+        assert_eq!(e, "line 4: DT in `MSEC`: expected seconds (SEC)");
+        assert!(parse_at2(&NEW.replace(".0100 SEC", ".0100")).is_ok());
+    }
+
+    /// A byte-order mark does not turn the first sample into a header; a record starts at
+    /// t >= 0 (a part before the run would be dropped while its peak still scaled the record).
+    #[test]
+    fn csv_byte_order_mark_and_negative_times() {
+        let s = parse_two_column("\u{feff}0,5.0\n0.02,0.2\n0.04,0.3\n").unwrap();
+        assert_eq!(s.v, vec![5.0, 0.2, 0.3]);
+        let e = parse_two_column("-1,5.0\n-0.5,5\n0,0.3\n0.1,0.3\n").unwrap_err();
+        assert_eq!(
+            e,
+            "line 1: time -1 is before 0 (a record starts at t >= 0, the start of the run)"
+        );
+        assert_eq!(parse_at2(&format!("\u{feff}{NEW}")).unwrap(), parse_at2(NEW).unwrap());
     }
 
     #[test]

@@ -169,11 +169,8 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
         if text.trim().is_empty() {
             return Err(err("file", format!("{} is empty", fpath.display())));
         }
-        let (samples, unit) = match fmt {
-            RecordFormat::At2 => (records::parse_at2(&text), STANDARD_GRAVITY),
-            RecordFormat::Csv => (records::parse_two_column(&text), 1.0),
-        };
-        let s = samples.map_err(|e| err("file", format!("{}: {e}", fpath.display())))?;
+        let (s, unit) = records::parse_acceleration(fmt, &text)
+            .map_err(|e| err("file", format!("{}: {e}", fpath.display())))?;
         let npts = s.t.len();
         let dt = s.t[1] - s.t[0];
         let (pa, pgv) = peaks(&s, unit);
