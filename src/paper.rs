@@ -99,18 +99,38 @@ impl PaperDir {
 
     /// A LaTeX table.
     pub fn table(&mut self, name: &str, tabular: String, what: &str) {
+        let name = self.unused(name);
         self.add(&format!("{name}.tex"), tabular, what);
+    }
+
+    /// `name`, or `name-2`, `name-3`, ... where files of that name are already in the folder:
+    /// names made from user text (scene and limit-state names, with the characters a file
+    /// name cannot take replaced) may coincide, and one file must not replace another.
+    fn unused(&self, name: &str) -> String {
+        let taken = |n: &str| {
+            self.files
+                .iter()
+                .any(|(f, _, _)| f.rsplit_once('.').is_some_and(|(stem, _)| stem == n))
+        };
+        let mut k = 1;
+        let mut out = name.to_string();
+        while taken(&out) {
+            k += 1;
+            out = format!("{name}-{k}");
+        }
+        out
     }
 
     /// A figure: `name.svg`, `name.pdf` (at [`PaperDir::finish`]) and `name.csv` with its data.
     pub fn figure(&mut self, name: &str, plot: &Plot, what: &str) {
+        let name = self.unused(name);
         self.add(&format!("{name}.svg"), plot.render(), what);
         self.add(
             &format!("{name}.csv"),
             curves_csv(&plot.curves),
             &format!("data of {name}"),
         );
-        self.figures.push(name.to_string());
+        self.figures.push(name);
     }
 
     /// Convert the figures, write every file and the README.
@@ -521,6 +541,32 @@ fn add_compare(p: &mut PaperDir, c: &Comparison, prefix: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two figures or tables whose names coincide (limit states `r/0.5` and `r_0.5` both
+    /// become `r_0_5`) are kept as two files, the second under `-2`.
+    #[test]
+    fn coinciding_names_do_not_replace_each_other() {
+        let mut p = PaperDir::new(Path::new("unused"));
+        let plot = Plot::default();
+        p.figure("fragility-b-stripes-r_0_5", &plot, "first");
+        p.figure("fragility-b-stripes-r_0_5", &plot, "second");
+        p.table("fragility-b-stripes-r_0_5", "x".into(), "a table");
+        let names: Vec<&str> = p.files.iter().map(|(n, _, _)| n.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "fragility-b-stripes-r_0_5.svg",
+                "fragility-b-stripes-r_0_5.csv",
+                "fragility-b-stripes-r_0_5-2.svg",
+                "fragility-b-stripes-r_0_5-2.csv",
+                "fragility-b-stripes-r_0_5-3.tex",
+            ]
+        );
+        assert_eq!(
+            p.figures,
+            ["fragility-b-stripes-r_0_5", "fragility-b-stripes-r_0_5-2"]
+        );
+    }
 
     #[test]
     fn latex_specials_are_escaped() {

@@ -190,8 +190,42 @@ fn bad_studies_stop_before_running_with_one_line() {
         &out,
         &["intensity.levels[1]", "1.2 is listed twice"],
     );
+    edit("levels = [1.2, 1.6,", "levels = [1.2, 1.2000000000000002,");
+    fails_with(&study, &out, &["intensity.levels[1]", "is listed twice"]);
     edit("[\"block.toml\"]", "[\"block.toml\", \"block.toml\"]");
     fails_with(&study, &out, &["scenes[1]", "`block.toml` is listed twice"]);
+    edit("[\"block.toml\"]", "[\"block.toml\", \"./block.toml\"]");
+    fails_with(
+        &study,
+        &out,
+        &["scenes[1]", "`./block.toml` is listed twice"],
+    );
+    edit("name = \"t\"", "name = \" \"");
+    fails_with(&study, &out, &["study.toml: name: must not be empty"]);
+    // Two scenes of one name would be pooled into one fit.
+    std::fs::write(
+        d.join("narrow.toml"),
+        std::fs::read_to_string(d.join("block.toml"))
+            .unwrap()
+            .replace("width = 0.3", "width = 0.25"),
+    )
+    .unwrap();
+    edit("[\"block.toml\"]", "[\"block.toml\", \"narrow.toml\"]");
+    fails_with(
+        &study,
+        &out,
+        &[
+            "scenes[1]",
+            "scene name `block` is also scenes[0]'s (`block.toml`)",
+        ],
+    );
+    // A run cache that is a file, found at --check rather than at the first run.
+    edit("cache = \"cache\"", "cache = \"suite.toml\"");
+    fails_with(
+        &study,
+        &out,
+        &["cache", "suite.toml is a file, not a folder"],
+    );
     edit("bootstrap = 200", "bootstrap = 10000000000000");
     fails_with(
         &study,

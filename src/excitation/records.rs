@@ -148,9 +148,7 @@ pub fn parse_at2(text: &str) -> Result<Samples, String> {
     if let Some(unit) = at2_dt_unit(header)
         && !matches!(unit.as_str(), "SEC" | "SECS" | "S" | "SECOND" | "SECONDS")
     {
-        return Err(format!(
-            "line 4: DT in `{unit}`: expected seconds (SEC)"
-        ));
+        return Err(format!("line 4: DT in `{unit}`: expected seconds (SEC)"));
     }
     if !(dt.is_finite() && dt > 0.0) {
         return Err(format!(
@@ -200,8 +198,12 @@ fn at2_dt_unit(line: &str) -> Option<String> {
     if !up.contains("NPTS") {
         return None;
     }
-    let rest = up[up.find("DT")? + 2..].trim_start().strip_prefix('=')?.trim_start();
-    let rest = rest.trim_start_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | 'E' | '-' | '+'));
+    let rest = up[up.find("DT")? + 2..]
+        .trim_start()
+        .strip_prefix('=')?
+        .trim_start();
+    let rest =
+        rest.trim_start_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | 'E' | '-' | '+'));
     let word: String = rest
         .trim_start()
         .chars()
@@ -335,7 +337,10 @@ mod tests {
             e,
             "line 1: time -1 is before 0 (a record starts at t >= 0, the start of the run)"
         );
-        assert_eq!(parse_at2(&format!("\u{feff}{NEW}")).unwrap(), parse_at2(NEW).unwrap());
+        assert_eq!(
+            parse_at2(&format!("\u{feff}{NEW}")).unwrap(),
+            parse_at2(NEW).unwrap()
+        );
     }
 
     #[test]

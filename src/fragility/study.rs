@@ -248,6 +248,12 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
     let f: StudyFile = crate::scene::toml_fields(&file, &text, "study")?;
     let err = |field: &str, msg: String| SceneError::new(&file, field, msg);
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    if f.name.trim().is_empty() {
+        return Err(err(
+            "name",
+            "must not be empty (it names the study's report)".into(),
+        ));
+    }
     if f.scenes.is_empty() {
         return Err(err("scenes", "lists no scene".into()));
     }
@@ -275,8 +281,12 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                 format!("an intensity level must be > 0 (got {})", num(*l)),
             ));
         }
-        // A stripe run twice would count its records twice in the fit.
-        if f.intensity.levels[..k].contains(l) {
+        // A stripe run twice would count its records twice in the fit (levels a rounding
+        // apart, 0.2 and 0.1 + 0.1 + ..., are the same stripe).
+        if f.intensity.levels[..k]
+            .iter()
+            .any(|o| (o - l).abs() <= 1e-9 * o.abs().max(l.abs()))
+        {
             return Err(err(
                 &format!("intensity.levels[{k}]"),
                 format!("{} is listed twice", num(*l)),
@@ -378,9 +388,17 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
             ),
         ));
     }
-    let mut scenes = Vec::new();
+    let mut scenes: Vec<Scene> = Vec::new();
+    // The same file under two spellings (`scene.toml`, `./scene.toml`) is listed twice too.
+    let same_file = |a: &str, b: &str| {
+        a == b
+            || matches!(
+                (std::fs::canonicalize(base.join(a)), std::fs::canonicalize(base.join(b))),
+                (Ok(x), Ok(y)) if x == y
+            )
+    };
     for (k, s) in f.scenes.iter().enumerate() {
-        if f.scenes[..k].contains(s) {
+        if f.scenes[..k].iter().any(|o| same_file(o, s)) {
             return Err(err(
                 &format!("scenes[{k}]"),
                 format!("`{s}` is listed twice"),
@@ -403,6 +421,17 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
                     format!("`{e}` cannot run scenes[{k}] (`{}`): {reason}", sc.name),
                 ));
             }
+        }
+        // Rows, fits and figures are keyed by the scene's name: two scenes of one name would
+        // be pooled into one fit.
+        if let Some(j) = scenes.iter().position(|o| o.name.trim() == sc.name.trim()) {
+            return Err(err(
+                &format!("scenes[{k}]"),
+                format!(
+                    "its scene name `{}` is also scenes[{j}]'s (`{}`): give each scene its own name",
+                    sc.name, f.scenes[j]
+                ),
+            ));
         }
         scenes.push(sc);
     }
@@ -437,7 +466,10 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
         if ls.name.trim().is_empty() {
             return Err(err(&field("name"), "must not be empty".into()));
         }
-        if limit_states[..k].iter().any(|o| o.name == ls.name) {
+        if limit_states[..k]
+            .iter()
+            .any(|o| o.name.trim() == ls.name.trim())
+        {
             return Err(err(
                 &field("name"),
                 format!("`{}` is listed twice", ls.name),
@@ -502,6 +534,12 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
         Some(c) => base.join(c),
         None => PathBuf::from(".cache/rockbench/fragility"),
     };
+    if cache_dir.exists() && !cache_dir.is_dir() {
+        return Err(err(
+            "cache",
+            format!("{} is a file, not a folder", cache_dir.display()),
+        ));
+    }
     let study = Study {
         file: f,
         path: path.to_path_buf(),
