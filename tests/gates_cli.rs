@@ -144,7 +144,35 @@ fn known_failures_pass_while_failing_and_fail_when_they_start_passing() {
 #[test]
 fn bad_gate_files_are_one_line_naming_the_field() {
     let dir = tmp("bad");
+    // Reference trajectories that cannot be compared: refused when the gates load, even for a
+    // known failure (it would count as "still failing" and switch the gate off).
+    let good =
+        std::fs::read_to_string(root().join("reference-data/housner-slender/trajectory.csv"))
+            .unwrap();
+    let mut lines: Vec<&str> = good.lines().collect();
+    let with_nan = {
+        let mut cols: Vec<&str> = lines[5].split(',').collect();
+        cols[1] = "NaN";
+        cols.join(",")
+    };
+    lines[5] = &with_nan;
+    std::fs::write(dir.join("nan.csv"), lines.join("\n") + "\n").unwrap();
+    std::fs::write(dir.join("empty.csv"), "").unwrap();
+    let known = |file: &str| {
+        gate_toml(
+            "a",
+            "impact_time_1",
+            1e-3,
+            "expect = \"known-failure\"\nreason = \"r\"",
+        )
+        .replace(
+            "reference = \"housner\"",
+            &format!("reference = \"{}\"", dir.join(file).display()),
+        )
+    };
     let cases = [
+        (known("nan.csv"), "gate[0] (a).reference"),
+        (known("empty.csv"), "gate[0] (a).reference"),
         (
             gate_toml("a", "impact_time_1", 1e-3, "").replace("tolerance", "tolerence"),
             "tolerence",

@@ -282,6 +282,19 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
                         format!("no trajectory file {}", p.display()),
                     ));
                 }
+                // Read and checked now: a reference that cannot be compared would otherwise
+                // fail its gate as a result, or leave a known failure "still failing".
+                crate::bench::reference_run(
+                    &ReferenceSpec::File(p.clone()),
+                    &scene,
+                    &crate::compare::run_engine,
+                )
+                .map_err(|e| {
+                    err(
+                        at("reference"),
+                        e.trim_start_matches("--reference: ").to_string(),
+                    )
+                })?;
                 ReferenceSpec::File(p)
             } else if g.reference.trim().is_empty() {
                 return Err(err(at("reference"), "must not be empty".into()));
