@@ -10,7 +10,7 @@
 //! walls of the series move, and when").
 
 use super::stepper_for;
-use crate::excitation::GroundMotion;
+use crate::excitation::{DefinedBy, GroundMotion};
 use crate::scene::{Scene, SceneError};
 
 /// Spacing of the instants at which the loading is compared with the interval, s.
@@ -33,6 +33,10 @@ pub struct CollapseOnset {
     pub leaves_at: Option<f64>,
     /// Whether the scene has a vertical excitation.
     pub vertical: bool,
+    /// Whether the horizontal motion is a displacement record: its velocity jumps at every
+    /// sample (impulses of acceleration), which no interval of accelerations bounds, so the
+    /// onset is not computed.
+    pub displacement: bool,
 }
 
 /// The rest interval of `scene` at its start and where its horizontal loading leaves it.
@@ -48,12 +52,20 @@ pub fn collapse_onset(scene: &Scene) -> Result<CollapseOnset, SceneError> {
     };
     let motion = GroundMotion::from_scene(scene)?;
     let vertical = motion.vertical.is_some();
+    let displacement = motion
+        .horizontal
+        .as_ref()
+        .is_some_and(|c| c.defined_by() == DefinedBy::Displacement);
     let (mut peak, mut leaves_at) = (0.0f64, None);
     for k in 0..=(scene.duration / SCAN_STEP).round() as usize {
         let t = k as f64 * SCAN_STEP;
         let a = motion.acc(t).0 / g;
         peak = peak.max(a.abs());
-        if leaves_at.is_none() && !vertical && interval.is_some_and(|(lo, hi)| a < lo || a > hi) {
+        if leaves_at.is_none()
+            && !vertical
+            && !displacement
+            && interval.is_some_and(|(lo, hi)| a < lo || a > hi)
+        {
             leaves_at = Some(t);
         }
     }
@@ -62,12 +74,20 @@ pub fn collapse_onset(scene: &Scene) -> Result<CollapseOnset, SceneError> {
         peak,
         leaves_at,
         vertical,
+        displacement,
     })
 }
 
 impl std::fmt::Display for CollapseOnset {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        const DISPLACEMENT: &str = "the loading is a displacement record, whose velocity jumps at its samples: the onset is not computed";
         let Some((lo, hi)) = self.interval else {
+            if self.displacement {
+                return write!(
+                    f,
+                    "no rest interval (the blocks do not start at rest); {DISPLACEMENT}"
+                );
+            }
             return write!(
                 f,
                 "no rest interval (the blocks do not start at rest); the loading peaks at {:.4} g",
@@ -78,6 +98,12 @@ impl std::fmt::Display for CollapseOnset {
             return write!(
                 f,
                 "rest interval [{lo:.4}, {hi:.4}] g (static theorem, associative law): without a ground acceleration in it the blocks do not rest where they start"
+            );
+        }
+        if self.displacement {
+            return write!(
+                f,
+                "rest interval [{lo:.4}, {hi:.4}] g (static theorem, associative law); {DISPLACEMENT}"
             );
         }
         write!(
@@ -127,6 +153,26 @@ mod tests {
         let below = onset(&pulse(0.2));
         assert_eq!(below.leaves_at, None, "{below}");
         assert!(!below.vertical);
+    }
+
+    /// A displacement record's loading is velocity jumps: no onset is claimed (the block does
+    /// rock under one whose acceleration between samples is zero).
+    #[test]
+    fn a_displacement_record_has_no_onset() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("d.csv"),
+            "0,0\n0.01,0\n0.02,0.05\n0.03,0\n0.2,0\n",
+        )
+        .unwrap();
+        let text = format!(
+            "{BLOCK}[excitation.horizontal]\nkind = \"displacement\"\nfile = \"{}\"\n",
+            dir.path().join("d.csv").display()
+        );
+        let scene = parse_scene_str(&text, false, "collapse-test", &[]).unwrap();
+        let o = collapse_onset(&scene).unwrap();
+        assert!(o.displacement && o.leaves_at.is_none(), "{o}");
+        assert!(o.to_string().ends_with("the onset is not computed"), "{o}");
     }
 
     /// A block thrown with an initial velocity has no rest interval.
