@@ -66,6 +66,9 @@ pub struct WorkerSpec {
     pub check: Option<TableKeysCheck>,
     /// Environment variables set for the worker.
     pub env: &'static [(&'static str, &'static str)],
+    /// The names of the settings its table may give (its worker's specification, kept equal
+    /// to it by a test): an unknown one is refused when the scene is checked, not at its run.
+    pub settings: &'static [&'static str],
     /// The exit code by which the worker says it cannot model the scene (its stderr says why).
     pub unsupported_exit: Option<i32>,
     /// What the harness knows the worker cannot model ([`Engine::cannot_model`]).
@@ -73,15 +76,50 @@ pub struct WorkerSpec {
 }
 
 /// MuJoCo (`python/rockbench/engines/mujoco_engine.py`).
-pub static MUJOCO: WorkerSpec = WorkerSpec::rockbench_worker("mujoco");
+pub static MUJOCO: WorkerSpec = WorkerSpec::rockbench_worker(
+    "mujoco",
+    &[
+        "cone",
+        "depth",
+        "excitation_interval",
+        "impratio",
+        "integrator",
+        "iterations",
+        "solimp",
+        "solref",
+        "solver",
+        "timeout",
+        "timestep",
+        "tolerance",
+    ],
+);
 /// PyBullet (`python/rockbench/engines/pybullet_engine.py`).
-pub static PYBULLET: WorkerSpec = WorkerSpec::rockbench_worker("pybullet");
+pub static PYBULLET: WorkerSpec = WorkerSpec::rockbench_worker(
+    "pybullet",
+    &[
+        "contact_erp",
+        "depth",
+        "erp",
+        "fixed_time_step",
+        "friction_erp",
+        "ground_friction",
+        "ground_half_size",
+        "lateral_friction",
+        "num_solver_iterations",
+        "num_sub_steps",
+        "timeout",
+    ],
+);
 
 impl WorkerSpec {
-    /// An engine of `python -m rockbench.worker` in `.venv`.
-    pub const fn rockbench_worker(engine: &'static str) -> WorkerSpec {
+    /// An engine of `python -m rockbench.worker` in `.venv` with the settings `settings`.
+    pub const fn rockbench_worker(
+        engine: &'static str,
+        settings: &'static [&'static str],
+    ) -> WorkerSpec {
         WorkerSpec {
             engine,
+            settings,
             python_env: PYTHON_ENV,
             venv: ".venv",
             make_target: ".venv",
@@ -99,6 +137,15 @@ impl WorkerSpec {
 /// checked (`timeout`, Siconos' `step`); the worker checks the rest when it runs.
 pub fn check_table(scene: &Scene, engine: &str) -> Result<serde_json::Value, SceneError> {
     let table: serde_json::Map<String, serde_json::Value> = scene.parse_table(engine)?;
+    if let Some(spec) = super::registry::find(engine).and_then(|e| e.worker())
+        && let Some(unknown) = table.keys().find(|k| !spec.settings.contains(&k.as_str()))
+    {
+        return Err(SceneError::new(
+            &scene.source,
+            format!("{engine}.{unknown}"),
+            format!("unknown setting (known: {})", spec.settings.join(", ")),
+        ));
+    }
     let as_scene_error = |e: EngineError| match e {
         EngineError::Scene(s) => s,
         other => SceneError::new(&scene.source, engine, other.to_string()),

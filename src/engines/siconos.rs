@@ -41,6 +41,16 @@ pub static WORKER: WorkerSpec = WorkerSpec {
     check: Some(|s| step(s).map(|_| ()).map_err(scene_error)),
     // One BLAS thread: the problems are tiny and threads only contend on 2 cores.
     env: &[("OPENBLAS_NUM_THREADS", "1")],
+    settings: &[
+        "iterations",
+        "restitution",
+        "scheme",
+        "solver",
+        "step",
+        "theta",
+        "timeout",
+        "tolerance",
+    ],
     unsupported_exit: Some(5),
     cannot_model: Some(cannot_model),
 };

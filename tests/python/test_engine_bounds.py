@@ -423,3 +423,31 @@ def test_siconos_refuses_a_last_step_its_events_cannot_tell_from_a_whole_one(tmp
         "close to a whole step for Siconos' events to tell apart: make the duration a whole "
         "number of steps (got 1e-06)"
     )
+
+
+@pytest.mark.parametrize(
+    "engine, module",
+    [
+        ("mujoco", "rockbench.engines.mujoco_engine"),
+        ("pybullet", "rockbench.engines.pybullet_engine"),
+        ("siconos", "rockbench.siconos_worker"),
+    ],
+)
+def test_check_refuses_a_worker_setting_its_worker_does_not_know(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, engine: str, module: str
+) -> None:
+    """`rockbench check` refuses an unknown setting of a worker engine's table, as the worker
+    would at the run, and the names it knows are exactly the worker's own."""
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", os.environ.get("OPENBLAS_NUM_THREADS", "1"))
+    settings = importlib.import_module(module).SETTINGS
+    scene = tmp_path / "s.toml"
+    text = Path(scene_path("housner-square")).read_text()
+    scene.write_text(f"{text}\n[{engine}]\nbogus = 1\n")
+    r = subprocess.run(
+        [str(ROOT / "target/release/rockbench"), "check", str(scene)],
+        capture_output=True, text=True, check=False,
+    )
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    m = re.search(rf"{engine}\.bogus: unknown setting \(known: (.*)\)$", r.stderr.strip())
+    assert m, r.stderr
+    assert m.group(1).split(", ") == sorted(settings)
