@@ -393,6 +393,48 @@ fn a_bad_suite_is_one_clear_line() {
         se.contains("suite.toml") && se.contains("case[0] (x).reference: unknown engine `housnr`"),
         "{se}"
     );
+    // The paper's case with a reference.toml that cannot be read: refused before any run,
+    // nothing written.
+    let refs = dir.join("refs");
+    std::fs::create_dir_all(&refs).unwrap();
+    std::fs::write(refs.join("PROVENANCE.md"), "test\n").unwrap();
+    let out = dir.join("out");
+    for (reference, says) in [
+        ("[paper\n", "refs/reference.toml: line 1: invalid TOML"),
+        (
+            "[paper]\nrest_time_s = \"soon\"\n",
+            "paper.rest_time_s: must be a time >= 0",
+        ),
+    ] {
+        std::fs::write(refs.join("reference.toml"), reference).unwrap();
+        std::fs::write(
+            &p,
+            format!(
+                "[[case]]\nname = \"x\"\ntitle = \"t\"\nreference = \"housner\"\npaper = true\nreferences = \"refs\"\n[[case.run]]\nlabel = \"a\"\nscene = \"{}\"\n",
+                scene.display()
+            ),
+        )
+        .unwrap();
+        let (ok, _, se) = run(bin().args([
+            "validate",
+            p.to_str().unwrap(),
+            "--engines",
+            "native",
+            "--no-cache",
+            "--quiet",
+            "--gates",
+            root().join("validation/gates.toml").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        assert!(!ok);
+        assert_eq!(se.trim().lines().count(), 1, "{se}");
+        assert!(
+            se.contains("suite.toml: case `x`.references: ") && se.contains(says),
+            "{se}"
+        );
+        assert!(!out.exists(), "validate wrote {}", out.display());
+    }
     // An engine of --engines that is not in the registry.
     let (ok, _, se) = run(bin().args([
         "validate",

@@ -70,6 +70,18 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
         }
         cases.retain(|c| a.cases.contains(&c.name));
     }
+    // The paper's claims are read before any run: a bad reference.toml stops the suite with
+    // nothing written.
+    let claims = cases
+        .iter()
+        .find(|c| c.paper)
+        .and_then(|c| c.references.as_ref().map(|d| (c, d)))
+        .map(|(c, d)| {
+            PaperClaims::read(d).map_err(|e| {
+                anyhow::anyhow!("{}: case `{}`.references: {e}", a.suite.display(), c.name)
+            })
+        })
+        .transpose()?;
     let all_gates = load_gates(&a.gates)?;
     // With --case, only the gates of the chosen cases.
     let gates: Vec<_> = all_gates
@@ -92,13 +104,6 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
             }
         }
     }
-    let claims = results
-        .iter()
-        .find(|r| r.case.paper)
-        .and_then(|r| r.case.references.as_ref())
-        .map(|d| PaperClaims::read(d))
-        .transpose()
-        .map_err(anyhow::Error::msg)?;
     let prov = Provenance::collect(&command);
     let (html, md, plots) = render(&results, &a.engines, claims.as_ref(), &prov, &shown);
     let io = |p: &Path, e: std::io::Error| anyhow::anyhow!("{}: {e}", p.display());

@@ -26,11 +26,18 @@ pub struct PaperClaims {
 }
 
 impl PaperClaims {
-    /// Read `reference.toml` (`[paper]`) and `trajectory.csv` of a reference-data directory.
+    /// Read `reference.toml` (`[paper]`) and `trajectory.csv` (if there is one) of a
+    /// reference-data directory; a problem is one line naming the file and the field.
     pub fn read(dir: &Path) -> Result<PaperClaims, String> {
         let p = dir.join("reference.toml");
         let text = std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let v: toml::Table = toml::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))?;
+        let v: toml::Table = toml::from_str(&text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let at = line.map(|l| format!("line {l}: ")).unwrap_or_default();
+            format!("{}: {at}invalid TOML: {}", p.display(), e.message())
+        })?;
         let paper = v
             .get("paper")
             .and_then(|x| x.as_table())
@@ -42,12 +49,32 @@ impl PaperClaims {
                 .unwrap_or("")
                 .to_string()
         };
+        let rest_time_s = match paper.get("rest_time_s") {
+            None => None,
+            Some(x) => Some(
+                x.as_float()
+                    .or(x.as_integer().map(|i| i as f64))
+                    .filter(|t| t.is_finite() && *t >= 0.0)
+                    .ok_or_else(|| {
+                        format!(
+                            "{}: paper.rest_time_s: must be a time >= 0 in s (got {x})",
+                            p.display()
+                        )
+                    })?,
+            ),
+        };
+        let tp = dir.join("trajectory.csv");
+        let converged = if tp.exists() {
+            Some(Trajectory::read_csv(&tp).map_err(|e| e.to_string())?)
+        } else {
+            None
+        };
         Ok(PaperClaims {
             claim: s("claim"),
-            rest_time_s: paper.get("rest_time_s").and_then(|x| x.as_float()),
+            rest_time_s,
             rest_threshold: s("rest_threshold"),
             upper_block_curve: s("upper_block_curve"),
-            converged: Trajectory::read_csv(&dir.join("trajectory.csv")).ok(),
+            converged,
         })
     }
 }
