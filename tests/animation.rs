@@ -369,6 +369,39 @@ fn animate_draws_runs_made_with_run() {
         .unwrap();
     let err = common::one_error_line(&o);
     assert!(err.contains("nope/summary.json"), "{err}");
+    // A run whose trajectory has a time that does not increase, or a value that is not finite:
+    // one line naming the file (it was drawn as given).
+    let bad = out.join("bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    std::fs::copy(out.join("native/summary.json"), bad.join("summary.json")).unwrap();
+    let text = std::fs::read_to_string(out.join("native/trajectory.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let with = |k: usize, col: usize, value: &str| {
+        let mut c: Vec<&str> = lines[k].split(',').collect();
+        c[col] = value;
+        c.join(",")
+    };
+    let earlier = lines[2].split(',').next().unwrap().to_string();
+    for (k, edit, says) in [
+        (3, with(3, 0, &earlier), "is repeated"),
+        (4, with(4, 2, "NaN"), "not finite"),
+    ] {
+        let keep = std::mem::replace(&mut lines[k], edit);
+        std::fs::write(bad.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+        lines[k] = keep;
+        let o = bin()
+            .args(["animate", bad.to_str().unwrap(), "--out"])
+            .arg(out.join("bad.html"))
+            .output()
+            .unwrap();
+        let err = common::one_error_line(&o);
+        assert!(
+            err.contains("bad/trajectory.csv") && err.contains(says),
+            "{err}"
+        );
+        assert_eq!(err.matches("bad/trajectory.csv").count(), 1, "{err}");
+        assert!(!out.join("bad.html").exists());
+    }
     // A video of a kind it cannot write, or where nothing can be written: refused before the
     // page is written (in the second case it was written, and rockbench ended on SIGPIPE
     // without a word when ffmpeg could not open the video).

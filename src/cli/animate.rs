@@ -41,7 +41,8 @@ fn read_run(dir: &Path) -> Result<(Summary, Trajectory)> {
     let summary: Summary = serde_json::from_str(&text)
         .map_err(|e| anyhow::anyhow!("{}: not a rockbench summary: {e}", sp.display()))?;
     let tp = dir.join("trajectory.csv");
-    let tr = Trajectory::read_csv(&tp).map_err(|e| anyhow::anyhow!("{}: {e}", tp.display()))?;
+    // The reader's errors name the file.
+    let tr = Trajectory::read_csv(&tp).map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok((summary, tr))
 }
 
@@ -87,6 +88,14 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
                 scene.source
             );
         }
+        // Times that do not increase, or a value that is not finite, would draw a wrong motion.
+        let run = crate::metrics::Run {
+            name: d.join("trajectory.csv").display().to_string(),
+            trajectory: tr.clone(),
+            exact_impacts: None,
+            cost: Default::default(),
+        };
+        crate::metrics::check_reference_file(&scene, &run).map_err(|e| anyhow::anyhow!("{e}"))?;
         // Two runs of one engine are told apart by their directory.
         let name = if runs.iter().filter(|r| r.1.engine == s.engine).count() > 1 {
             format!("{} ({})", s.engine, d.display())
