@@ -91,6 +91,65 @@ fn output_table(value: &mut serde_json::Value) -> Result<(), (String, String)> {
     Ok(())
 }
 
+/// A JSON value none of whose objects gives a key twice (serde_json's own `Value` keeps the
+/// last of two, so `"duration": 0.1, "duration": 5` would run for 5 s without a word; TOML
+/// refuses a repeated key itself).
+struct UniqueKeys(serde_json::Value);
+
+impl<'de> serde::Deserialize<'de> for UniqueKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(UniqueKeysVisitor).map(UniqueKeys)
+    }
+}
+
+struct UniqueKeysVisitor;
+
+impl<'de> serde::de::Visitor<'de> for UniqueKeysVisitor {
+    type Value = serde_json::Value;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, v: bool) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_f64<E>(self, v: f64) -> Result<Self::Value, E> {
+        Ok(serde_json::Number::from_f64(v).map_or(serde_json::Value::Null, Into::into))
+    }
+    fn visit_str<E>(self, v: &str) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_unit<E>(self) -> Result<Self::Value, E> {
+        Ok(serde_json::Value::Null)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut out = Vec::new();
+        while let Some(UniqueKeys(v)) = seq.next_element()? {
+            out.push(v);
+        }
+        Ok(serde_json::Value::Array(out))
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut out = serde_json::Map::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if out.contains_key(&key) {
+                return Err(serde::de::Error::custom(format!(
+                    "the key `{key}` is given twice"
+                )));
+            }
+            let UniqueKeys(v) = map.next_value()?;
+            out.insert(key, v);
+        }
+        Ok(serde_json::Value::Object(out))
+    }
+}
+
 pub fn parse_scene_str(
     text: &str,
     is_json: bool,
@@ -101,13 +160,15 @@ pub fn parse_scene_str(
         return Err(SceneError::new(file, "(file)", "the file is empty"));
     }
     let mut value: serde_json::Value = if is_json {
-        serde_json::from_str(text).map_err(|e| {
-            SceneError::new(
-                file,
-                format!("line {}", e.line()),
-                format!("invalid JSON: {e}"),
-            )
-        })?
+        serde_json::from_str::<UniqueKeys>(text.strip_prefix('\u{feff}').unwrap_or(text))
+            .map(|v| v.0)
+            .map_err(|e| {
+                SceneError::new(
+                    file,
+                    format!("line {}", e.line()),
+                    format!("invalid JSON: {e}"),
+                )
+            })?
     } else {
         let table: toml::Table =
             toml::from_str(text).map_err(|e| toml_syntax_error(file, text, &e))?;
@@ -457,6 +518,34 @@ mod tests {
 
     fn scene() -> serde_json::Value {
         json!({"duration": 1.0, "blocks": [{"name": "a", "width": 1.0}, {"name": "b", "width": 2.0}]})
+    }
+
+    /// A JSON scene giving a key twice is refused (serde_json kept the last one), at the top
+    /// level and inside a block; a byte-order mark is not an error.
+    #[test]
+    fn a_json_key_given_twice_is_refused() {
+        let good = r#"{"name": "s", "duration": 0.1, "blocks": [{"name": "b", "width": 0.4, "height": 1.0}]}"#;
+        let s = parse_scene_str(&format!("\u{feff}{good}"), true, "s.json", &[]).unwrap();
+        assert_eq!((s.duration, s.blocks[0].width), (0.1, 0.4));
+        for (text, key) in [
+            (
+                good.replace(r#""duration": 0.1"#, r#""duration": 0.1, "duration": 5.0"#),
+                "duration",
+            ),
+            (
+                good.replace(r#""width": 0.4"#, r#""width": 0.4, "width": 4"#),
+                "width",
+            ),
+        ] {
+            let e = parse_scene_str(&text, true, "s.json", &[])
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("s.json: line 1: invalid JSON: the key `")
+                    && e.contains(&format!("`{key}` is given twice")),
+                "{e}"
+            );
+        }
     }
 
     #[test]
