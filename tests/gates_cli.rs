@@ -170,7 +170,34 @@ fn bad_gate_files_are_one_line_naming_the_field() {
             &format!("reference = \"{}\"", dir.join(file).display()),
         )
     };
+    std::fs::write(
+        dir.join("one.toml"),
+        gate_toml("g1", "impact_time_1", 1e-3, ""),
+    )
+    .unwrap();
     let cases = [
+        (
+            "include = [\"one.toml\", \"one.toml\"]\n".to_string(),
+            "include[1]: ",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "") + &gate_toml("a ", "impact_time_2", 1e-3, ""),
+            "gate[1] (a ).name: another gate has this name",
+        ),
+        (
+            gate_toml(
+                "a",
+                "impact_time_1",
+                1e-3,
+                "check = \"value\"\ntarget = 100",
+            ),
+            "gate[0] (a).target: check = \"value\" compares |value|",
+        ),
+        (
+            gate_toml("a", "impact_time_1", 1e-3, "")
+                .replace("reference = \"housner\"", "reference = \"native\""),
+            "gate[0] (a).reference: `native` is the gate's engine",
+        ),
         (known("nan.csv"), "gate[0] (a).reference"),
         (known("empty.csv"), "gate[0] (a).reference"),
         (

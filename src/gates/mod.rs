@@ -178,7 +178,19 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
                 format!("no gate file {}", p.display()),
             ));
         }
-        gates.extend(load_gates_nested(&p, depth + 1)?);
+        for g in load_gates_nested(&p, depth + 1)? {
+            if gates.iter().any(|x| x.name.trim() == g.name.trim()) {
+                return Err(err(
+                    format!("include[{k}]"),
+                    format!(
+                        "{} gives gate `{}`, which an earlier include gives already",
+                        p.display(),
+                        g.name
+                    ),
+                ));
+            }
+            gates.push(g);
+        }
     }
     let mut scenes: BTreeMap<(PathBuf, Vec<String>), Scene> = BTreeMap::new();
     for (i, g) in raw.gate.into_iter().enumerate() {
@@ -192,7 +204,7 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
         if g.name.trim().is_empty() {
             return Err(err(at("name"), "must not be empty".into()));
         }
-        if gates.iter().any(|x| x.name == g.name) {
+        if gates.iter().any(|x| x.name.trim() == g.name.trim()) {
             return Err(err(at("name"), "another gate has this name".into()));
         }
         if g.engine.trim().is_empty() {
@@ -228,6 +240,22 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
             return Err(err(
                 at("target"),
                 format!("must be a finite number (got {t})"),
+            ));
+        }
+        if g.check == Some(Check::Value) && g.target.is_some() {
+            return Err(err(
+                at("target"),
+                "check = \"value\" compares |value| and would not use it: give abs-diff or rel-diff"
+                    .into(),
+            ));
+        }
+        if g.reference == g.engine {
+            return Err(err(
+                at("reference"),
+                format!(
+                    "`{}` is the gate's engine: a run compared with itself measures nothing",
+                    g.engine
+                ),
             ));
         }
         match (g.expect, &g.reason) {
