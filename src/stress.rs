@@ -507,13 +507,79 @@ pub struct KnownList {
 }
 
 impl KnownList {
+    /// Read a known list and check every entry: an entry that can match no cell (an engine,
+    /// factor, value or check the map does not have) or explains nothing (an empty reason)
+    /// is an error naming it, as is an entry given twice.
     pub fn load(path: &Path) -> Result<KnownList, String> {
+        let at = |field: &str, m: String| format!("{}: {field}: {m}", path.display());
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        toml::from_str(&text).map_err(|e| {
+        let table: toml::Table = toml::from_str(&text).map_err(|e| {
             let (line, message) = crate::scene::toml_error_at(&text, &e, "(file)");
             format!("{}: {line}: {message}", path.display())
-        })
+        })?;
+        let list: KnownList =
+            serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+                let p = e.path().to_string();
+                let field = if p == "." { "(top level)".into() } else { p };
+                at(
+                    &field,
+                    e.inner().message().lines().next().unwrap_or("").into(),
+                )
+            })?;
+        let grid = grid(false);
+        for (i, k) in list.known.iter().enumerate() {
+            let field = |f: &str| format!("known[{i}].{f}");
+            if registry::find(&k.engine).is_none() {
+                return Err(at(
+                    &field("engine"),
+                    crate::engines::EngineError::Unknown(k.engine.clone()).to_string(),
+                ));
+            }
+            if !FACTORS.iter().any(|(f, _)| *f == k.factor) {
+                let names: Vec<&str> = FACTORS.iter().map(|(f, _)| *f).collect();
+                return Err(at(
+                    &field("factor"),
+                    format!("no factor `{}` (factors: {})", k.factor, names.join(", ")),
+                ));
+            }
+            let labels: Vec<&str> = grid
+                .iter()
+                .filter(|c| c.factor == k.factor)
+                .map(|c| c.label.as_str())
+                .collect();
+            if k.value != "*" && !labels.contains(&k.value.as_str()) {
+                return Err(at(
+                    &field("value"),
+                    format!(
+                        "`{}` is no value of factor `{}` (`*`, or one of: {})",
+                        k.value,
+                        k.factor,
+                        labels.join(", ")
+                    ),
+                ));
+            }
+            if k.check != "run" && !CHECK_NAMES.contains(&k.check.as_str()) {
+                return Err(at(
+                    &field("check"),
+                    format!(
+                        "no check `{}` (`run`, or one of: {})",
+                        k.check,
+                        CHECK_NAMES.join(", ")
+                    ),
+                ));
+            }
+            if k.reason.trim().is_empty() {
+                return Err(at(&field("reason"), "must say why (not empty)".into()));
+            }
+            if list.known[..i].iter().any(|o| {
+                (&o.engine, &o.factor, &o.value, &o.check)
+                    == (&k.engine, &k.factor, &k.value, &k.check)
+            }) {
+                return Err(at(&field("check"), "this entry is given twice".into()));
+            }
+        }
+        Ok(list)
     }
     fn explain(&self, engine: &str, factor: &str, label: &str, check: &str) -> Option<String> {
         self.known
@@ -1032,10 +1098,7 @@ fn contract_rows(
             VCell::new(
                 Verdict::Known,
                 "holds except known cases",
-                format!(
-                    "{} known cells (validation/stress-known.toml)",
-                    broken.len()
-                ),
+                format!("{} known cells, explained in the known list", broken.len()),
             )
         } else {
             VCell::new(Verdict::Agree, "holds", format!("{} cells", js.len()))
@@ -1369,6 +1432,56 @@ mod tests {
         assert!(k.explain("native", "theta", "0.6", "energy").is_none());
         assert!(k.explain("housner", "theta", "0.5", "energy").is_none());
         assert!(k.explain("native", "theta", "0.5", "mirror").is_none());
+    }
+
+    /// An entry of a known list that can match no cell, explains nothing or is given twice
+    /// is an error naming it (such entries silently never matched).
+    #[test]
+    fn known_entries_that_match_no_cell_are_refused_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("known.toml");
+        let entry = |engine: &str, factor: &str, value: &str, check: &str, reason: &str| {
+            format!(
+                "[[known]]\nengine = \"{engine}\"\nfactor = \"{factor}\"\nvalue = \"{value}\"\ncheck = \"{check}\"\nreason = \"{reason}\"\n"
+            )
+        };
+        let good = entry("native", "theta", "0.5", "energy", "r");
+        std::fs::write(&p, &good).unwrap();
+        assert_eq!(KnownList::load(&p).unwrap().known.len(), 1);
+        for (text, says) in [
+            (
+                entry("natve", "theta", "0.5", "energy", "r"),
+                "known[0].engine: unknown engine `natve`",
+            ),
+            (
+                entry("native", "thta", "0.5", "energy", "r"),
+                "known[0].factor: no factor `thta`",
+            ),
+            (
+                entry("native", "theta", "0.50", "energy", "r"),
+                "known[0].value: `0.50` is no value of factor `theta`",
+            ),
+            (
+                entry("native", "theta", "*", "energi", "r"),
+                "known[0].check: no check `energi`",
+            ),
+            (
+                entry("native", "theta", "0.5", "run", " "),
+                "known[0].reason: must say why",
+            ),
+            (
+                format!("{good}{good}"),
+                "known[1].check: this entry is given twice",
+            ),
+            (
+                good.replace("value = \"0.5\"", "value = 0.5"),
+                "known[0].value: invalid type",
+            ),
+        ] {
+            std::fs::write(&p, &text).unwrap();
+            let e = KnownList::load(&p).unwrap_err();
+            assert!(e.starts_with(&format!("{}: {says}", p.display())), "{e}");
+        }
     }
 
     #[test]
