@@ -219,6 +219,20 @@ fn bad_studies_stop_before_running_with_one_line() {
             "scene name `block` is also scenes[0]'s (`block.toml`)",
         ],
     );
+    // One motion under two ids would count twice in a fit.
+    let manifest = std::fs::read_to_string(d.join("suite.toml")).unwrap();
+    std::fs::write(
+        d.join("suite.toml"),
+        format!("{manifest}[[record]]\nid = \"again\"\nfile = \"r0.AT2\"\n"),
+    )
+    .unwrap();
+    edit("name = \"t\"", "name = \"t\"");
+    fails_with(
+        &study,
+        &out,
+        &["record[6].file", "has the same bytes as record[0] (`r0`)"],
+    );
+    std::fs::write(d.join("suite.toml"), manifest).unwrap();
     // A run cache that is a file, found at --check rather than at the first run.
     edit("cache = \"cache\"", "cache = \"suite.toml\"");
     fails_with(

@@ -393,9 +393,8 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
             })?;
             let a: Vec<f64> = s.v.iter().map(|x| x * unit * scale).collect();
             let (v, d) = integrate_piecewise_linear(&s.t, &a);
-            let finite = |a: &[f64], v: &[f64], d: &[f64]| {
-                a.iter().chain(v).chain(d).all(|x| x.is_finite())
-            };
+            let finite =
+                |a: &[f64], v: &[f64], d: &[f64]| a.iter().chain(v).chain(d).all(|x| x.is_finite());
             if !finite(&a, &v, &d) {
                 // The record itself (its times or values), or only its scale?
                 let own: Vec<f64> = s.v.iter().map(|x| x * unit).collect();

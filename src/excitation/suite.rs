@@ -151,7 +151,7 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
         if r.id.trim().is_empty() {
             return Err(err("id", "must not be empty".into()));
         }
-        if !seen.insert(r.id.clone()) {
+        if !seen.insert(r.id.trim().to_string()) {
             return Err(err("id", format!("`{}` is listed twice", r.id)));
         }
         let fpath = base.join(&r.file);
@@ -253,6 +253,21 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
             p695_factor: r.p695_factor,
             sha256: crate::digest::sha256_hex(&bytes),
         });
+        // The same motion under two ids would count as two independent records in a fit.
+        let new = out.last().expect("just pushed");
+        if let Some(j) = out[..out.len() - 1]
+            .iter()
+            .position(|o| o.sha256 == new.sha256)
+        {
+            return Err(err(
+                "file",
+                format!(
+                    "{} has the same bytes as record[{j}] (`{}`): one motion counted twice",
+                    fpath.display(),
+                    out[j].id
+                ),
+            ));
+        }
     }
     Ok(Suite {
         header: m.suite,
