@@ -79,13 +79,24 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
             continue;
         }
         let may_be_header = std::mem::replace(&mut first, false);
-        let cols: Vec<&str> = line
-            .split([',', ';', '\t', ' '])
-            .filter(|s| !s.is_empty())
-            .collect();
+        // Comma- or semicolon-separated fields may be padded with blanks; a field left empty
+        // between two values (`0,,0.1`) is a missing value, not a separator.
+        let cols: Vec<&str> = if line.contains([',', ';']) {
+            let mut cols: Vec<&str> = line.split([',', ';']).map(str::trim).collect();
+            while cols.last() == Some(&"") {
+                cols.pop();
+            }
+            cols
+        } else {
+            line.split_whitespace().collect()
+        };
+        let header = may_be_header && cols[0].parse::<f64>().is_err();
+        if !header && cols.contains(&"") {
+            return Err(format!("line {}: an empty field: `{line}`", ln + 1));
+        }
         let nums: Result<Vec<f64>, _> = cols.iter().map(|c| c.parse::<f64>()).collect();
         match nums {
-            Err(_) if may_be_header && cols[0].parse::<f64>().is_err() => continue, // header
+            Err(_) if header => continue,
             Err(_) => return Err(format!("line {}: not two numbers: `{line}`", ln + 1)),
             Ok(n) if n.len() != 2 => {
                 return Err(format!(
@@ -341,6 +352,24 @@ mod tests {
             parse_at2(&format!("\u{feff}{NEW}")).unwrap(),
             parse_at2(NEW).unwrap()
         );
+    }
+
+    /// Separators: commas or semicolons padded with blanks, tabs or spaces; an empty field
+    /// between two values is refused (it was read as two columns).
+    #[test]
+    fn csv_separators_and_empty_fields() {
+        for text in [
+            "0,1\n0.1,2\n",
+            "0 ; 1\n0.1;2;\n",
+            "0\t1\n0.1  2\n",
+            "0,\t1\n0.1 ,2\n",
+        ] {
+            let s = parse_two_column(text).unwrap();
+            assert_eq!((s.t, s.v), (vec![0.0, 0.1], vec![1.0, 2.0]), "{text:?}");
+        }
+        assert!(parse_two_column("time,,acc\n0,0\n0.1,1\n").is_ok());
+        let e = parse_two_column("0,0\n0.1,,0.2\n").unwrap_err();
+        assert_eq!(e, "line 2: an empty field: `0.1,,0.2`");
     }
 
     #[test]
