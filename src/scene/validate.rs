@@ -62,6 +62,15 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                 ),
             );
         }
+        if b.name.trim() != b.name {
+            return err(
+                f("name"),
+                format!(
+                    "`{}` has leading or trailing spaces (a CSV reader may drop them, and two blocks differ by them)",
+                    b.name
+                ),
+            );
+        }
         if !names.insert(b.name.as_str()) {
             return err(f("name"), format!("duplicate block name `{}`", b.name));
         }
