@@ -789,7 +789,9 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
     let z_rest = 0.5 * b.height;
     let barrier = b.tipping_energy_per_mass(scene.gravity);
     let free = GroundMotion::default();
-    let (mut t0, mut state) = (0.0, (0.0, 0.0));
+    // From the scene's start (a tilt or a rotation rate a scene file gives), as the engine.
+    let start = scene.layout().blocks[0];
+    let (mut t0, mut state) = (0.0, (start.phi, start.omega));
     let mut first = true;
     loop {
         let len = if first {
@@ -1013,6 +1015,11 @@ fn check_largest_amplitude(base: &Scene, req: &Request) -> Result<(), String> {
 
 /// Run a whole spectrum; `progress` gets one line per minimum and per map row.
 pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<Results, String> {
+    let at_rest = base
+        .layout()
+        .blocks
+        .iter()
+        .all(|b| b.phi == 0.0 && b.omega == 0.0 && b.vx == 0.0 && b.vz == 0.0);
     req.settings.check()?;
     let start = Instant::now();
     let (p, alpha) = p_alpha(base);
@@ -1066,7 +1073,8 @@ pub fn compute(base: &Scene, req: &Request, progress: &dyn Fn(&str)) -> Result<R
                     p_td: pulse.duration(r * p) * p,
                     minimum: m,
                     without_impact: w,
-                    closed_form: closed_form(pulse, r),
+                    // The closed forms are those of a block starting at rest.
+                    closed_form: closed_form(pulse, r).filter(|_| at_rest),
                     wall_s: t0.elapsed().as_secs_f64(),
                 };
                 progress(&format!(
@@ -1331,7 +1339,7 @@ pub fn svg(res: &Results, pulse: Pulse, engines: &[String]) -> String {
             v.dedup();
             v
         };
-        if closed_form(pulse, 1.0).is_some() && !rs.is_empty() {
+        if mins.iter().any(|r| r.closed_form.is_some()) && !rs.is_empty() {
             let (a, b) = (rs[0], rs[rs.len() - 1]);
             let pts = (0..=100)
                 .map(|i| a + (b - a) * i as f64 / 100.0)

@@ -583,3 +583,51 @@ fn spectrum_runs_are_kept_in_the_store_and_read_back() {
     let (_, _, _, stored4, _) = run("2", "fresh", &["--no-cache"]);
     assert_eq!(stored4, 0);
 }
+
+/// A scene starting tilted: the Housner engine's early-stopped runs start from the tilt, as
+/// its runs to the end do (they started upright, so the minimum was the upright block's), and
+/// no closed form (a block starting at rest) is set beside the minima.
+#[test]
+fn a_tilted_start_is_kept_by_the_early_stopped_housner_runs() {
+    let scratch = common::tmp("rb-spectrum", "tilted");
+    let minimum = |extra: &[&str]| {
+        let dir = scratch.join(format!("out{}", extra.len()));
+        let mut args = vec![
+            "spectrum",
+            "1x2.5",
+            "--friction",
+            "0.7",
+            "--engines",
+            "housner",
+            "--ratios",
+            "2",
+            "--amplitudes",
+            "none",
+            "--out",
+            dir.to_str().unwrap(),
+            "--set",
+            "initial.tilt=0.3",
+        ];
+        args.extend(extra);
+        let (ok, out, err) = rockbench(&args);
+        assert!(ok, "{out}{err}");
+        let csv = std::fs::read_to_string(dir.join("minimum.csv")).unwrap();
+        let row: Vec<String> = csv
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect();
+        (row[4].parse::<f64>().unwrap(), row[10].clone())
+    };
+    let (early, closed) = minimum(&[]);
+    let (whole, _) = minimum(&["--no-early-stop"]);
+    assert!(
+        (early - whole).abs() <= 1e-3 * whole,
+        "{early} against {whole}"
+    );
+    // Upright, the same block needs 1.80 times g tan(alpha) (the closed form).
+    assert!(early < 1.0, "{early}");
+    assert_eq!(closed, "", "a closed form beside a tilted start");
+}
