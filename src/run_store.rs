@@ -70,7 +70,13 @@ pub fn store<T: Serialize>(dir: &Path, key: &str, entry: &T) -> Result<(), Strin
     let path = entry_path(dir, key);
     let parent = path.parent().expect("entries are in a sub-folder");
     std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
-    let host = std::env::var("HOSTNAME").unwrap_or_default();
+    // The host name tells apart writers on machines sharing the folder; only the characters
+    // a file name can hold are kept.
+    let host: String = std::env::var("HOSTNAME")
+        .unwrap_or_default()
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_'))
+        .collect();
     let tmp = path.with_extension(format!(
         "tmp-{host}-{}-{}",
         std::process::id(),

@@ -631,3 +631,25 @@ fn a_tilted_start_is_kept_by_the_early_stopped_housner_runs() {
     assert!(early < 1.0, "{early}");
     assert_eq!(closed, "", "a closed form beside a tilted start");
 }
+
+/// A host name with a path separator (the run store names its temporary files by it) is no
+/// panic: the store keeps the characters a file name can hold.
+#[test]
+fn a_host_name_with_a_slash_does_not_stop_the_run_store() {
+    let scratch = common::tmp("rb-spectrum", "host");
+    let out = Command::new(env!("CARGO_BIN_EXE_rockbench"))
+        .env("HOSTNAME", "a/b")
+        .args(["spectrum", "0.4x4", "--engines", "housner", "--ratios", "2"])
+        .args(["--amplitudes", "none", "--cache-dir"])
+        .arg(scratch.join("store"))
+        .arg("--out")
+        .arg(scratch.join("out"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(std::fs::read_dir(scratch.join("store")).unwrap().count() > 0);
+}
