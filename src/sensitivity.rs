@@ -12,7 +12,7 @@
 //! A configuration is `ENGINE[:KEY=VALUE[;KEY=VALUE...]]` (scene overrides, as `--set`).
 //! Every run is appended to `OUT/runs.csv` as it ends, and a run already there is not run
 //! again: an interrupted study resumes where it stopped. `OUT/runs.csv` starts with the study's
-//! parameters (the scene's text hashed); another study's directory is refused. Every
+//! parameters (the scene's text and its record files hashed); another study's directory is refused. Every
 //! configuration's scene is checked before anything is written. Writes `OUT/sensitivity.md`.
 
 use crate::bench::median;
@@ -53,8 +53,14 @@ pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
         if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
             bail!("--configs: {label:?}: {s:?} is not KEY=VALUE");
         }
-        if configs.iter().any(|c| c.label == label) {
-            bail!("--configs: {label:?} given twice");
+        let mut sorted = sets.clone();
+        sorted.sort();
+        if let Some(c) = configs.iter().find(|c| {
+            let mut theirs = c.sets.clone();
+            theirs.sort();
+            c.engine == engine && theirs == sorted
+        }) {
+            bail!("--configs: {label:?} makes the same runs as {:?}", c.label);
         }
         configs.push(Config {
             label: label.to_string(),
@@ -63,6 +69,15 @@ pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
         });
     }
     Ok(configs)
+}
+
+/// Whether the override `set` (`KEY=VALUE`) sets `key`, or a table or list holding it.
+fn sets_key(set: &str, key: &str) -> bool {
+    let Some((k, _)) = set.split_once('=') else {
+        return false;
+    };
+    let k = k.trim();
+    k == key || key.starts_with(&format!("{k}.")) || key.starts_with(&format!("{k}["))
 }
 
 /// A study: the scene, what is perturbed, and the configurations.
@@ -125,21 +140,24 @@ impl Study {
         if self.configs.is_empty() {
             bail!("--configs: none given");
         }
-        // A configuration that sets the perturbed value gives every member the same scene.
+        // A `--set` of the perturbed value (or of a table holding it) is replaced by the
+        // perturbation without a word.
+        if let Some(s) = self.sets.iter().find(|s| sets_key(s, key)) {
+            bail!("--set {s}: sets {key}, the perturbed value, which --perturb replaces");
+        }
+        // A configuration that sets the perturbed value, however written (a key or a table),
+        // gives every member the same scene.
         for c in &self.configs {
-            if c.sets
-                .iter()
-                .any(|s| s.split_once('=').map(|(k, _)| k.trim()) == Some(key))
-            {
+            let first = load_scene_with_overrides(&self.scene, &self.run_sets(c, 0))
+                .with_context(|| c.label.clone())?;
+            let second = load_scene_with_overrides(&self.scene, &self.run_sets(c, 1))
+                .with_context(|| c.label.clone())?;
+            if first.to_json() == second.to_json() {
                 bail!(
                     "--configs: {:?} sets {key}, the perturbed value: its members would not be perturbed",
                     c.label
                 );
             }
-        }
-        for c in &self.configs {
-            load_scene_with_overrides(&self.scene, &self.run_sets(c, 0))
-                .with_context(|| c.label.clone())?;
         }
         let base = load_scene_with_overrides(&self.scene, &self.sets)?;
         let names: Vec<String> = base.blocks.iter().map(|b| b.name.clone()).collect();
@@ -244,14 +262,19 @@ impl Study {
         sets
     }
 
-    /// The first line of `runs.csv`: what makes two studies' runs comparable.
+    /// The first line of `runs.csv`: what makes two studies' runs comparable (the scene's
+    /// text and the record files it reads, hashed).
     fn parameters(&self) -> anyhow::Result<String> {
         let text = std::fs::read_to_string(&self.scene)
             .with_context(|| format!("cannot read {}", self.scene.display()))?;
+        let base = load_scene_with_overrides(&self.scene, &self.sets)?;
+        let records = serde_json::to_string(&crate::gates::cache::record_hashes(&base))
+            .expect("hashes serialise");
         let (key, value) = &self.perturb;
         Ok(format!(
-            "# sensitivity: scene {:016x}, {key} = {value:?} x (1 + k {:e}), sets [{}], rockbench {} (sources {})",
+            "# sensitivity: scene {:016x}, records {:016x}, {key} = {value:?} x (1 + k {:e}), sets [{}], rockbench {} (sources {})",
             text_hash(&text),
+            text_hash(&records),
             self.epsilon,
             self.sets.join(" "),
             crate::build_info::VERSION,

@@ -230,6 +230,26 @@ fn bad_studies_say_what_is_wrong_and_write_nothing() {
             ][..],
             "sets excitation.horizontal.amplitude, the perturbed value",
         ),
+        // The same, written as a table (it passed, and its members were all one scene).
+        (
+            &[
+                "--perturb",
+                "initial.tilt=0.01",
+                "--configs",
+                "native,native:initial={tilt=0.02}",
+            ][..],
+            "sets initial.tilt, the perturbed value",
+        ),
+        // A --set of the perturbed value, which the perturbation replaced without a word.
+        (
+            &["--set", "excitation.horizontal.amplitude=3"][..],
+            "--set excitation.horizontal.amplitude=3: sets excitation.horizontal.amplitude",
+        ),
+        // Two configurations that make the same runs.
+        (
+            &["--configs", "native,native:"][..],
+            "\"native:\" makes the same runs as \"native\"",
+        ),
     ] {
         let out = dir.join(expected.replace(['-', ' '], "_"));
         let o = study(&out, extra);
@@ -239,4 +259,41 @@ fn bad_studies_say_what_is_wrong_and_write_nothing() {
         assert_eq!(e.trim().lines().count(), 1, "{extra:?}: one line: {e}");
         assert!(!out.join("runs.csv").exists(), "{extra:?} wrote its runs");
     }
+}
+
+/// A study resumed after its record file changed is refused as another study's runs (the
+/// runs made before kept the old record, and the ensemble mixed two loadings).
+#[test]
+fn a_changed_record_file_makes_another_study() {
+    let dir = tmp("rb-sensitivity", "record");
+    let scene = dir.join("s.toml");
+    std::fs::write(
+        &scene,
+        "name = \"s\"\nduration = 0.2\n[[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1.0\n\
+         [excitation.horizontal]\nkind = \"record\"\nfile = \"gm.csv\"\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let run = |members: &str| {
+        bin()
+            .args([
+                "sensitivity",
+                scene.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .args(["--perturb", "blocks[0].width=0.4", "--configs", "native"])
+            .args(["--members", members])
+            .output()
+            .unwrap()
+    };
+    std::fs::write(dir.join("gm.csv"), "0,0\n0.1,3\n0.2,0\n").unwrap();
+    let o = run("2");
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(dir.join("gm.csv"), "0,0\n0.1,-9\n0.2,0\n").unwrap();
+    let o = run("3");
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("holds the runs of another study"), "{e}");
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
 }

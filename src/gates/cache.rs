@@ -32,6 +32,19 @@ fn build_id() -> &'static str {
 
 /// The inputs that determine a run, as hashed (also written to `key.json` in the entry).
 pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
+    serde_json::json!({
+        "format": CACHE_FORMAT,
+        "engine": engine,
+        "scene": scene.to_json(),
+        "record_files": record_hashes(scene),
+        "rockbench_version": env!("CARGO_PKG_VERSION"),
+        "rockbench_build": build_id(),
+    })
+}
+
+/// The sha256 of every record file a scene reads, by path (a file that cannot be read says
+/// so): what a scene's text alone does not fix.
+pub fn record_hashes(scene: &Scene) -> serde_json::Map<String, serde_json::Value> {
     let mut records = serde_json::Map::new();
     if let Some(exc) = &scene.excitation {
         for m in [exc.horizontal.as_ref(), exc.vertical.as_ref()]
@@ -47,14 +60,7 @@ pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
             }
         }
     }
-    serde_json::json!({
-        "format": CACHE_FORMAT,
-        "engine": engine,
-        "scene": scene.to_json(),
-        "record_files": records,
-        "rockbench_version": env!("CARGO_PKG_VERSION"),
-        "rockbench_build": build_id(),
-    })
+    records
 }
 
 /// The content hash of a run.
