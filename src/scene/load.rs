@@ -437,6 +437,11 @@ pub fn apply_override(root: &mut serde_json::Value, assignment: &str) -> Result<
         return Err(format!("`{assignment}` has an empty key"));
     }
     let segs = parse_key(key)?;
+    // One value: a line break would let the TOML document hold more than `v` (its other keys
+    // were dropped without a word).
+    if raw.contains(['\n', '\r']) {
+        return Err(format!("`{key}`: the value holds a line break"));
+    }
     let parsed: serde_json::Value =
         match toml::from_str::<toml::Table>(&format!("v = {}", raw.trim())) {
             Ok(t) => {
@@ -518,6 +523,17 @@ mod tests {
 
     fn scene() -> serde_json::Value {
         json!({"duration": 1.0, "blocks": [{"name": "a", "width": 1.0}, {"name": "b", "width": 2.0}]})
+    }
+
+    /// An override's value is one value: a line break (which hid further keys) is refused.
+    #[test]
+    fn an_override_value_with_a_line_break_is_refused() {
+        let mut v = scene();
+        let e = apply_override(&mut v, "duration=0.2\ngravity=1").unwrap_err();
+        assert_eq!(e, "`duration`: the value holds a line break");
+        assert_eq!(v, scene());
+        apply_override(&mut v, "duration= 0.2 ").unwrap();
+        assert_eq!(v["duration"], 0.2);
     }
 
     /// A JSON scene giving a key twice is refused (serde_json kept the last one), at the top
