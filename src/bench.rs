@@ -126,6 +126,47 @@ pub fn check_engines_and_steps(
     dts: &[f64],
 ) -> Result<(), String> {
     crate::engines::registry::check_names("--engines", engines.iter().map(String::as_str))?;
+    check_steps(scene, dts)
+}
+
+/// `--set` overrides that the series would replace without a word: an engine's step (set from
+/// `--dt`), and for `bench` (`variants`) the native solver and stepper of its variants.
+pub fn check_series_sets(
+    engines: &[String],
+    sets: &[String],
+    variants: bool,
+) -> Result<(), String> {
+    let replaced: Vec<&str> = engines
+        .iter()
+        .filter_map(|e| step_setting(e))
+        .chain(
+            (variants && engines.iter().any(|e| e == "native"))
+                .then_some(["native.solver", "native.stepper"])
+                .into_iter()
+                .flatten(),
+        )
+        .collect();
+    for s in sets {
+        let key = s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim();
+        if let Some(r) = replaced
+            .iter()
+            .find(|r| **r == key || r.starts_with(&format!("{key}.")))
+        {
+            return Err(format!(
+                "--set {s}: the series sets {r} in every run ({})",
+                if r.ends_with("solver") || r.ends_with("stepper") {
+                    "native runs every solver and stepper"
+                } else {
+                    "from --dt"
+                }
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The step sizes of a series checked against the scene.
+fn check_steps(scene: &Scene, dts: &[f64]) -> Result<(), String> {
     let num = crate::scene::num;
     for (k, &dt) in dts.iter().enumerate() {
         if !(dt.is_finite() && dt > 0.0) {
@@ -197,6 +238,7 @@ pub fn bench(
 ) -> Result<Vec<BenchRow>, String> {
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
     check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
+    check_series_sets(&opts.engines, &opts.overrides, true)?;
     let reference = reference_run(&opts.reference, &base, &crate::compare::run_engine)?;
     let mut rows = Vec::new();
     for engine in &opts.engines {

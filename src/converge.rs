@@ -172,6 +172,7 @@ pub fn converge(
 ) -> Result<Convergence, String> {
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
     crate::bench::check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
+    crate::bench::check_series_sets(&opts.engines, &opts.overrides, false)?;
     let common = match &opts.reference {
         ConvergeReference::Common(spec) => Some(reference_run(spec, &base, runner)?),
         ConvergeReference::Finest => None,

@@ -116,6 +116,52 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
             ],
             "nowhere.toml: cannot read".into(),
         ),
+        // Overrides a series replaces in every run (they were dropped without a word), and a
+        // key given twice (the last one won).
+        (
+            vec![
+                "bench",
+                scene,
+                "--engines",
+                "native",
+                "--dt",
+                "1e-3",
+                "--set",
+                "native.dt=5e-4",
+            ],
+            "--set native.dt=5e-4: the series sets native.dt in every run (from --dt)".into(),
+        ),
+        (
+            vec![
+                "bench",
+                scene,
+                "--engines",
+                "native",
+                "--dt",
+                "1e-3",
+                "--set",
+                "native.solver=\"clarabel\"",
+            ],
+            "the series sets native.solver in every run (native runs every solver and stepper)"
+                .into(),
+        ),
+        (
+            vec![
+                "converge",
+                scene,
+                "--engines",
+                "rapier",
+                "--dt",
+                "2e-3,1e-3",
+                "--set",
+                "rapier={dt=5e-4}",
+            ],
+            "--set rapier={dt=5e-4}: the series sets rapier.dt in every run (from --dt)".into(),
+        ),
+        (
+            vec!["run", scene, "--set", "duration=1", "--set", " duration=2"],
+            "--set: `duration` is given twice".into(),
+        ),
     ];
     for (k, (args, message)) in cases.iter().enumerate() {
         let out = dir.join(format!("o{k}"));

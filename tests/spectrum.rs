@@ -277,7 +277,36 @@ fn spectrum_bad_input_one_line_errors() {
     let scratch = common::tmp("rb-spectrum", "bad");
     let dir = scratch.join("out");
     let d = dir.to_str().unwrap();
+    let scene_file = common::root().join("validation/scenes/housner-slender.toml");
+    let scene_file = scene_file.to_str().unwrap();
     for (args, expect) in [
+        // Inputs a spectrum used to ignore without a word.
+        (
+            vec![scene_file, "--friction", "0.5"],
+            "/validation/scenes/housner-slender.toml gives its own friction",
+        ),
+        (
+            vec!["0.2x4", "--similarity-at", "3,2"],
+            "--similarity-at: only with --similarity",
+        ),
+        (
+            vec!["0.2x4", "--similarity", "0.1x2", "--similarity-at", "3,1e6"],
+            "--similarity-at: the amplitude 1000000 g tan(alpha) of 0.1x2",
+        ),
+        (
+            vec!["0.2x4", "--set", "duration=0.2"],
+            "--set duration=0.2: a spectrum's runs last their pulse plus --tail",
+        ),
+        (
+            vec![
+                "0.2x4",
+                "--set",
+                "native.dt=1e-3",
+                "--set",
+                "native.dt=5e-4",
+            ],
+            "--set: `native.dt` is given twice",
+        ),
         (
             vec!["0.2x4", "--pulse", "triangle"],
             "unknown pulse `triangle`",

@@ -36,6 +36,7 @@ pub struct BenchArgs {
 const MAX_REPEAT: usize = 1000;
 
 pub fn run(a: BenchArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
     if !(1..=MAX_REPEAT).contains(&a.repeat) {
         return Err(anyhow!(

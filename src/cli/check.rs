@@ -22,6 +22,7 @@ pub struct CheckArgs {
 }
 
 pub fn check(a: CheckArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
     println!(
         "{}: ok ({} block{}, {} s, {})",

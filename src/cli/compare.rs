@@ -62,6 +62,7 @@ pub struct CompareArgs {
 const MAX_TIMING_RUNS: usize = 1000;
 
 pub fn compare_cmd(a: CompareArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
     if a.up_to_impacts.contains(&0) {
         bail!("--up-to-impacts: impacts are counted from 1");

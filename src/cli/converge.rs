@@ -38,6 +38,7 @@ pub struct ConvergeArgs {
 }
 
 pub fn run(a: ConvergeArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
     let reference = ConvergeReference::parse(&a.reference);
     if matches!(reference, ConvergeReference::Finest) && a.dt.len() < 3 {

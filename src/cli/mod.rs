@@ -146,6 +146,12 @@ pub(crate) fn seconds(flag: &str, value: f64, zero_ok: bool) -> Result<std::time
     Ok(std::time::Duration::from_secs_f64(value))
 }
 
+/// `--set` overrides checked before any work: a key given twice is refused (the last one
+/// would win without a word).
+pub(crate) fn check_sets(sets: &[String]) -> Result<()> {
+    crate::scene::check_override_keys(sets).map_err(|e| anyhow::anyhow!("--set: {e}"))
+}
+
 pub(crate) fn check_out_dir(out: &std::path::Path) -> Result<()> {
     if out.exists() && !out.is_dir() {
         anyhow::bail!("--out: {} is a file, not a directory", out.display());

@@ -123,6 +123,7 @@ fn progress_text(
 }
 
 pub fn run(a: RunArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
     let e = engine_by_name(&a.engine)?;

@@ -30,6 +30,7 @@ pub struct SensitivityArgs {
 }
 
 pub fn run(a: SensitivityArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
     let Some((key, value)) = a.perturb.split_once('=') else {
         bail!("--perturb: needs KEY=VALUE (got {:?})", a.perturb);

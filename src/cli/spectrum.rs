@@ -29,9 +29,10 @@ pub struct SpectrumArgs {
     /// Also find the lowest amplitude that overturns without an impact first.
     #[arg(long)]
     no_impact: bool,
-    /// Friction coefficient of a `BxH` block on the ground (high: pure rocking).
-    #[arg(long, default_value_t = 2.0)]
-    friction: f64,
+    /// Friction coefficient of a `BxH` block on the ground (high: pure rocking) [default: 2];
+    /// a scene file gives its own.
+    #[arg(long)]
+    friction: Option<f64>,
     /// Override a scene field (repeatable), e.g. --set native.dt=5e-4.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
@@ -54,9 +55,9 @@ pub struct SpectrumArgs {
     /// --similarity-at and write DIR/similarity.{csv,svg} (phi/alpha against p t, every engine).
     #[arg(long)]
     similarity: Option<String>,
-    /// `RATIO,AMPLITUDE` of the similarity runs (the first pulse of --pulse).
-    #[arg(long, default_value = "3,2.2")]
-    similarity_at: String,
+    /// `RATIO,AMPLITUDE` of the similarity runs (the first pulse of --pulse) [default: 3,2.2].
+    #[arg(long)]
+    similarity_at: Option<String>,
     /// Run every native run to its end (no early stop at overturning, rest or low energy).
     #[arg(long)]
     no_early_stop: bool,
@@ -73,6 +74,7 @@ pub struct SpectrumArgs {
 }
 
 pub fn run(a: SpectrumArgs) -> Result<()> {
+    super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
     let pulses = a
         .pulse
@@ -107,23 +109,43 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         early_stop: !a.no_early_stop,
     };
     settings.check().map_err(|e| anyhow!(e))?;
+    // Each run lasts the pulse and the tail: a duration of the scene's own is not used.
+    if let Some(s) = a.set.iter().find(|s| {
+        s.split_once('=')
+            .is_some_and(|(k, _)| k.trim() == "duration")
+    }) {
+        return Err(anyhow!(
+            "--set {s}: a spectrum's runs last their pulse plus --tail, whatever the duration"
+        ));
+    }
+    if a.similarity_at.is_some() && a.similarity.is_none() {
+        return Err(anyhow!(
+            "--similarity-at: only with --similarity (the second block)"
+        ));
+    }
+    let scene_file = spectrum::parse_block(&a.target).is_none();
+    if scene_file && a.friction.is_some() {
+        return Err(anyhow!(
+            "--friction: {} gives its own friction (--set contact.friction=... changes it)",
+            a.target
+        ));
+    }
+    let friction = a.friction.unwrap_or(2.0);
+    if !(friction.is_finite() && friction >= 0.0) {
+        return Err(anyhow!(
+            "--friction must be a non-negative number (got {})",
+            crate::scene::num(friction)
+        ));
+    }
+    if friction > crate::scene::MAX_FRICTION {
+        return Err(anyhow!(
+            "--friction {} is above {:e}: a block that must not slide needs a friction above its B/H only, and larger ones leave the contact problems ill-scaled",
+            crate::scene::num(friction),
+            crate::scene::MAX_FRICTION
+        ));
+    }
     let base = match spectrum::parse_block(&a.target) {
-        Some((b, h)) => {
-            if !(a.friction.is_finite() && a.friction >= 0.0) {
-                return Err(anyhow!(
-                    "--friction must be a non-negative number (got {})",
-                    crate::scene::num(a.friction)
-                ));
-            }
-            if a.friction > crate::scene::MAX_FRICTION {
-                return Err(anyhow!(
-                    "--friction {} is above {:e}: a block that must not slide needs a friction above its B/H only, and larger ones leave the contact problems ill-scaled",
-                    crate::scene::num(a.friction),
-                    crate::scene::MAX_FRICTION
-                ));
-            }
-            spectrum::block_scene(b, h, a.friction, &a.set).map_err(|e| anyhow!(e))?
-        }
+        Some((b, h)) => spectrum::block_scene(b, h, friction, &a.set).map_err(|e| anyhow!(e))?,
         None => {
             let path = PathBuf::from(&a.target);
             if !path.exists() {
@@ -139,20 +161,31 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         Some(bh) => {
             let (b, h) = spectrum::parse_block(bh)
                 .ok_or_else(|| anyhow!("--similarity: `{bh}` is not a block BxH (e.g. 0.12x6)"))?;
-            let at = spectrum::parse_list(&a.similarity_at, "--similarity-at")
-                .map_err(|e| anyhow!(e))?;
+            let at = spectrum::parse_list(
+                a.similarity_at.as_deref().unwrap_or("3,2.2"),
+                "--similarity-at",
+            )
+            .map_err(|e| anyhow!(e))?;
             if at.len() != 2 {
                 return Err(anyhow!(
                     "--similarity-at: give RATIO,AMPLITUDE (got {} numbers)",
                     at.len()
                 ));
             }
-            Some((
-                spectrum::block_scene(b, h, a.friction, &a.set)
-                    .map_err(|e| anyhow!("--similarity {bh}: {e}"))?,
-                at[0],
-                at[1],
-            ))
+            let other = spectrum::block_scene(b, h, friction, &a.set)
+                .map_err(|e| anyhow!("--similarity {bh}: {e}"))?;
+            // The amplitude is in units of g tan(alpha), alpha the second block's.
+            let peak = at[1] * other.gravity * b / h;
+            let limit = crate::scene::MAX_PEAK_G * crate::excitation::records::STANDARD_GRAVITY;
+            if peak.abs() > limit {
+                return Err(anyhow!(
+                    "--similarity-at: the amplitude {} g tan(alpha) of {bh} is a ground acceleration of {} m/s^2, above {} g",
+                    crate::scene::num(at[1]),
+                    crate::scene::num(peak),
+                    crate::scene::MAX_PEAK_G
+                ));
+            }
+            Some((other, at[0], at[1]))
         }
         None => None,
     };

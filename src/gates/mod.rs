@@ -276,6 +276,7 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
             }
             _ => {}
         }
+        crate::scene::check_override_keys(&g.set).map_err(|e| err(at("set"), e))?;
         let scene_path = base.join(&g.scene);
         let key = (scene_path.clone(), g.set.clone());
         let scene = match scenes.get(&key) {

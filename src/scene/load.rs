@@ -91,6 +91,20 @@ fn output_table(value: &mut serde_json::Value) -> Result<(), (String, String)> {
     Ok(())
 }
 
+/// A list of `KEY=VALUE` overrides giving no key twice (of one list the last would win
+/// without a word; later lists, e.g. a configuration's over a study's, may replace a key).
+pub fn check_override_keys(sets: &[String]) -> Result<(), String> {
+    for (k, s) in sets.iter().enumerate() {
+        let key = |s: &str| s.split_once('=').map(|(k, _)| k.trim().to_string());
+        if let Some(mine) = key(s)
+            && sets[..k].iter().any(|o| key(o).as_ref() == Some(&mine))
+        {
+            return Err(format!("`{mine}` is given twice"));
+        }
+    }
+    Ok(())
+}
+
 /// A JSON value none of whose objects gives a key twice (serde_json's own `Value` keeps the
 /// last of two, so `"duration": 0.1, "duration": 5` would run for 5 s without a word; TOML
 /// refuses a repeated key itself).
