@@ -297,3 +297,91 @@ fn slender_report_renders_in_headless_chromium() {
 
     common::assert_report_renders(&out);
 }
+
+/// An output folder used again: what the earlier comparison wrote and this one does not
+/// (another engine's run, its paper) is removed, so the folder holds one comparison; a
+/// reference file inside it is refused (it would be written over or removed), and so is a run
+/// whose outputs would land on its own scene file.
+#[test]
+fn an_output_folder_used_again_holds_one_comparison_and_no_input_is_written_over() {
+    let dir = tmp("again");
+    let out = dir.join("out");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let compare = |engines: &str, extra: &[&str]| {
+        bin()
+            .args(["compare", scene.to_str().unwrap(), "--engines", engines])
+            .args([
+                "--reference",
+                "housner",
+                "--set",
+                "duration=0.3",
+                "--quiet",
+                "--out",
+            ])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = compare("native,rapier", &[]);
+    assert!(o.status.success(), "{o:?}");
+    std::fs::create_dir_all(out.join("paper")).unwrap();
+    assert!(out.join("rapier/trajectory.csv").is_file());
+    let o = compare("native", &[]);
+    assert!(o.status.success(), "{o:?}");
+    assert!(out.join("native/trajectory.csv").is_file() && out.join("housner").is_dir());
+    assert!(!out.join("rapier").exists() && !out.join("paper").exists());
+    // The reference read from inside the folder the comparison rewrites.
+    let reference = out.join("native/trajectory.csv");
+    let o = bin()
+        .args(["compare", scene.to_str().unwrap(), "--engines", "housner"])
+        .args([
+            "--reference",
+            reference.to_str().unwrap(),
+            "--set",
+            "duration=0.3",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(err.contains("would write over --reference"), "{err}");
+    // A run into the folder of its own scene.json.
+    let own = dir.join("own");
+    std::fs::create_dir_all(&own).unwrap();
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let json = bin()
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--engine",
+            "housner",
+            "--set",
+            "duration=0.1",
+        ])
+        .arg("--out")
+        .arg(&own)
+        .output()
+        .unwrap();
+    assert!(json.status.success());
+    let before = std::fs::read_to_string(own.join("scene.json")).unwrap();
+    let o = bin()
+        .args([
+            "run",
+            own.join("scene.json").to_str().unwrap(),
+            "--engine",
+            "housner",
+        ])
+        .args(["--set", "duration=0.05", "--out"])
+        .arg(&own)
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(err.contains("would write over the scene"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(own.join("scene.json")).unwrap(),
+        before
+    );
+    assert!(!text.is_empty());
+}

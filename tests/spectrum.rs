@@ -682,3 +682,40 @@ fn a_host_name_with_a_slash_does_not_stop_the_run_store() {
     );
     assert!(std::fs::read_dir(scratch.join("store")).unwrap().count() > 0);
 }
+
+/// A spectrum written where an earlier one was: the figures of pulses it does not run are
+/// removed, so the folder holds one spectrum.
+#[test]
+fn a_spectrum_written_again_removes_the_figures_it_does_not_make() {
+    let scratch = common::tmp("rb-spectrum", "again");
+    let out = scratch.join("out");
+    let spectrum = |pulses: &str| {
+        let (ok, so, se) = rockbench(&[
+            "spectrum",
+            "0.4x4",
+            "--engines",
+            "housner",
+            "--pulse",
+            pulses,
+            "--ratios",
+            "2",
+            "--amplitudes",
+            "none",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{so}{se}");
+    };
+    spectrum("half-sine,ricker");
+    assert!(out.join("spectrum-ricker.svg").is_file());
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    spectrum("one-sine");
+    assert!(out.join("spectrum-one-sine.svg").is_file());
+    assert!(
+        !out.join("spectrum-ricker.svg").exists() && !out.join("spectrum-half-sine.svg").exists()
+    );
+    assert!(
+        out.join("notes.txt").is_file(),
+        "a file the spectrum does not write was removed"
+    );
+}

@@ -74,7 +74,12 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
         bail!("--video: mp4 or gif (got `{v}`)");
     }
     let scene = load_scene_with_overrides(&a.scene, &a.set)?;
-    let mut opts = CompareOptions::new(a.engines.clone(), ReferenceSpec::parse(&a.reference));
+    let reference = ReferenceSpec::parse(&a.reference);
+    if let ReferenceSpec::File(f) = &reference {
+        // The engines' folders, plots and paper of --out are rewritten or removed.
+        super::check_input_outside(&a.out, "--reference", f, &[])?;
+    }
+    let mut opts = CompareOptions::new(a.engines.clone(), reference);
     opts.metrics.grid_dt = a.grid_dt;
     opts.metrics.up_to_impacts = a.up_to_impacts.clone();
     if let Some(w) = &a.window {
@@ -113,6 +118,18 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     opts.timing_runs = a.timing_runs;
     let c = compare(&scene, &opts)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
+    // What an earlier comparison wrote here (its metrics.csv says so) and this one will not
+    // (another engine's run, a plot of another block, a paper or video not asked for) would
+    // sit beside its outputs.
+    if a.out.join("metrics.csv").is_file() {
+        let mut stale: Vec<&str> = crate::engines::registry::names();
+        stale.push("plots");
+        if !a.paper {
+            stale.push("paper");
+        }
+        stale.extend(["animation.mp4", "animation.gif"]);
+        super::remove_stale(&a.out, &stale)?;
+    }
     write_comparison(&a.out, &c, &command).map_err(anyhow::Error::msg)?;
     if a.paper {
         crate::paper::write_compare(&a.out.join("paper"), &c, &command)

@@ -152,6 +152,57 @@ pub(crate) fn check_sets(sets: &[String]) -> Result<()> {
     crate::scene::check_override_keys(sets).map_err(|e| anyhow::anyhow!("--set: {e}"))
 }
 
+/// An input of a command that its outputs would write over or remove: an input file inside
+/// `out`, or `out` itself an input's folder where `files` would land on the input.
+pub(crate) fn check_input_outside(
+    out: &std::path::Path,
+    flag: &str,
+    input: &std::path::Path,
+    files: &[&str],
+) -> Result<()> {
+    let (Ok(input_real), true) = (input.canonicalize(), out.exists()) else {
+        return Ok(());
+    };
+    let out_real = out.canonicalize()?;
+    let written = files
+        .iter()
+        .any(|f| out.join(f).canonicalize().is_ok_and(|p| p == input_real));
+    if written || (files.is_empty() && input_real.starts_with(&out_real)) {
+        anyhow::bail!(
+            "--out: {} would write over {flag} {}: give another folder",
+            out.display(),
+            input.display()
+        );
+    }
+    Ok(())
+}
+
+/// Remove from `out` the files a previous run of the same command wrote and this one does
+/// not (`stale`): names, or `prefix*suffix` patterns. Files a command does not write are
+/// left alone.
+pub(crate) fn remove_stale(out: &std::path::Path, stale: &[&str]) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return Ok(());
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let matches = stale.iter().any(|p| match p.split_once('*') {
+            Some((pre, suf)) => name.starts_with(pre) && name.ends_with(suf),
+            None => name == *p,
+        });
+        if matches {
+            let path = e.path();
+            let gone = if path.is_dir() {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
+            gone.map_err(|err| anyhow::anyhow!("{}: {err}", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn check_out_dir(out: &std::path::Path) -> Result<()> {
     if out.exists() && !out.is_dir() {
         anyhow::bail!("--out: {} is a file, not a directory", out.display());

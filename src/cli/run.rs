@@ -125,6 +125,12 @@ fn progress_text(
 pub fn run(a: RunArgs) -> Result<()> {
     super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
+    super::check_input_outside(
+        &a.out,
+        "the scene",
+        &a.scene,
+        &["scene.json", "trajectory.csv", "summary.json"],
+    )?;
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
     let e = engine_by_name(&a.engine)?;
     let line = ProgressLine::new(

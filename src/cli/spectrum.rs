@@ -278,6 +278,11 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
     }
     let out = &a.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    // The figures and similarity files of an earlier spectrum here (its spectrum.json says
+    // so) that this one does not write would sit beside its outputs.
+    if out.join("spectrum.json").is_file() {
+        super::remove_stale(out, &["spectrum-*.svg", "similarity.csv", "similarity.svg"])?;
+    }
     let write = |name: &str, text: String| -> Result<()> {
         let p = out.join(name);
         std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
