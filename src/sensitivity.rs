@@ -53,6 +53,9 @@ pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
         if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
             bail!("--configs: {label:?}: {s:?} is not KEY=VALUE");
         }
+        if configs.iter().any(|c| c.label == label) {
+            bail!("--configs: {label:?} given twice");
+        }
         let mut sorted = sets.clone();
         sorted.sort();
         if let Some(c) = configs.iter().find(|c| {
@@ -562,6 +565,13 @@ mod tests {
         assert!(e.contains("is not KEY=VALUE"), "{e}");
         let e = parse_configs("native,native").unwrap_err().to_string();
         assert!(e.contains("given twice"), "{e}");
+        let e = parse_configs("native:a=1;b=2,native:b=2;a=1")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("makes the same runs as \"native:a=1;b=2\""),
+            "{e}"
+        );
         let e = parse_configs(":native.dt=1e-3").unwrap_err().to_string();
         assert!(e.contains("without an engine"), "{e}");
     }

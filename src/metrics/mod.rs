@@ -311,6 +311,15 @@ pub enum MetricsError {
         last: f64,
         duration: f64,
     },
+    #[error(
+        "{run}: starts with {column} = {found} where the scene starts at {expected}: the reference of another scene or placement"
+    )]
+    Start {
+        run: String,
+        column: String,
+        found: f64,
+        expected: f64,
+    },
     #[error("grid spacing: {0}")]
     Grid(String),
     #[error("{run}: {samples} sample(s); a reference needs at least two")]
@@ -406,8 +415,30 @@ pub fn check_reference_file(scene: &Scene, run: &Run) -> Result<(), MetricsError
             duration: scene.duration,
         });
     }
+    // Its first sample is the scene's start (to the digits a file keeps).
+    let layout = scene.layout();
+    for (b, st) in tr.blocks.iter().zip(&layout.blocks) {
+        for (field, found, expected) in [
+            ("x", b.x[0], st.x),
+            ("z", b.z[0], st.z),
+            ("phi", b.phi[0], st.phi),
+        ] {
+            if (found - expected).abs() > REFERENCE_START_TOLERANCE * (1.0 + expected.abs()) {
+                return Err(MetricsError::Start {
+                    run: run.name.clone(),
+                    column: format!("{}_{field}", b.name),
+                    found,
+                    expected,
+                });
+            }
+        }
+    }
     Ok(())
 }
+
+/// How far a reference file's first sample may lie from the scene's start (m or rad, relative
+/// above 1): files keep some nine digits.
+pub const REFERENCE_START_TOLERANCE: f64 = 1e-6;
 
 /// The window on which two runs are compared: their overlap, cut to the requested window.
 pub fn common_window(

@@ -569,18 +569,39 @@ fn known_metric_names() {
 fn a_reference_file_needs_two_finite_samples_of_the_scenes_blocks() {
     let sc = scene(ONE_BLOCK);
     assert_eq!(sc.duration, 4.0);
-    let good = synthetic(
-        "ref.csv",
-        &["block"],
-        &[0.0, 2.0, 4.0],
-        &[vec![0.1, 0.1, 0.1]],
-    );
+    // A reference held at the scene's start.
+    let start = sc.layout().blocks[0];
+    let at_start = |t: &[f64]| {
+        let mut r = synthetic("ref.csv", &["block"], t, &[vec![start.phi; t.len()]]);
+        for b in &mut r.trajectory.blocks {
+            b.x.iter_mut().for_each(|x| *x = start.x);
+            b.z.iter_mut().for_each(|z| *z = start.z);
+        }
+        r
+    };
+    let good = at_start(&[0.0, 2.0, 4.0]);
     assert_eq!(check_reference_file(&sc, &good), Ok(()));
     // Within its last interval of the duration, or past it: the run is covered.
     for times in [[0.0, 2.5, 3.5], [0.0, 2.0, 5.0]] {
-        let covers = synthetic("ref.csv", &["block"], &times, &[vec![0.1; 3]]);
+        let covers = at_start(&times);
         assert_eq!(check_reference_file(&sc, &covers), Ok(()), "{times:?}");
     }
+    // Starting elsewhere: the reference of another scene (it was compared as this one's).
+    let elsewhere = synthetic(
+        "ref.csv",
+        &["block"],
+        &[0.0, 2.0, 4.0],
+        &[vec![start.phi; 3]],
+    );
+    assert_eq!(
+        check_reference_file(&sc, &elsewhere)
+            .unwrap_err()
+            .to_string(),
+        format!(
+            "ref.csv: starts with block_z = 0 where the scene starts at {}: the reference of another scene or placement",
+            start.z
+        )
+    );
     // Short of the duration, or from after 0 or before it: metrics of part of the run.
     for (times, covers) in [
         ([0.0, 1.0, 2.0], "0 to 2 s"),
