@@ -147,10 +147,9 @@ pub fn check_series_sets(
         )
         .collect();
     for s in sets {
-        let key = s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim();
         if let Some(r) = replaced
             .iter()
-            .find(|r| **r == key || r.starts_with(&format!("{key}.")))
+            .find(|r| crate::scene::override_covers(s, r))
         {
             return Err(format!(
                 "--set {s}: the series sets {r} in every run ({})",

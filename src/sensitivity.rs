@@ -74,15 +74,6 @@ pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
     Ok(configs)
 }
 
-/// Whether the override `set` (`KEY=VALUE`) sets `key`, or a table or list holding it.
-fn sets_key(set: &str, key: &str) -> bool {
-    let Some((k, _)) = set.split_once('=') else {
-        return false;
-    };
-    let k = k.trim();
-    k == key || key.starts_with(&format!("{k}.")) || key.starts_with(&format!("{k}["))
-}
-
 /// A study: the scene, what is perturbed, and the configurations.
 #[derive(Debug, Clone)]
 pub struct Study {
@@ -145,7 +136,11 @@ impl Study {
         }
         // A `--set` of the perturbed value (or of a table holding it) is replaced by the
         // perturbation without a word.
-        if let Some(s) = self.sets.iter().find(|s| sets_key(s, key)) {
+        if let Some(s) = self
+            .sets
+            .iter()
+            .find(|s| crate::scene::override_covers(s, key))
+        {
             bail!("--set {s}: sets {key}, the perturbed value, which --perturb replaces");
         }
         // A configuration that sets the perturbed value, however written (a key or a table),

@@ -91,6 +91,15 @@ fn output_table(value: &mut serde_json::Value) -> Result<(), (String, String)> {
     Ok(())
 }
 
+/// Whether the override `set` (`KEY=VALUE`) sets `key`, or a table or list holding it.
+pub fn override_covers(set: &str, key: &str) -> bool {
+    let Some((k, _)) = set.split_once('=') else {
+        return false;
+    };
+    let k = k.trim();
+    k == key || key.starts_with(&format!("{k}.")) || key.starts_with(&format!("{k}["))
+}
+
 /// A list of `KEY=VALUE` overrides giving no key twice (of one list the last would win
 /// without a word; later lists, e.g. a configuration's over a study's, may replace a key).
 pub fn check_override_keys(sets: &[String]) -> Result<(), String> {

@@ -19,7 +19,7 @@ mod validate;
 pub use layout::{BlockState, Layout};
 pub use load::{
     apply_override, check_override_keys, check_scene_str, check_scene_str_checked, load_scene,
-    load_scene_checked, load_scene_with_overrides, parse_scene_str,
+    load_scene_checked, load_scene_with_overrides, override_covers, parse_scene_str,
 };
 pub(crate) use load::{toml_error_at, toml_fields};
 pub(crate) use validate::num;
