@@ -31,7 +31,7 @@
 //! recorded with its reason): after the pulse has ended a native run stops when a single block
 //! is beyond its critical angle and still turning outwards (it can no longer come back: it has
 //! overturned; in a stack: when a block lies on its side), when every block has been still for [`REST_WINDOW`] (at rest), or, for a single
-//! block inside its critical angle, when its mechanical energy relative to the ground is below
+//! block inside its critical angle, when its mechanical energy above the upright block's rest (whatever tilt the scene starts from) is below
 //! [`SAFE_ENERGY_FRACTION`] of the tipping barrier `m g (R - H/2)` (free rocking only loses
 //! energy, so it cannot overturn later). The Housner engine is cheap enough to run to the
 //! end; the other engines run their full duration through [`Engine::run`].
@@ -706,7 +706,9 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
     let mut still = 0u64;
     let single = scene.blocks.len() == 1;
     let b0 = &scene.blocks[0];
-    let z_rest = layout.blocks[0].z;
+    // The energy is measured from the upright block's rest, not from the scene's start (a
+    // tilted start sits above it).
+    let z_rest = layout.upright[0].1;
     let barrier = b0.tipping_energy_per_mass(scene.gravity);
     let mut prev: Vec<f64> = vec![0.0; scene.blocks.len()];
     for k in 1..=n_steps {

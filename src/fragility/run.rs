@@ -482,7 +482,8 @@ fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
     let window = (REST_WINDOW / dt).ceil() as u64;
     let single = scene.blocks.len() == 1;
     let b0 = &scene.blocks[0];
-    let z_rest = layout.blocks[0].z;
+    // From the upright block's rest, not the scene's start (a tilted start sits above it).
+    let z_rest = layout.upright[0].1;
     let barrier = b0.tipping_energy_per_mass(scene.gravity);
     let mut still = 0u64;
     let mut prev = vec![0.0; scene.blocks.len()];
@@ -646,6 +647,35 @@ mod tests {
         let x_c = ms * 0.3 / (mp + ms);
         let expect = (0.325 / 1.25f64).min((0.625 - x_c) / zc).min(0.7);
         assert!((thr - expect).abs() < 1e-12, "{thr} vs {expect}");
+    }
+
+    /// A block released tilted (1 x 2.5 m at 0.3 rad, its critical angle 0.381) under a
+    /// half-sine that overturns it: the native run's early stops keep the outcome of its run to
+    /// the end, with the energy measured from the upright block's rest (from the tilted start,
+    /// the run stopped as safe). The amplitude lies between the minima the early stop gave
+    /// before (0.550) and gives now (0.418, Housner's).
+    #[test]
+    fn a_tilted_block_keeps_its_outcome_under_the_native_early_stops() {
+        let base =
+            crate::spectrum::block_scene(1.0, 2.5, 0.7, &["initial.tilt=0.3".into()]).unwrap();
+        let engine = crate::engines::engine_by_name("native").unwrap();
+        let settings = crate::spectrum::Settings::default();
+        let spectrum = crate::spectrum::Spectrum::new(
+            &base,
+            engine.as_ref(),
+            crate::spectrum::Pulse::HalfSine,
+            &settings,
+        );
+        let scene = spectrum.scene(2.0, 0.48);
+        let over = |early: bool| {
+            let sim = simulate("native", &scene, early).unwrap();
+            let o = outcome(&scene, &sim);
+            (o.overturned[0], sim.stop)
+        };
+        let (whole, _) = over(false);
+        let (early, stop) = over(true);
+        assert!(whole, "the run to the end overturns");
+        assert_eq!((early, stop), (true, Stop::Overturned));
     }
 
     /// Exactness of the skip on the native engine: the stack under a record whose peak is 1 %
