@@ -661,6 +661,34 @@ fn an_interrupted_study_leaves_whole_entries_and_resumes() {
     assert!(j["counts"]["cached"].as_u64().unwrap() >= json.len() as u64);
 }
 
+/// A run spec whose record file changed after the study read it (its key holds the bytes'
+/// hash): the run is an error naming the record, not another record's outcome stored under
+/// this key; the same spec runs again once the file holds its bytes.
+#[test]
+fn a_spec_whose_record_changed_since_the_study_read_it_is_an_error() {
+    use rockbench::fragility::{self, Runner, run, study};
+    let d = tmp("rb-fragility", "record-changed");
+    let p = fixture(&d, "\"native\"", "");
+    let st = study::load_study(&p).unwrap();
+    let spec = fragility::stripe_specs(&st)
+        .into_iter()
+        .find(|s| s.record_id == "r1")
+        .unwrap();
+    let record = d.join("r1.AT2");
+    let original = std::fs::read(&record).unwrap();
+    std::fs::write(&record, at2(0.5, 0.3, 2.0)).unwrap();
+    let cache = d.join("changed-cache");
+    let err = Runner::new(cache.clone(), true).get(&spec).unwrap_err();
+    assert!(
+        err.contains("record r1") && err.contains("has changed since the study read it"),
+        "{err}"
+    );
+    assert!(run::run_one(&spec).is_err());
+    assert!(!cache.exists() || std::fs::read_dir(&cache).unwrap().count() == 0);
+    std::fs::write(&record, original).unwrap();
+    assert!(Runner::new(cache, true).get(&spec).is_ok());
+}
+
 /// The units of work a distributed study hands out: a run spec read back from its JSON (the
 /// scene's engine tables included) has the same key and the same outcome; the IDA jobs run one
 /// by one through a cache give the rows and capacities of the study, and the study assembled

@@ -27,7 +27,7 @@ use crate::engines::native::REST_WINDOW;
 use crate::engines::{EngineError, engine_by_name};
 use crate::events;
 use crate::excitation::GroundMotion;
-use crate::scene::Scene;
+use crate::scene::{ExcitationSpec, MotionSpec, Scene};
 use crate::spectrum::{SAFE_ENERGY_FRACTION, housner_early_stop};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
@@ -176,8 +176,34 @@ impl RunSpec {
     }
 }
 
+impl RunSpec {
+    /// The record file still holds the bytes the spec was made from (its outcome is stored
+    /// under their hash): a record changed since the study read it is an error, not a run of
+    /// other bytes kept under this key.
+    pub fn check_record(&self) -> Result<(), EngineError> {
+        let Some(ExcitationSpec {
+            horizontal: Some(MotionSpec::Record { file, .. }),
+            ..
+        }) = &self.scene.excitation
+        else {
+            return Ok(());
+        };
+        let bytes = std::fs::read(file)
+            .map_err(|e| EngineError::Io(format!("record {}: {file}: {e}", self.record_id)))?;
+        let found = crate::digest::sha256_hex(&bytes);
+        if found != self.record_sha256 {
+            return Err(EngineError::Io(format!(
+                "record {}: {file} has changed since the study read it (sha256 {found}, the study's {}): run the study again",
+                self.record_id, self.record_sha256
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// Run one unit of work.
 pub fn run_one(spec: &RunSpec) -> Result<RunOutcome, EngineError> {
+    spec.check_record()?;
     let start = std::time::Instant::now();
     let sim = simulate(&spec.engine, &spec.scene, spec.early_stop)?;
     let mut o = outcome(&spec.scene, &sim);
@@ -206,6 +232,7 @@ pub fn outcome_from_worker_output(
 ) -> Result<RunOutcome, EngineError> {
     let eng = crate::engines::external::ExternalEngine::new(&spec.engine)
         .ok_or_else(|| EngineError::Unknown(spec.engine.clone()))?;
+    spec.check_record()?;
     let (out, stop) = eng.read_outputs(&spec.scene, dir)?;
     let sim = Simulated {
         trajectory: out.trajectory,
