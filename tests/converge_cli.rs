@@ -1,5 +1,6 @@
 //! `rockbench converge` through the run cache: a study run again reads every run back and
-//! writes the same orders; `--no-cache` runs them again.
+//! writes the same orders; `--no-cache` runs them again. A study or benchmark written where an
+//! earlier one was leaves none of that one's outputs it does not write itself.
 
 mod common;
 
@@ -60,4 +61,61 @@ fn a_converge_study_run_again_reads_its_runs_from_the_cache() {
     let fresh = converge(&third, &cache, &["--no-cache"]);
     assert!(!fresh.contains("(cached)"), "{fresh}");
     assert_eq!(read(&first, "converge.csv"), read(&third, "converge.csv"));
+}
+
+/// A study written where an earlier one was: the earlier one's figures of quantities this one
+/// does not plot, and its paper when none is asked for, are removed; other files stay, and so
+/// does a folder no study wrote.
+#[test]
+fn a_converge_study_written_again_removes_what_it_does_not_write() {
+    let dir = common::tmp("rb-converge", "again");
+    let (cache, out) = (dir.join("cache"), dir.join("out"));
+    std::fs::create_dir_all(out.join("paper")).unwrap();
+    std::fs::write(out.join("paper/orders.tex"), "earlier").unwrap();
+    std::fs::write(out.join("keep.txt"), "mine").unwrap();
+    // No converge.csv yet: not a study's folder, nothing removed.
+    converge(&out, &cache, &[]);
+    assert!(out.join("paper/orders.tex").is_file());
+    std::fs::write(out.join("converge-old_quantity.svg"), "earlier").unwrap();
+    converge(&out, &cache, &[]);
+    assert!(!out.join("paper").exists());
+    assert!(!out.join("converge-old_quantity.svg").exists());
+    assert!(out.join("keep.txt").is_file() && out.join("converge.csv").is_file());
+    let svgs = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| {
+            let n = e.as_ref().unwrap().file_name();
+            let n = n.to_string_lossy();
+            n.starts_with("converge-") && n.ends_with(".svg")
+        })
+        .count();
+    assert!(svgs > 0, "the study's own figures are written");
+}
+
+/// The same for `rockbench bench`: an earlier benchmark's paper is removed when none is asked.
+#[test]
+fn a_benchmark_written_again_removes_an_earlier_paper() {
+    let dir = common::tmp("rb-bench", "again");
+    let out = dir.join("out");
+    let bench = || {
+        let o = bin()
+            .current_dir(root())
+            .args(["bench", "validation/scenes/housner-slender.toml"])
+            .args(["--engines", "native", "--dt", "2e-3", "--repeat", "1"])
+            .args(["--reference", "housner", "--set", "duration=0.3", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{o:?}");
+    };
+    std::fs::create_dir_all(out.join("paper")).unwrap();
+    std::fs::write(out.join("paper/work_precision.tex"), "earlier").unwrap();
+    bench();
+    assert!(
+        out.join("paper").exists(),
+        "no work_precision.csv: not a benchmark's folder"
+    );
+    bench();
+    assert!(!out.join("paper").exists());
+    assert!(out.join("work_precision.csv").is_file());
 }

@@ -70,6 +70,11 @@ pub fn run(a: BenchArgs) -> Result<()> {
     })
     .map_err(|e| anyhow!(e))?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
+    // An earlier benchmark's paper (its work_precision.csv says one was written here) is not
+    // this one's.
+    if !a.paper && a.out.join("work_precision.csv").is_file() {
+        super::remove_stale(&a.out, &["paper"])?;
+    }
     write(&a.out, &rows, &command).map_err(|e| anyhow!(e))?;
     if a.paper {
         crate::paper::write_bench(

@@ -78,6 +78,15 @@ pub fn run(a: ConvergeArgs) -> Result<()> {
     })
     .map_err(|e| anyhow!(e))?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
+    // An earlier study's figures of quantities this one does not plot, and its paper when none
+    // is asked for, are not this one's (its converge.csv says one was written here).
+    if a.out.join("converge.csv").is_file() {
+        let mut stale = vec!["converge-*.svg"];
+        if !a.paper {
+            stale.push("paper");
+        }
+        super::remove_stale(&a.out, &stale)?;
+    }
     write(&a.out, &c, &command).map_err(|e| anyhow!(e))?;
     for o in c
         .orders
