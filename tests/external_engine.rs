@@ -203,3 +203,25 @@ fn external_engines_are_registered_by_name() {
         assert!(rockbench::engines::registry::names().contains(&name));
     }
 }
+
+/// An interpreter named by `$ROCKBENCH_PYTHON` that cannot start: the one line says the path
+/// came from the variable, so a stale setting is found.
+#[test]
+fn a_missing_interpreter_from_the_environment_names_the_variable() {
+    let dir = common::tmp("rb-ext-test", "env-python");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rockbench"))
+        .current_dir(common::root())
+        .env("ROCKBENCH_PYTHON", "/nonexistent/python")
+        .args(["run", "validation/scenes/housner-slender.toml", "--engine"])
+        .args(["mujoco", "--set", "duration=0.01", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("/nonexistent/python (from $ROCKBENCH_PYTHON)"),
+        "{err}"
+    );
+}

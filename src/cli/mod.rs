@@ -234,6 +234,19 @@ fn parse_error_line(rendered: &str) -> String {
     }
 }
 
+/// The environment variable of the run cache's folder (`--cache-dir`).
+const CACHE_DIR_ENV: &str = "ROCKBENCH_CACHE_DIR";
+
+/// clap reads an empty `$ROCKBENCH_CACHE_DIR` as `--cache-dir` given without its value: the
+/// line that says so names the variable, not a flag that is not on the command line.
+fn empty_env_line(rendered: &str, cache_env_empty: bool) -> Option<String> {
+    (cache_env_empty && rendered.contains("a value is required for '--cache-dir")).then(|| {
+        format!(
+            "error: ${CACHE_DIR_ENV} is set but empty: unset it, or name a folder in it or in --cache-dir"
+        )
+    })
+}
+
 /// Parse the command line and run it.
 pub fn main() -> Result<()> {
     let cli = match Cli::try_parse() {
@@ -247,7 +260,12 @@ pub fn main() -> Result<()> {
             e.exit()
         }
         Err(e) => {
-            eprintln!("{}", parse_error_line(&e.render().to_string()));
+            let rendered = e.render().to_string();
+            let empty_cache_env = std::env::var_os(CACHE_DIR_ENV).is_some_and(|v| v.is_empty());
+            match empty_env_line(&rendered, empty_cache_env) {
+                Some(line) => eprintln!("{line}"),
+                None => eprintln!("{}", parse_error_line(&rendered)),
+            }
             std::process::exit(e.exit_code());
         }
     };
@@ -289,6 +307,23 @@ mod tests {
             line.ends_with("(usage: rockbench run [OPTIONS] <SCENE>; see --help)"),
             "{line}"
         );
+    }
+
+    /// An empty `$ROCKBENCH_CACHE_DIR` is named as such (clap's own line names `--cache-dir`,
+    /// which the command line does not hold); a `--cache-dir` given empty is clap's.
+    #[test]
+    fn an_empty_cache_dir_variable_is_named() {
+        let e = match Cli::try_parse_from(["rockbench", "gate", "g.toml", "--cache-dir", ""]) {
+            Err(e) => e,
+            Ok(_) => panic!("an empty --cache-dir parsed"),
+        };
+        let rendered = e.render().to_string();
+        let line = empty_env_line(&rendered, true).unwrap();
+        assert!(
+            line.contains("$ROCKBENCH_CACHE_DIR is set but empty"),
+            "{line}"
+        );
+        assert_eq!(empty_env_line(&rendered, false), None);
     }
 
     #[test]

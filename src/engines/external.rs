@@ -343,12 +343,27 @@ impl ExternalEngine {
             cmd.env(k, v);
         }
         let mut child = cmd.spawn().map_err(|e| {
-            self.failed(format!(
-                "cannot start the Python worker {}: {e}: run `make {}` (or set {})",
-                python.display(),
-                spec.make_target,
-                spec.python_env
-            ))
+            // Where the interpreter's path came from, so that a wrong one can be found.
+            let from_env = self.python.is_none()
+                && std::env::var_os(spec.python_env).is_some_and(|p| !p.is_empty());
+            if from_env {
+                self.failed(format!(
+                    "cannot start the Python worker {} (from ${}): {e}: set {} to a Python \
+                     interpreter, or unset it for ./{}/bin/python (`make {}`)",
+                    python.display(),
+                    spec.python_env,
+                    spec.python_env,
+                    spec.venv,
+                    spec.make_target
+                ))
+            } else {
+                self.failed(format!(
+                    "cannot start the Python worker {}: {e}: run `make {}` (or set {})",
+                    python.display(),
+                    spec.make_target,
+                    spec.python_env
+                ))
+            }
         })?;
         let start = Instant::now();
         let status = loop {
