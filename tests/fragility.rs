@@ -120,6 +120,25 @@ fn bad_studies_stop_before_running_with_one_line() {
         &["suite", "suite.toml", "record[3].file", "gone.AT2"],
     );
 
+    // A P695 factor that alone takes its record beyond any ground motion: the suite's error,
+    // not the study's levels.
+    let mut factors = manifest.clone();
+    for k in 0..6 {
+        let factor = if k == 4 { "1e300" } else { "1.0" };
+        factors = factors.replace(
+            &format!("id = \"r{k}\"\n"),
+            &format!("id = \"r{k}\"\np695_factor = {factor}\n"),
+        );
+    }
+    std::fs::write(d.join("suite.toml"), factors).unwrap();
+    std::fs::write(&study, text.replace("\"pga-ratio\"", "\"p695\"")).unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["study.toml", "suite", "record `r4`", "p695_factor 1e300"],
+    );
+    std::fs::write(&study, &text).unwrap();
+
     // A broken record: truncated data.
     std::fs::write(d.join("suite.toml"), &manifest).unwrap();
     let rec = std::fs::read_to_string(d.join("r2.AT2")).unwrap();

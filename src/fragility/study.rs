@@ -598,6 +598,25 @@ fn check_extreme_runs(study: &Study) -> Result<(), SceneError> {
             ));
         }
         let beyond = |peak: f64| peak.is_nan() || peak > MAX_PEAK_G;
+        // A P695 factor that alone, at level 1, takes a record beyond the bound is the suite's
+        // error, not the level's.
+        if f.intensity.measure == Measure::P695
+            && let Some((rec, factor)) = records
+                .iter()
+                .find_map(|r| r.p695_factor.filter(|&k| beyond(r.pga * k)).map(|k| (r, k)))
+        {
+            return Err(SceneError::new(
+                &file,
+                "suite",
+                format!(
+                    "record `{}`: its p695_factor {} scales its PGA of {:.4} g to {:.4e} g at level 1; at most {MAX_PEAK_G} g",
+                    rec.id,
+                    num(factor),
+                    rec.pga,
+                    rec.pga * factor
+                ),
+            ));
+        }
         if let Some(rec) = scaled_most.filter(|r| beyond(r.pga * scale(r))) {
             return Err(SceneError::new(
                 &file,
