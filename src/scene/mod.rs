@@ -329,11 +329,26 @@ fn one() -> f64 {
     1.0
 }
 
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum RecordFormat {
     Csv,
     At2,
+}
+
+/// Read by hand so that a wrong value names the field: inside an excitation (a table tagged by
+/// its `kind`) the error's path stops at the excitation.
+impl<'de> Deserialize<'de> for RecordFormat {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        match s.as_str() {
+            "csv" => Ok(RecordFormat::Csv),
+            "at2" => Ok(RecordFormat::At2),
+            other => Err(serde::de::Error::custom(format!(
+                "format = {other:?}: expected \"csv\" or \"at2\""
+            ))),
+        }
+    }
 }
 
 /// The scene as written: its fields, then each engine table at the top level.
