@@ -12,7 +12,11 @@
 //! (overridable as `housner.restitution`). A block at rest starts rocking when
 //! `|a_x| > (g + a_z) tan alpha`. The equation is integrated with classical RK4 (steps of at
 //! most `min(housner.max_step, housner.max_phase_step / p)`, landing on every output time and
-//! excitation breakpoint); impacts
+//! excitation breakpoint, so that each step sees a smooth excitation: its first stage takes the
+//! excitation's limit from the right, its last from the left, and a pulse that ends where a
+//! step starts is zero over that step; taking the pulse's last value there made a
+//! rectangular or one-cosine pulse's end a first-order error, 1.7e-4 relative in the angular
+//! velocity at the default step); impacts
 //! are located by bisection on the step length to `housner.event_tolerance`. When the
 //! amplitude after an impact would be below 1e-12 rad, or the remaining infinite sequence of
 //! ever smaller impacts (durations 2|omega|/(p^2 sin alpha), ratio r) ends within the current
@@ -231,13 +235,18 @@ enum Phase {
     Overturned,
 }
 
+/// One RK4 step over [t, t + h], a span the ground motion is smooth on (steps end on its
+/// breakpoints): the first stage takes the acceleration's limit from the right at t, the last
+/// its limit from the left at t + h (a pulse that ends at t is 0 after it; the value at t is
+/// its last one).
 fn rk4(blk: &HousnerBlock, gm: &GroundMotion, t: f64, y: (f64, f64), s: f64, h: f64) -> (f64, f64) {
-    let f = |t: f64, th: f64| blk.accel(th, s, gm.acc(t));
+    let f = |a: (f64, f64), th: f64| blk.accel(th, s, a);
     let (th, om) = y;
-    let k1 = (om, f(t, th));
-    let k2 = (om + 0.5 * h * k1.1, f(t + 0.5 * h, th + 0.5 * h * k1.0));
-    let k3 = (om + 0.5 * h * k2.1, f(t + 0.5 * h, th + 0.5 * h * k2.0));
-    let k4 = (om + h * k3.1, f(t + h, th + h * k3.0));
+    let mid = gm.acc(t + 0.5 * h);
+    let k1 = (om, f(gm.acc_side(t, true), th));
+    let k2 = (om + 0.5 * h * k1.1, f(mid, th + 0.5 * h * k1.0));
+    let k3 = (om + 0.5 * h * k2.1, f(mid, th + 0.5 * h * k2.0));
+    let k4 = (om + h * k3.1, f(gm.acc_side(t + h, false), th + h * k3.0));
     (
         th + h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0),
         om + h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1),

@@ -120,6 +120,52 @@ impl Component {
         }
     }
 
+    /// The acceleration's one-sided limit at t, m/s^2: from the right (`after`, the value a
+    /// step starting at t integrates) or from the left (a step ending at t). [`Component::acc`]
+    /// is one of the two at a breakpoint (the pulse's value at its end, the record's last
+    /// sample), which is the wrong one for the step on the other side of it. An instant within
+    /// 1e-12 relative of a breakpoint is on it (the breakpoints are computed sums).
+    pub fn acc_side(&self, t: f64, after: bool) -> f64 {
+        if t.is_nan() {
+            return f64::NAN;
+        }
+        match self {
+            Component::Pulse {
+                duration: d, start, ..
+            } => {
+                let s = t - start;
+                let eps = 1e-12 * (1.0 + start.abs() + d);
+                let inside = if after {
+                    s >= -eps && s < d - eps
+                } else {
+                    s > eps && s <= d + eps
+                };
+                if inside {
+                    self.acc(start + s.clamp(0.0, *d))
+                } else {
+                    0.0
+                }
+            }
+            Component::AccelerationRecord { t: ts, a, .. } => {
+                let (first, last) = (ts[0], ts[ts.len() - 1]);
+                let eps = 1e-12 * (1.0 + t.abs());
+                let inside = if after {
+                    t >= first - eps && t < last - eps
+                } else {
+                    t > first + eps && t <= last + eps
+                };
+                if !inside {
+                    0.0
+                } else if t >= last {
+                    a[a.len() - 1]
+                } else {
+                    self.acc(t.max(first))
+                }
+            }
+            Component::DisplacementRecord { .. } => 0.0,
+        }
+    }
+
     /// Ground velocity at t, m/s.
     pub fn vel(&self, t: f64) -> f64 {
         if t.is_nan() {
@@ -281,6 +327,15 @@ impl GroundMotion {
         (
             self.horizontal.as_ref().map_or(0.0, |c| c.acc(t)),
             self.vertical.as_ref().map_or(0.0, |c| c.acc(t)),
+        )
+    }
+    /// The one-sided limits ([`Component::acc_side`]) of (a_x, a_z) at t.
+    pub fn acc_side(&self, t: f64, after: bool) -> (f64, f64) {
+        (
+            self.horizontal
+                .as_ref()
+                .map_or(0.0, |c| c.acc_side(t, after)),
+            self.vertical.as_ref().map_or(0.0, |c| c.acc_side(t, after)),
         )
     }
     pub fn vel(&self, t: f64) -> (f64, f64) {
@@ -528,6 +583,35 @@ mod tests {
             assert!(c.vel(f64::NAN).is_nan(), "{c:?}");
             assert!(c.disp(f64::NAN).is_nan(), "{c:?}");
         }
+    }
+
+    /// The one-sided limits at a pulse's ends and a record's last sample: the value inside
+    /// from inside, zero from outside, whatever the rounding of the breakpoint's sum.
+    #[test]
+    fn one_sided_limits_at_the_breakpoints() {
+        let rect = pulse(PulseShape::Rectangular);
+        let end = 0.1 + 0.4;
+        for t in [end, end - 1e-17, end + 1e-16] {
+            assert_eq!(rect.acc_side(t, true), 0.0, "after {t}");
+            assert_eq!(rect.acc_side(t, false), 2.0, "before {t}");
+        }
+        assert_eq!(rect.acc_side(0.1, true), 2.0);
+        assert_eq!(rect.acc_side(0.1, false), 0.0);
+        assert_eq!(rect.acc_side(0.3, true), rect.acc(0.3));
+        let cosine = pulse(PulseShape::OneCosine);
+        assert!((cosine.acc_side(end, false) - 2.0).abs() < 1e-12);
+        assert_eq!(cosine.acc_side(end, true), 0.0);
+        let record = Component::AccelerationRecord {
+            t: vec![0.0, 0.01, 0.02],
+            a: vec![0.5, 1.0, 3.0],
+            v: vec![0.0, 0.0075, 0.0275],
+            d: vec![0.0, 0.0, 0.0002],
+        };
+        assert_eq!(record.acc_side(0.02, false), 3.0);
+        assert_eq!(record.acc_side(0.02, true), 0.0);
+        assert_eq!(record.acc_side(0.0, true), 0.5);
+        assert_eq!(record.acc_side(0.0, false), 0.0);
+        assert_eq!(record.acc_side(0.015, true), record.acc(0.015));
     }
 
     /// The closed-form velocity and displacement are the integrals of the acceleration.
