@@ -28,9 +28,10 @@
 //! point already overturns the scan steps down first.
 //!
 //! **Early stop** (opt-in, on for `rockbench spectrum`, native engine only; every stop is
-//! recorded with its reason): after the pulse has ended a native run stops when a single block
-//! is beyond its critical angle and still turning outwards (it can no longer come back: it has
-//! overturned; in a stack: when a block lies on its side), when every block has been still for [`REST_WINDOW`] (at rest), or, for a single
+//! recorded with its reason): after the pulse has ended a native run stops when a block lies on
+//! its side (overturned; beyond its critical angle turning outwards is not enough: in flight or
+//! sliding a block can land on its corner and turn back), when every block has been still for
+//! [`REST_WINDOW`] (at rest), or, for a single
 //! block inside its critical angle, when its mechanical energy above the upright block's rest (whatever tilt the scene starts from) is below
 //! [`SAFE_ENERGY_FRACTION`] of the tipping barrier `m g (R - H/2)` (free rocking only loses
 //! energy, so it cannot overturn later). The Housner engine is cheap enough to run to the
@@ -496,7 +497,7 @@ impl<'a> Spectrum<'a> {
             let (tr, stop) = native_early_stop(scene)?;
             (tr, None, stop)
         } else if self.engine.name() == "housner" && early && scene.blocks.len() == 1 {
-            let (tr, impacts, stop) = housner_early_stop(scene)?;
+            let (tr, impacts, stop) = housner_early_stop(scene, false)?;
             (tr, Some(vec![impacts]), stop)
         } else {
             let out = self.engine.run(scene)?;
@@ -710,7 +711,6 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
     // tilted start sits above it).
     let z_rest = layout.upright[0].1;
     let barrier = b0.tipping_energy_per_mass(scene.gravity);
-    let mut prev: Vec<f64> = vec![0.0; scene.blocks.len()];
     for k in 1..=n_steps {
         stepper
             .step(&mut state)
@@ -723,17 +723,13 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
         }
         let rel = layout.relative_rotations(&states);
         if state.t > pulse_end {
-            for (i, &(phi, w)) in rel.iter().enumerate() {
-                // One block on the ground cannot come back from beyond its critical angle
-                // when turning outwards; a block on a moving block can, until it lies on its side.
-                let gone = if single {
-                    phi.abs() > crit[i] && phi * w > 0.0 && phi.abs() > prev[i]
-                } else {
-                    phi.abs() >= std::f64::consts::FRAC_PI_2 - events::ON_SIDE_TOLERANCE
-                };
-                if gone {
-                    return Ok((tr, Stop::Overturned));
-                }
+            // A block lying on its side has overturned ([`events::overturning`]). Beyond its
+            // critical angle and turning outwards is not enough, even for one block on the
+            // ground: in flight, or sliding, it can land on its corner and turn back.
+            if rel.iter().any(|&(phi, _)| {
+                phi.abs() >= std::f64::consts::FRAC_PI_2 - events::ON_SIDE_TOLERANCE
+            }) {
+                return Ok((tr, Stop::Overturned));
             }
             let v = ns.rest_velocity;
             let is_still = states.iter().zip(&scene.blocks).all(|(st, b)| {
@@ -753,9 +749,6 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
                 }
             }
         }
-        for (p, r) in prev.iter_mut().zip(&rel) {
-            *p = r.0.abs();
-        }
     }
     Ok((tr, Stop::End))
 }
@@ -764,7 +757,15 @@ pub fn native_early_stop(scene: &Scene) -> Result<(Trajectory, Stop), EngineErro
 /// the pulse, then free rocking in chunks of 1/p with the early stops of the module docs
 /// checked between chunks. Returns the trajectory (the engine's centroid states), the impact
 /// instants above the noise floor and the stop.
-pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop), EngineError> {
+///
+/// With `exact_peak` a run stops below its tipping energy only once the angle that energy can
+/// reach is no larger than the largest |theta| sampled, so that the run's largest rotation is
+/// that of its run to the end (a fragility study's rotation limit states); without it, as soon
+/// as the energy is below the fraction (the overturning verdict alone).
+pub fn housner_early_stop(
+    scene: &Scene,
+    exact_peak: bool,
+) -> Result<(Trajectory, Vec<f64>, Stop), EngineError> {
     use crate::engines::housner::{self, HousnerBlock, HousnerEngine, Span};
     if let Some(reason) = HousnerEngine.cannot_model(scene) {
         return Err(EngineError::Unsupported {
@@ -795,6 +796,7 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
     let start = scene.layout().blocks[0];
     let (mut t0, mut state) = (0.0, (start.phi, start.omega));
     let mut first = true;
+    let mut peak = 0.0f64;
     loop {
         let len = if first {
             pulse_end.min(scene.duration)
@@ -805,6 +807,7 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
         for (k, (t, s)) in run.trajectory.iter().enumerate() {
             if k > 0 || first {
                 tr.push(t0 + t, &[*s]);
+                peak = peak.max(s[2].abs());
             }
         }
         impacts.extend(
@@ -831,6 +834,7 @@ pub fn housner_early_stop(scene: &Scene) -> Result<(Trajectory, Vec<f64>, Stop),
         }
         if th.abs() < blk.alpha
             && b.energy_per_mass(&s, scene.gravity, z_rest) < SAFE_ENERGY_FRACTION * barrier
+            && (!exact_peak || b.reachable_angle(&s, scene.gravity, z_rest) <= peak)
         {
             return Ok((tr, impacts, Stop::BelowTippingEnergy));
         }

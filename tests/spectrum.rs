@@ -706,6 +706,60 @@ fn a_tilted_start_gives_native_the_minimum_of_its_runs_to_the_end_and_housners()
     );
 }
 
+/// A 1 x 1 m block under a one-cosine pulse at ratio 3 and A = 4 is thrown into the air past
+/// its critical angle turning outwards, lands on its corner at -0.998 rad and rights itself:
+/// the early-stopped native run is not counted as overturned there (it was), and its verdict
+/// is the run to the end's.
+#[test]
+fn a_block_thrown_past_its_critical_angle_that_lands_back_is_not_overturned_early() {
+    let scratch = common::tmp("rb-spectrum", "thrown");
+    let cell = |extra: &[&str]| {
+        let dir = scratch.join(format!("out{}", extra.len()));
+        let mut args = vec![
+            "spectrum",
+            "1x1",
+            "--friction",
+            "2",
+            "--engines",
+            "native",
+            "--pulse",
+            "one-cosine",
+            "--ratios",
+            "3",
+            "--map-ratios",
+            "3",
+            "--amplitudes",
+            "4",
+            "--out",
+            dir.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let (ok, out, err) = rockbench(&args);
+        assert!(ok, "{out}{err}");
+        let csv = std::fs::read_to_string(dir.join("map.csv")).unwrap();
+        let head: Vec<String> = csv
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect();
+        let row: Vec<String> = csv
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect();
+        let col = |name: &str| row[head.iter().position(|h| h == name).unwrap()].clone();
+        (col("overturned"), col("stop"))
+    };
+    let (early, stop) = cell(&[]);
+    let (whole, _) = cell(&["--no-early-stop"]);
+    assert_eq!(whole, "false", "the run to the end rights itself");
+    assert_eq!(early, whole, "stopped as {stop}");
+}
+
 /// A host name with a path separator (the run store names its temporary files by it) is no
 /// panic: the store keeps the characters a file name can hold.
 #[test]

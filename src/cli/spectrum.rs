@@ -323,7 +323,7 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         "settings": req.settings,
         "search": "upward scan from scan_from by factors (1 + scan_step) to the first overturning amplitude (down first if that one overturns), then bisection to a relative width `tolerance`; the minimum is the bracket's upper end",
         "early_stop": if req.settings.early_stop {
-            format!("native runs stop after the pulse when a block is beyond its critical angle turning outwards (overturned), when every block is still for {} s (at rest), or when a single block inside its critical angle has less than {} of its tipping energy m g (R - H/2); each map cell's `stop` says which", crate::engines::native::REST_WINDOW, spectrum::SAFE_ENERGY_FRACTION)
+            format!("native runs stop after the pulse when a block lies on its side (overturned), when every block is still for {} s (at rest), or when a single block inside its critical angle has less than {} of its tipping energy m g (R - H/2); each map cell's `stop` says which", crate::engines::native::REST_WINDOW, spectrum::SAFE_ENERGY_FRACTION)
         } else {
             "off: every run lasts its full duration".into()
         },

@@ -176,6 +176,16 @@ impl BlockSpec {
         let i_over_m = (self.width * self.width + self.height * self.height) / 12.0;
         0.5 * (s[3] * s[3] + s[4] * s[4] + i_over_m * s[5] * s[5]) + g * (s[1] - z_rest)
     }
+    /// The largest |phi| the block with centroid state `s` can reach in free rocking on the
+    /// ground, from its energy above rest (`z_rest` its upright centroid height): where that
+    /// energy is all potential, `g (R cos(alpha - phi) - H/2) = E`; at least `|s[2]|`.
+    pub fn reachable_angle(&self, s: &[f64; 6], g: f64, z_rest: f64) -> f64 {
+        let e = self.energy_per_mass(s, g, z_rest);
+        let r = 0.5 * self.width.hypot(self.height);
+        let alpha = (self.width / self.height).atan();
+        let c = ((e / g + 0.5 * self.height) / r).clamp(-1.0, 1.0);
+        (alpha - c.acos()).max(s[2].abs())
+    }
     /// The energy per unit mass the block at rest needs to tip over its corner: `g (R - H/2)`.
     pub fn tipping_energy_per_mass(&self, g: f64) -> f64 {
         g * (0.5 * self.width.hypot(self.height) - 0.5 * self.height)
