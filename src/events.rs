@@ -13,9 +13,11 @@
 //!   block), extrapolated from the last sample before the sign change. A crossing counts only
 //!   when the largest |phi| of the half-wave that ends at it reaches the noise floor (default
 //!   1e-5 rad), so jitter about zero is not counted. A half-wave that ends flat (within
-//!   [`FLAT`] of zero) without a change of sign and stays flat to the end of the history, two
-//!   samples or more (a block stopped dead by the impact), counts as an impact where it
-//!   reaches zero.
+//!   [`FLAT`] of zero: a block stopped dead by the impact, lying on its face) counts as an
+//!   impact where it reaches zero, whether the block stays flat or later lifts off, unless
+//!   the history ends on that one flat sample; while flat, the sign of its round-off is no
+//!   half-wave (a block lying on its face between two rocking episodes flips the sign of a
+//!   1e-21 rad rotation, which counted as impacts).
 //! - **Peak amplitude**: max |phi| before the first impact and between consecutive impacts,
 //!   at the extremum: the zero of omega inside a sample interval, where the cubic Hermite
 //!   interpolant of (phi, omega) at its two ends peaks (local error O(h^4)); a parabola through
@@ -216,22 +218,44 @@ pub const FLAT: f64 = 1e-12;
 /// Zero crossings that count as impacts (see the module docs).
 pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
     let (t, phi) = (h.t, h.phi);
+    let n = phi.len();
     let mut out = Vec::new();
-    let mut last_sign = 0.0f64;
-    let mut last_idx = 0usize; // last sample with a non-zero rotation
+    let mut last_sign = 0.0f64; // sign of the current half-wave; 0 while flat
+    let mut last_idx = 0usize; // last sample of the current half-wave
     let mut stretch_start = 0usize; // first sample of the current half-wave
     let mut wave_max = 0.0f64;
-    for k in 0..phi.len() {
+    let land = |out: &mut Vec<f64>, from: usize, k: usize, lo: usize| {
+        let tc = h.crossing_from(from, k, lo, 0.0);
+        out.push(tc.clamp(t[from], t[k]));
+    };
+    for k in 0..n {
         let p = phi[k];
-        if p == 0.0 {
+        if p.abs() <= FLAT {
+            // The half-wave ends flat: the block landed on its face, and the sign of its
+            // round-off while it lies there is no rotation. An impact where it reaches zero,
+            // unless the history ends on this one flat sample (it may end on a crossing).
+            if last_sign != 0.0 && wave_max >= floor && k + 1 < n {
+                // Passing through zero at the rate it arrived with, the sample is the crossing
+                // (to FLAT / |omega|); stopped or turned there, the crossing is extrapolated
+                // from the last sample of the half-wave.
+                let w = h.omega[k];
+                let through = -last_sign * w > 0.0 && w.abs() >= 0.5 * h.omega[last_idx].abs();
+                if through {
+                    out.push((t[k] - p / w).clamp(t[last_idx], t[k + 1]));
+                } else {
+                    land(&mut out, last_idx, k, stretch_start.min(last_idx));
+                }
+            }
+            last_sign = 0.0;
+            wave_max = 0.0;
             continue;
         }
         let s = p.signum();
-        if last_sign != 0.0 && s != last_sign {
+        if last_sign == 0.0 {
+            stretch_start = k;
+        } else if s != last_sign {
             if wave_max >= floor {
-                let lo = stretch_start.min(last_idx);
-                let tc = h.crossing_from(last_idx, k, lo, 0.0);
-                out.push(tc.clamp(t[last_idx], t[k]));
+                land(&mut out, last_idx, k, stretch_start.min(last_idx));
             }
             wave_max = 0.0;
             stretch_start = k;
@@ -239,23 +263,6 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
         wave_max = wave_max.max(p.abs());
         last_sign = s;
         last_idx = k;
-    }
-    // A half-wave that ends flat without a change of sign and stays flat (two samples or
-    // more, so that a history ending on a crossing is not one): the block stopped dead at this
-    // impact.
-    let flat_from = (0..phi.len())
-        .rev()
-        .take_while(|&k| phi[k].abs() <= FLAT)
-        .last();
-    if let Some(j) = flat_from
-        && j >= 1
-        && phi.len() - j >= 2
-        && wave_max >= floor
-        && out.last().is_none_or(|&c| c < t[j - 1])
-    {
-        let lo = stretch_start.min(j - 1);
-        let tc = h.crossing_from(j - 1, j, lo, 0.0);
-        out.push(tc.clamp(t[j - 1], t[j]));
     }
     out
 }
@@ -608,6 +615,43 @@ mod tests {
         assert_eq!(imp.len(), 3, "{imp:?}"); // crossings at 1, 2, 3 (4 is the last sample)
         for (k, ti) in imp.iter().enumerate() {
             assert!((ti - (k + 1) as f64).abs() < 1e-9, "{ti}");
+        }
+    }
+
+    /// A block that lands dead on its face, lies there while its rotation's round-off flips
+    /// sign, then rocks again on the same side and lands again: two impacts, at the landings,
+    /// and the same for its mirror image (the round-off's sign made phantom impacts while it
+    /// lay flat and dropped the first landing).
+    #[test]
+    fn a_block_lying_flat_between_two_episodes_lands_twice_whatever_its_round_off() {
+        let t = grid(3001, 1e-3);
+        // Half-waves 0.01 sin(pi t / 0.5) on [0, 0.5] and [1.5, 2.0], stopped dead at their
+        // ends (rate 0 after them); between and after, +-1e-20 alternating.
+        let wave = |x: f64| {
+            let on = (0.0..0.5).contains(&x) || (1.5..2.0).contains(&x);
+            let s = std::f64::consts::PI * (x % 1.5) / 0.5;
+            if on {
+                (0.01 * s.sin(), 0.01 * std::f64::consts::PI / 0.5 * s.cos())
+            } else {
+                (0.0, 0.0)
+            }
+        };
+        let (mut phi, omega) = sample(&t, wave);
+        for (k, p) in phi.iter_mut().enumerate() {
+            if p.abs() < 1e-15 {
+                // The wave's own sign for a while after it lands, then flipping.
+                *p = if k < 600 || k % 2 == 0 { 1e-20 } else { -1e-20 };
+            }
+        }
+        let mirrored: (Vec<f64>, Vec<f64>) = (
+            phi.iter().map(|p| -p).collect(),
+            omega.iter().map(|w| -w).collect(),
+        );
+        for (phi, omega) in [(&phi, &omega), (&mirrored.0, &mirrored.1)] {
+            let imp = impacts(&History::new(&t, phi, omega), NOISE_FLOOR);
+            assert_eq!(imp.len(), 2, "{imp:?}");
+            assert!((imp[0] - 0.5).abs() < 1e-6, "{imp:?}");
+            assert!((imp[1] - 2.0).abs() < 1e-6, "{imp:?}");
         }
     }
 
