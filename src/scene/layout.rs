@@ -115,8 +115,13 @@ impl Layout {
                         if ov <= SIDE_BY_SIDE * b.width.min(bj.width) {
                             continue;
                         }
+                        // The highest top, then the largest overlap; overlaps equal to
+                        // round-off (a block centred on a running-bond joint) go to the block
+                        // listed first, so that the choice, and every quantity measured
+                        // relative to the support, does not follow the sign of a round-off.
                         let top = zj + bj.height / 2.0;
-                        if top > best.0 + 1e-12 || (top > best.0 - 1e-12 && ov > best.2) {
+                        let tie = SIDE_BY_SIDE * b.width.min(bj.width);
+                        if top > best.0 + 1e-12 || (top > best.0 - 1e-12 && ov > best.2 + tie) {
                             best = (top, Some(j), ov);
                         }
                     }
@@ -219,6 +224,26 @@ mod tests {
              [initial.blocks.s]\nrotation = {statue}\nomega = -0.25\n"
         );
         parse_scene_str(&text, false, "stack.toml", &[]).unwrap()
+    }
+
+    /// A block centred on the joint of two below rests on the one listed first, whatever the
+    /// round-off of the positions (a mirrored wall's joint blocks took the other support).
+    #[test]
+    fn a_block_centred_on_a_joint_rests_on_the_block_listed_first() {
+        for (left, right, top) in [
+            (0.15, 0.45, 0.3),
+            (0.15, 0.45 + 1e-15, 0.3),
+            (0.15 - 1e-15, 0.45, 0.3 + 2e-16),
+            (0.45, 0.15, 0.3),
+        ] {
+            let text = format!(
+                "name = \"joint\"\nduration = 1\n[[blocks]]\nname = \"a\"\nwidth = 0.3\nheight = 0.2\nx = {left:?}\n\
+                 [[blocks]]\nname = \"b\"\nwidth = 0.3\nheight = 0.2\nx = {right:?}\n\
+                 [[blocks]]\nname = \"c\"\nwidth = 0.3\nheight = 0.2\nx = {top:?}\n"
+            );
+            let scene = parse_scene_str(&text, false, "joint.toml", &[]).unwrap();
+            assert_eq!(scene.layout().supports[2], Some(0), "{left} {right} {top}");
+        }
     }
 
     fn states(layout: &super::Layout) -> Vec<[f64; 6]> {
