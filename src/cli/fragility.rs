@@ -56,7 +56,7 @@ pub fn run(a: FragilityArgs) -> Result<()> {
     for f in &res.fits {
         if let Some(x) = f.fit {
             println!(
-                "{} {} {} {:?}: theta {:.4} [{}], beta {:.3}",
+                "{} {} {} {:?}: theta {:.4} [{}], beta {:.3}{}",
                 f.scene,
                 f.engine,
                 f.limit_state,
@@ -65,7 +65,10 @@ pub fn run(a: FragilityArgs) -> Result<()> {
                 f.theta_ci
                     .map(|(a, b)| format!("{a:.4} - {b:.4}"))
                     .unwrap_or_else(|| "-".into()),
-                x.beta
+                x.beta,
+                f.resample_note(st.file.fit.bootstrap)
+                    .map(|n| format!("; {n}"))
+                    .unwrap_or_default()
             );
         }
     }

@@ -186,6 +186,21 @@ pub struct Fit {
     pub boot_theta: Vec<Option<f64>>,
 }
 
+impl Fit {
+    /// A fit whose intervals come from fewer resamples than asked: how many, and why the others
+    /// are left out (a resample whose records are perfectly separated, or have too few levels
+    /// between all and none, has no finite fit). The intervals are then conditional on a fit
+    /// existing, narrower than the whole bootstrap's.
+    pub fn resample_note(&self, asked: usize) -> Option<String> {
+        (self.fit.is_some() && asked > 0 && self.resamples < asked).then(|| {
+            format!(
+                "intervals over {} of {asked} resamples (the others have no finite fit)",
+                self.resamples
+            )
+        })
+    }
+}
+
 /// An engine's median against the reference engine's (the first of the study), paired over
 /// the same bootstrap resamples.
 #[derive(Debug, Clone, Serialize)]
@@ -532,8 +547,9 @@ fn ida_record(
     );
     let scene = &study.scenes[si];
     let mut memo: Vec<Row> = Vec::new();
-    let mut caps = Vec::new();
-    for (k, ls) in study.limit_states.iter().enumerate() {
+    // The runs each limit state's hunt made.
+    let mut hunts: Vec<usize> = Vec::new();
+    for k in 0..study.limit_states.len() {
         let mut runs = 0;
         let mut at = |l: f64, memo: &mut Vec<Row>| -> Result<bool, String> {
             if let Some(row) = memo.iter().find(|x| x.level == l) {
@@ -564,7 +580,7 @@ fn ida_record(
             l = (l * ida.factor).min(max_l);
         }
         let Some(mut hi_l) = hit else {
-            caps.push(capacity(scene, e, r, ls, max_l, true, false, runs));
+            hunts.push(runs);
             continue;
         };
         // Bisect the bracket (geometric mid-points).
@@ -584,12 +600,28 @@ fn ida_record(
                 at(fl, &mut memo)?;
             }
         }
-        let mut lv: Vec<(f64, bool)> = memo.iter().map(|x| (x.level, x.exceeded[k])).collect();
-        lv.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let first = lv.iter().find(|x| x.1).map(|x| x.0).unwrap_or(hi_l);
-        let resurrection = lv.iter().any(|x| x.0 > first && !x.1);
-        caps.push(capacity(scene, e, r, ls, first, false, resurrection, runs));
+        hunts.push(runs);
     }
+    // The capacity is the lowest level run that exceeds, over every limit state's runs of the
+    // record (all hunts done: a later hunt's runs count for an earlier limit state, so the
+    // order of the limit states changes nothing), censored at the ceiling when none does.
+    let mut lv: Vec<&Row> = memo.iter().collect();
+    lv.sort_by(|a, b| a.level.total_cmp(&b.level));
+    let caps = study
+        .limit_states
+        .iter()
+        .enumerate()
+        .zip(&hunts)
+        .map(
+            |((k, ls), &runs)| match lv.iter().find(|x| x.exceeded[k]).map(|x| x.level) {
+                Some(first) => {
+                    let resurrection = lv.iter().any(|x| x.level > first && !x.exceeded[k]);
+                    capacity(scene, e, r, ls, first, false, resurrection, runs)
+                }
+                None => capacity(scene, e, r, ls, max_l, true, false, runs),
+            },
+        )
+        .collect();
     Ok((memo, caps))
 }
 
@@ -839,4 +871,38 @@ fn fits(study: &Study, rows: &[Row], caps: &[Capacity]) -> FitOut {
         });
     }
     (fits, diffs, grid)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fit whose intervals come from fewer resamples than asked says so; one from all of
+    /// them, or with no fit, says nothing.
+    #[test]
+    fn a_fit_from_fewer_resamples_than_asked_says_how_many() {
+        let fit = |resamples: usize, point: bool| Fit {
+            scene: "s".into(),
+            engine: "native".into(),
+            limit_state: "overturn".into(),
+            method: Method::Stripes,
+            fit: point.then_some(fit::Lognormal {
+                theta: 1.0,
+                beta: 0.3,
+            }),
+            problem: None,
+            theta_ci: None,
+            beta_ci: None,
+            resamples,
+            band: None,
+            boot_theta: Vec::new(),
+        };
+        assert_eq!(
+            fit(86, true).resample_note(200).as_deref(),
+            Some("intervals over 86 of 200 resamples (the others have no finite fit)")
+        );
+        assert_eq!(fit(200, true).resample_note(200), None);
+        assert_eq!(fit(0, false).resample_note(200), None);
+        assert_eq!(fit(0, true).resample_note(0), None);
+    }
 }

@@ -402,7 +402,11 @@ pub fn html(study: &Study, res: &Results, command: &str) -> String {
             method(f.method),
             opt(f.fit.map(|x| x.theta)),
             opt(f.fit.map(|x| x.beta)),
-            esc(f.problem.as_deref().unwrap_or(""))
+            esc(&f
+                .problem
+                .clone()
+                .or(f.resample_note(study.file.fit.bootstrap))
+                .unwrap_or_default())
         );
     }
     s += "</table>\n";
