@@ -613,6 +613,38 @@ fn spectrum_runs_are_kept_in_the_store_and_read_back() {
     assert_eq!(stored4, 0);
 }
 
+/// The first row of minimum.csv of the 1 x 2.5 m block released at 0.3 rad, half-sine at
+/// ratio 2, on `engine`, its fields split.
+fn tilted_minimum(scratch: &std::path::Path, engine: &str, extra: &[&str]) -> Vec<String> {
+    let dir = scratch.join(format!("{engine}{}", extra.len()));
+    let mut args = vec![
+        "spectrum",
+        "1x2.5",
+        "--friction",
+        "0.7",
+        "--engines",
+        engine,
+        "--ratios",
+        "2",
+        "--amplitudes",
+        "none",
+        "--out",
+        dir.to_str().unwrap(),
+        "--set",
+        "initial.tilt=0.3",
+    ];
+    args.extend(extra);
+    let (ok, out, err) = rockbench(&args);
+    assert!(ok, "{out}{err}");
+    let csv = std::fs::read_to_string(dir.join("minimum.csv")).unwrap();
+    csv.lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect()
+}
+
 /// A scene starting tilted: the Housner engine's early-stopped runs start from the tilt, as
 /// its runs to the end do (they started upright, so the minimum was the upright block's), and
 /// no closed form (a block starting at rest) is set beside the minima.
@@ -620,34 +652,7 @@ fn spectrum_runs_are_kept_in_the_store_and_read_back() {
 fn a_tilted_start_is_kept_by_the_early_stopped_housner_runs() {
     let scratch = common::tmp("rb-spectrum", "tilted");
     let minimum = |extra: &[&str]| {
-        let dir = scratch.join(format!("out{}", extra.len()));
-        let mut args = vec![
-            "spectrum",
-            "1x2.5",
-            "--friction",
-            "0.7",
-            "--engines",
-            "housner",
-            "--ratios",
-            "2",
-            "--amplitudes",
-            "none",
-            "--out",
-            dir.to_str().unwrap(),
-            "--set",
-            "initial.tilt=0.3",
-        ];
-        args.extend(extra);
-        let (ok, out, err) = rockbench(&args);
-        assert!(ok, "{out}{err}");
-        let csv = std::fs::read_to_string(dir.join("minimum.csv")).unwrap();
-        let row: Vec<String> = csv
-            .lines()
-            .nth(1)
-            .unwrap()
-            .split(',')
-            .map(String::from)
-            .collect();
+        let row = tilted_minimum(&scratch, "housner", extra);
         (row[4].parse::<f64>().unwrap(), row[10].clone())
     };
     let (early, closed) = minimum(&[]);
@@ -669,29 +674,9 @@ fn a_tilted_start_is_kept_by_the_early_stopped_housner_runs() {
 fn a_tilted_start_gives_native_the_minimum_of_its_runs_to_the_end_and_housners() {
     let scratch = common::tmp("rb-spectrum", "tilted-native");
     let minimum = |engine: &str, extra: &[&str]| {
-        let dir = scratch.join(format!("{engine}{}", extra.len()));
-        let mut args = vec![
-            "spectrum",
-            "1x2.5",
-            "--friction",
-            "0.7",
-            "--engines",
-            engine,
-            "--ratios",
-            "2",
-            "--amplitudes",
-            "none",
-            "--out",
-            dir.to_str().unwrap(),
-            "--set",
-            "initial.tilt=0.3",
-        ];
-        args.extend(extra);
-        let (ok, out, err) = rockbench(&args);
-        assert!(ok, "{out}{err}");
-        let csv = std::fs::read_to_string(dir.join("minimum.csv")).unwrap();
-        let row = csv.lines().nth(1).unwrap().to_string();
-        row.split(',').nth(4).unwrap().parse::<f64>().unwrap()
+        tilted_minimum(&scratch, engine, extra)[4]
+            .parse::<f64>()
+            .unwrap()
     };
     let early = minimum("native", &[]);
     let whole = minimum("native", &["--no-early-stop"]);

@@ -629,6 +629,7 @@ pub fn outcome(scene: &Scene, sim: &Simulated) -> RunOutcome {
 mod tests {
     use super::*;
     use crate::scene::parse_scene_str;
+    use crate::spectrum::Pulse;
 
     fn statue(offset: f64, record: Option<(&str, f64)>) -> Scene {
         let exc = record
@@ -662,6 +663,23 @@ mod tests {
         assert!((thr - expect).abs() < 1e-12, "{thr} vs {expect}");
     }
 
+    /// A block `(B, H, friction)` with the overrides `sets` under `pulse` at the ratio and the
+    /// dimensionless amplitude of a spectrum ([`crate::spectrum::Spectrum::scene`]).
+    fn pulse_scene(
+        (width, height, friction): (f64, f64, f64),
+        sets: &[&str],
+        pulse: Pulse,
+        ratio: f64,
+        amplitude: f64,
+    ) -> Scene {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        let base = crate::spectrum::block_scene(width, height, friction, &sets).unwrap();
+        let engine = crate::engines::engine_by_name("native").unwrap();
+        let settings = crate::spectrum::Settings::default();
+        crate::spectrum::Spectrum::new(&base, engine.as_ref(), pulse, &settings)
+            .scene(ratio, amplitude)
+    }
+
     /// A block released tilted (1 x 2.5 m at 0.3 rad, its critical angle 0.381) under a
     /// half-sine that overturns it: the native run's early stops keep the outcome of its run to
     /// the end, with the energy measured from the upright block's rest (from the tilted start,
@@ -669,17 +687,13 @@ mod tests {
     /// before (0.550) and gives now (0.418, Housner's).
     #[test]
     fn a_tilted_block_keeps_its_outcome_under_the_native_early_stops() {
-        let base =
-            crate::spectrum::block_scene(1.0, 2.5, 0.7, &["initial.tilt=0.3".into()]).unwrap();
-        let engine = crate::engines::engine_by_name("native").unwrap();
-        let settings = crate::spectrum::Settings::default();
-        let spectrum = crate::spectrum::Spectrum::new(
-            &base,
-            engine.as_ref(),
-            crate::spectrum::Pulse::HalfSine,
-            &settings,
+        let scene = pulse_scene(
+            (1.0, 2.5, 0.7),
+            &["initial.tilt=0.3"],
+            Pulse::HalfSine,
+            2.0,
+            0.48,
         );
-        let scene = spectrum.scene(2.0, 0.48);
         let over = |early: bool| {
             let sim = simulate("native", &scene, early).unwrap();
             let o = outcome(&scene, &sim);
@@ -696,16 +710,7 @@ mod tests {
     /// do not count it as overturned (they did, beyond the critical angle turning outwards).
     #[test]
     fn a_block_that_lands_back_from_beyond_its_critical_angle_is_not_overturned_early() {
-        let base = crate::spectrum::block_scene(1.0, 1.0, 2.0, &[]).unwrap();
-        let engine = crate::engines::engine_by_name("native").unwrap();
-        let settings = crate::spectrum::Settings::default();
-        let spectrum = crate::spectrum::Spectrum::new(
-            &base,
-            engine.as_ref(),
-            crate::spectrum::Pulse::OneCosine,
-            &settings,
-        );
-        let scene = spectrum.scene(3.0, 4.0);
+        let scene = pulse_scene((1.0, 1.0, 2.0), &[], Pulse::OneCosine, 3.0, 4.0);
         let over = |early: bool| {
             let sim = simulate("native", &scene, early).unwrap();
             outcome(&scene, &sim).overturned[0]
@@ -720,16 +725,12 @@ mod tests {
     /// and Housner runs.
     #[test]
     fn a_block_stopped_below_its_tipping_energy_keeps_its_largest_rotation() {
-        let base = crate::spectrum::block_scene(1.0, 2.5, 0.7, &[]).unwrap();
-        let engine = crate::engines::engine_by_name("native").unwrap();
-        let settings = crate::spectrum::Settings::default();
         for (pulse, ratio, amplitude) in [
-            (crate::spectrum::Pulse::HalfSine, 2.0, 1.6),
-            (crate::spectrum::Pulse::OneSine, 3.0, 1.4),
-            (crate::spectrum::Pulse::Rectangular, 4.0, 1.3),
+            (Pulse::HalfSine, 2.0, 1.6),
+            (Pulse::OneSine, 3.0, 1.4),
+            (Pulse::Rectangular, 4.0, 1.3),
         ] {
-            let spectrum = crate::spectrum::Spectrum::new(&base, engine.as_ref(), pulse, &settings);
-            let scene = spectrum.scene(ratio, amplitude);
+            let scene = pulse_scene((1.0, 2.5, 0.7), &[], pulse, ratio, amplitude);
             for engine in ["native", "housner"] {
                 let run = |early: bool| {
                     let sim = simulate(engine, &scene, early).unwrap();
