@@ -401,3 +401,36 @@ fn housner_steps_after_a_pulse_ends_integrate_no_pulse() {
         "native {native}, Housner {fine}"
     );
 }
+
+/// Housner's model is a block rocking on its base: a ground falling faster than g (the block
+/// leaves it) is refused, naming when (it rocked and overturned a block that a vertical pulse
+/// alone cannot turn); a ground whose horizontal acceleration exceeds what friction passes,
+/// `mu (g + a_z)`, is noted as possible sliding.
+#[test]
+fn housner_refuses_a_ground_falling_faster_than_g_and_notes_a_drag_beyond_friction() {
+    let scene = |ax: f64, az: f64| {
+        let text = format!(
+            "name = \"v\"\nduration = 1.0\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[contact]\nfriction = 0.7\n\
+             [excitation.horizontal]\nkind = \"rectangular\"\namplitude = {ax:?}\nduration = 0.5\nstart = 0.1\n\
+             [excitation.vertical]\nkind = \"rectangular\"\namplitude = {az:?}\nduration = 0.5\nstart = 0.1\n"
+        );
+        rockbench::scene::parse_scene_str(&text, false, "v", &[]).unwrap()
+    };
+    let housner = engine_by_name("housner").unwrap();
+    match housner.run(&scene(0.0, -12.0)) {
+        Err(rockbench::engines::EngineError::Unsupported { reason, .. }) => {
+            assert!(
+                reason.contains("-12 m/s^2 at t = 0.1 s, at or below -g"),
+                "{reason}"
+            );
+        }
+        other => panic!("ran: {:?}", other.map(|o| o.notes)),
+    }
+    let drag = |ax: f64, az: f64| {
+        let out = housner.run(&scene(ax, az)).unwrap();
+        out.notes.iter().any(|n| n.contains("the block may slide"))
+    };
+    // 0.7 (9.81 - 9.5) = 0.217 m/s^2 against 3: the ground drags; 0.7 x 9.81 against 3: not.
+    assert!(drag(3.0, -9.5));
+    assert!(!drag(3.0, 0.0));
+}

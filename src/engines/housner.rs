@@ -428,6 +428,30 @@ pub fn housner_step(blk: &HousnerBlock, hs: &HousnerSettings) -> f64 {
 
 /// A note when friction `mu` lets the block slide where the Housner model, which has no
 /// sliding, rocks it ([`HousnerBlock::friction_to_rock`]).
+/// The first output instant where the ground's horizontal acceleration exceeds what friction
+/// can pass to a block at rest, `mu (g + a_z)` (a strong pulse, or a vertical acceleration
+/// that unloads the base): the block may slide there, which the model ignores.
+fn drag_note(gm: &GroundMotion, scene: &Scene) -> Option<String> {
+    let mu = scene.friction_below(0);
+    let n = (scene.duration / scene.output_interval).ceil() as u64;
+    (0..=n)
+        .map(|k| (k as f64 * scene.output_interval).min(scene.duration))
+        .find(|&t| {
+            let (ax, az) = gm.acc(t);
+            ax.abs() > mu * (scene.gravity + az)
+        })
+        .map(|t| {
+            let (ax, az) = gm.acc(t);
+            format!(
+                "at t = {} s the ground's horizontal acceleration {:.4} m/s^2 exceeds friction's {} (g + a_z) = {:.4} m/s^2: the block may slide, which the Housner model ignores",
+                crate::scene::num(t),
+                ax,
+                crate::scene::num(mu),
+                mu * (scene.gravity + az)
+            )
+        })
+}
+
 pub fn sliding_note(blk: &HousnerBlock, mu: f64) -> Option<String> {
     // Three decimals, or scientific notation where they would say nothing or too much.
     let short = |x: f64| {
@@ -488,6 +512,20 @@ impl Engine for HousnerEngine {
                 crate::scene::num(b.width / b.height)
             ));
         }
+        // Where the ground falls faster than g the block leaves it: no pivot, no rocking
+        // equation (a record that cannot be read is the run's error, not this check's).
+        if let Ok(gm) = GroundMotion::from_scene(scene)
+            && let Some(v) = &gm.vertical
+        {
+            let (t, a) = v.lowest_acceleration();
+            if scene.gravity + a <= 0.0 {
+                return Some(format!(
+                    "the ground's vertical acceleration reaches {} m/s^2 at t = {} s, at or below -g: the block leaves the ground, which the Housner model (a block rocking on its base) does not describe",
+                    crate::scene::num(a),
+                    crate::scene::num(t)
+                ));
+            }
+        }
         None
     }
 
@@ -535,9 +573,10 @@ impl Engine for HousnerEngine {
             .map(|(t, _)| *t)
             .collect();
         let r = blk.restitution;
-        let notes: Vec<String> = sliding_note(&blk, scene.friction_below(0))
+        let mut notes: Vec<String> = sliding_note(&blk, scene.friction_below(0))
             .into_iter()
             .collect();
+        notes.extend(drag_note(&gm, scene));
         Ok(RunOutput {
             trajectory: tr,
             settings: serde_json::json!({

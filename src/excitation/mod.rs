@@ -166,6 +166,27 @@ impl Component {
         }
     }
 
+    /// The lowest acceleration of the motion and when, (t, a): a record's lowest sample (it
+    /// is linear between them), a pulse's lowest of 10 001 points over its duration; zero
+    /// outside them, and for a displacement record (whose acceleration is impulses).
+    pub fn lowest_acceleration(&self) -> (f64, f64) {
+        let lowest = |pts: &mut dyn Iterator<Item = (f64, f64)>| {
+            pts.fold((0.0, 0.0), |m: (f64, f64), p| if p.1 < m.1 { p } else { m })
+        };
+        match self {
+            Component::Pulse {
+                duration: d, start, ..
+            } => lowest(&mut (0..=10_000).map(|k| {
+                let t = start + d * k as f64 / 10_000.0;
+                (t, self.acc_side(t, k < 10_000))
+            })),
+            Component::AccelerationRecord { t, a, .. } => {
+                lowest(&mut t.iter().copied().zip(a.iter().copied()))
+            }
+            Component::DisplacementRecord { .. } => (0.0, 0.0),
+        }
+    }
+
     /// Ground velocity at t, m/s.
     pub fn vel(&self, t: f64) -> f64 {
         if t.is_nan() {
