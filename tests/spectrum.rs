@@ -745,6 +745,34 @@ fn a_block_thrown_past_its_critical_angle_that_lands_back_is_not_overturned_earl
     assert_eq!(early, whole, "stopped as {stop}");
 }
 
+/// The closed forms are a single block's: a stack's minimum gets none beside it (it was set
+/// beside the statue-on-pedestal's minimum as a -57 % error).
+#[test]
+fn a_stack_has_no_closed_form_beside_its_minimum() {
+    let dir = common::tmp("rb-spectrum", "stack").join("out");
+    let root = common::root();
+    let scene = root.join("validation/scenes/two-block-free-rocking.toml");
+    let (ok, out, err) = rockbench(&[
+        "spectrum",
+        scene.to_str().unwrap(),
+        "--set",
+        "initial.tilt=0",
+        "--engines",
+        "native",
+        "--ratios",
+        "2",
+        "--amplitudes",
+        "none",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}{err}");
+    let csv = std::fs::read_to_string(dir.join("minimum.csv")).unwrap();
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    assert!(row[4].parse::<f64>().unwrap() > 0.0, "{csv}");
+    assert_eq!((row[10], row[12]), ("", ""), "{csv}");
+}
+
 /// A host name with a path separator (the run store names its temporary files by it) is no
 /// panic: the store keeps the characters a file name can hold.
 #[test]
