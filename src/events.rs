@@ -626,7 +626,8 @@ mod tests {
     fn a_block_lying_flat_between_two_episodes_lands_twice_whatever_its_round_off() {
         let t = grid(3001, 1e-3);
         // Half-waves 0.01 sin(pi t / 0.5) on [0, 0.5] and [1.5, 2.0], stopped dead at their
-        // ends (rate 0 after them); between and after, +-1e-20 alternating.
+        // ends (rate 0 after them); between and after, a round-off of 1e-20 rad whose sign
+        // is set below.
         let wave = |x: f64| {
             let on = (0.0..0.5).contains(&x) || (1.5..2.0).contains(&x);
             let s = std::f64::consts::PI * (x % 1.5) / 0.5;

@@ -426,8 +426,6 @@ pub fn housner_step(blk: &HousnerBlock, hs: &HousnerSettings) -> f64 {
     hs.max_step.min(hs.max_phase_step / blk.p2.sqrt())
 }
 
-/// A note when friction `mu` lets the block slide where the Housner model, which has no
-/// sliding, rocks it ([`HousnerBlock::friction_to_rock`]).
 /// The first output instant where the ground's horizontal acceleration exceeds what friction
 /// can pass to a block at rest, `mu (g + a_z)` (a strong pulse, or a vertical acceleration
 /// that unloads the base): the block may slide there, which the model ignores.
@@ -452,6 +450,8 @@ fn drag_note(gm: &GroundMotion, scene: &Scene) -> Option<String> {
         })
 }
 
+/// A note when friction `mu` lets the block slide where the Housner model, which has no
+/// sliding, rocks it ([`HousnerBlock::friction_to_rock`]).
 pub fn sliding_note(blk: &HousnerBlock, mu: f64) -> Option<String> {
     // Three decimals, or scientific notation where they would say nothing or too much.
     let short = |x: f64| {

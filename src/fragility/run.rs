@@ -177,9 +177,7 @@ impl RunSpec {
         let text = serde_json::to_string(&key).expect("keys serialise");
         crate::digest::sha256_hex(text.as_bytes())
     }
-}
 
-impl RunSpec {
     /// The record file still holds the bytes the spec was made from (its outcome is stored
     /// under their hash): a record changed since the study read it is an error, not a run of
     /// other bytes kept under this key.
