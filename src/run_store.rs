@@ -25,7 +25,7 @@ pub fn worker_id(engine: &str) -> Option<&'static str> {
 }
 
 /// The key of the result of `inputs` (everything that decides it, as JSON) run by this program
-/// with `engine`'s worker: the SHA-256 of both, in hexadecimal.
+/// with `engine`'s worker and interpreter: the SHA-256 of them all, in hexadecimal.
 pub fn key(engine: &str, inputs: serde_json::Value) -> String {
     let key = serde_json::json!({
         "inputs": inputs,
@@ -33,6 +33,7 @@ pub fn key(engine: &str, inputs: serde_json::Value) -> String {
         "rockbench": env!("CARGO_PKG_VERSION"),
         "build": program_id(),
         "worker": worker_id(engine),
+        "python": crate::engines::external::interpreter_id(engine),
     });
     let text = serde_json::to_string(&key).expect("keys serialise");
     crate::digest::sha256_hex(text.as_bytes())

@@ -842,3 +842,24 @@ fn specs_and_ida_jobs_run_apart_give_the_study() {
     );
     assert!(fragility::run_ida_jobs(&st, &runner, &[(0, "rapier".into(), "r0".into())]).is_err());
 }
+
+/// A worker engine's run spec names the interpreter it was made for, and its key follows it:
+/// another interpreter's outcome is never taken for this one's. The engines of this program
+/// name none.
+#[test]
+fn a_worker_engines_spec_keys_its_interpreter() {
+    use rockbench::fragility::{self, study};
+    let d = tmp("rb-fragility", "interpreter");
+    let p = fixture(&d, "\"native\", \"mujoco\"", "");
+    let st = study::load_study(&p).unwrap();
+    let specs = fragility::stripe_specs(&st);
+    let native = specs.iter().find(|s| s.engine == "native").unwrap();
+    assert_eq!(native.python, None);
+    let mujoco = specs.iter().find(|s| s.engine == "mujoco").unwrap();
+    let python = mujoco.python.as_deref().unwrap();
+    assert!(Path::new(python).is_absolute(), "{python}");
+    assert!(python.ends_with("bin/python"), "{python}");
+    let mut elsewhere = mujoco.clone();
+    elsewhere.python = Some("/another/venv/bin/python".into());
+    assert_ne!(elsewhere.key(), mujoco.key());
+}

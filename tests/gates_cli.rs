@@ -321,3 +321,40 @@ fn a_cache_dir_that_cannot_be_made_is_one_error_before_any_run() {
         String::from_utf8_lossy(&o.stdout)
     );
 }
+
+/// A worker engine's runs are cached per interpreter: the same gates run with another
+/// `$ROCKBENCH_PYTHON` (here a second path to the project's Python, as a second venv would be)
+/// run MuJoCo again and take only the Housner reference from the cache.
+#[test]
+fn another_interpreter_does_not_reuse_a_worker_engines_cached_run() {
+    let dir = tmp("interpreter");
+    let python = root().join(".venv/bin/python");
+    let other = dir.join("other-python");
+    std::os::unix::fs::symlink(&python, &other).unwrap();
+    let text = format!(
+        "[[gate]]\nname = \"mujoco-rms\"\nscene = \"{}\"\nset = [\"duration=0.2\"]\n\
+         engine = \"mujoco\"\nreference = \"housner\"\nmetric = \"rotation_rms_error\"\n\
+         tolerance = 1e-3\n",
+        slender()
+    );
+    let f = dir.join("gates.toml");
+    std::fs::write(&f, text).unwrap();
+    let run_with = |interpreter: &Path| {
+        let o = Command::new(env!("CARGO_BIN_EXE_rockbench"))
+            .env("ROCKBENCH_PYTHON", interpreter)
+            .args(["gate", f.to_str().unwrap(), "--quiet", "--cache-dir"])
+            .arg(dir.join("cache"))
+            .output()
+            .unwrap();
+        let so = String::from_utf8_lossy(&o.stdout).to_string();
+        let se = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.code().is_some_and(|c| c <= 1), "{so}\n{se}");
+        so
+    };
+    let first = run_with(&python);
+    assert!(first.contains("0 from the cache, 2 run now"), "{first}");
+    let again = run_with(&python);
+    assert!(again.contains("2 from the cache, 0 run now"), "{again}");
+    let other_run = run_with(&other);
+    assert!(other_run.contains("1 from the cache, 1 run now"), "{other_run}");
+}

@@ -159,6 +159,18 @@ pub fn check_table(scene: &Scene, engine: &str) -> Result<serde_json::Value, Sce
     Ok(serde_json::Value::Object(table))
 }
 
+/// The interpreter that runs worker engine `engine` here ([`ExternalEngine::interpreter`]), as
+/// an absolute path with its symbolic links kept (two venvs of one Python are two sets of
+/// packages), or `none`: part of the keys of stored results, so that another interpreter never
+/// reuses this one's runs. `None` for the engines of this program.
+pub fn interpreter_id(engine: &str) -> Option<String> {
+    let worker = ExternalEngine::new(engine)?;
+    Some(match worker.interpreter() {
+        Ok(p) => std::path::absolute(&p).unwrap_or(p).display().to_string(),
+        Err(_) => "none".into(),
+    })
+}
+
 /// An engine run by `python -m rockbench.worker`.
 #[derive(Debug, Clone)]
 pub struct ExternalEngine {

@@ -84,6 +84,7 @@ pub fn spec_for(
         record_sha256: rec.sha256.clone(),
         scale,
         early_stop: study.file.early_stop,
+        python: crate::engines::external::interpreter_id(engine),
     }
 }
 

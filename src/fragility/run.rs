@@ -50,6 +50,11 @@ pub struct RunSpec {
     pub record_sha256: String,
     pub scale: f64,
     pub early_stop: bool,
+    /// The interpreter of a worker engine's runs where the spec was made
+    /// ([`crate::engines::external::interpreter_id`]), kept in the spec so that every process
+    /// that handles it computes the same key; `None` for the engines of this program.
+    #[serde(default)]
+    pub python: Option<String>,
 }
 
 /// A scene as [`Scene`] serialises it: its fields, and its engines' tables (`[native]`,
@@ -160,8 +165,8 @@ pub fn check_engine(name: &str) -> Result<(), String> {
 
 impl RunSpec {
     /// The content hash: scene (engine settings included), record bytes, scale, engine,
-    /// early stop, rockbench version, source hash (and the worker's, for MuJoCo and
-    /// PyBullet) and cache format.
+    /// early stop, rockbench version, source hash (and, for the worker engines, the worker's
+    /// and the interpreter's) and cache format.
     pub fn key(&self) -> String {
         let key = serde_json::json!({
             "format": CACHE_FORMAT,
@@ -173,6 +178,7 @@ impl RunSpec {
             "rockbench": env!("CARGO_PKG_VERSION"),
             "build": crate::run_store::program_id(),
             "worker": crate::run_store::worker_id(&self.engine),
+            "python": self.python,
         });
         let text = serde_json::to_string(&key).expect("keys serialise");
         crate::digest::sha256_hex(text.as_bytes())

@@ -39,6 +39,7 @@ pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
         "record_files": record_hashes(scene),
         "rockbench_version": env!("CARGO_PKG_VERSION"),
         "rockbench_build": build_id(),
+        "python": crate::engines::external::interpreter_id(engine),
     })
 }
 
