@@ -356,5 +356,8 @@ fn another_interpreter_does_not_reuse_a_worker_engines_cached_run() {
     let again = run_with(&python);
     assert!(again.contains("2 from the cache, 0 run now"), "{again}");
     let other_run = run_with(&other);
-    assert!(other_run.contains("1 from the cache, 1 run now"), "{other_run}");
+    assert!(
+        other_run.contains("1 from the cache, 1 run now"),
+        "{other_run}"
+    );
 }
