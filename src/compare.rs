@@ -543,7 +543,8 @@ pub fn write_metrics_csv(path: &Path, rows: &[MetricRow]) -> std::io::Result<()>
 }
 
 /// Write the data files of a comparison into `dir`: `metrics.csv`, `metrics.json`,
-/// `<engine>/trajectory.csv` and `<engine>/summary.json` for every engine that ran (the report
+/// `<engine>/trajectory.csv`, `<engine>/summary.json` and `<engine>/scene.json` for every engine
+/// that ran (the report
 /// is [`crate::report::write_comparison`]).
 pub fn write_run_files(dir: &Path, c: &Comparison, command: &str) -> Result<(), String> {
     let io = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
@@ -552,7 +553,7 @@ pub fn write_run_files(dir: &Path, c: &Comparison, command: &str) -> Result<(), 
         if let (Some(out), Some(s)) = (&er.output, &er.summary) {
             let mut s = s.clone();
             s.command = Some(command.to_string());
-            write_outputs(&dir.join(&er.engine), out, &s).map_err(|e| e.to_string())?;
+            write_outputs(&dir.join(&er.engine), &c.scene, out, &s).map_err(|e| e.to_string())?;
         }
     }
     let p = dir.join("metrics.csv");

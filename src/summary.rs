@@ -53,12 +53,18 @@ pub struct Summary {
     pub engine_version: String,
     pub scene: String,
     pub scene_file: String,
+    /// The SHA-256 of the scene as run, overrides applied ([`Scene::sha256`]; the run
+    /// directory's `scene.json` is that scene): what ties the summary to its scene. Empty in
+    /// summaries written before it was recorded.
+    #[serde(default)]
+    pub scene_sha256: String,
     /// Every setting that changes the answer, as used.
     pub settings: serde_json::Value,
     pub status: String,
     pub duration: f64,
-    /// The scene's output sampling (`[output] interval`), s; events are located from the
-    /// engine's samples at that interval.
+    /// The interval of the engine's samples, s: the scene's `[output] interval`, which a
+    /// fixed-step engine rounds to whole steps (as its settings record it, else the median
+    /// spacing of the trajectory's times); events are located from these samples.
     #[serde(default)]
     pub output_interval: f64,
     pub wall_time_s: f64,
@@ -71,6 +77,10 @@ pub struct Summary {
     pub notes: Vec<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<String>,
+    /// The SHA-256 of the `trajectory.csv` written beside the summary (set as both are
+    /// written, [`crate::engines::write_outputs`]; empty for a summary with no such file).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub trajectory_sha256: String,
 }
 
 /// The rotation (and its rate) on which block i's impacts are measured, and its label;
@@ -88,6 +98,16 @@ pub fn measured_rotation(
         Some(s) => format!("relative to {}", scene.blocks[s].name),
     };
     (phi, omega, label)
+}
+
+/// The median spacing of the sample times `t` (`None` for fewer than two samples).
+fn sample_interval(t: &[f64]) -> Option<f64> {
+    let mut gaps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if gaps.is_empty() {
+        return None;
+    }
+    gaps.sort_by(f64::total_cmp);
+    Some(gaps[gaps.len() / 2])
 }
 
 impl Summary {
@@ -141,10 +161,17 @@ impl Summary {
             engine_version: out.engine_version.clone(),
             scene: scene.name.clone(),
             scene_file: scene.source.clone(),
+            scene_sha256: scene.sha256(),
             settings: out.settings.clone(),
             status: "ok".into(),
             duration: scene.duration,
-            output_interval: scene.output_interval,
+            output_interval: out
+                .settings
+                .get("output_interval")
+                .and_then(serde_json::Value::as_f64)
+                .filter(|dt| dt.is_finite() && *dt > 0.0)
+                .or_else(|| sample_interval(t))
+                .unwrap_or(scene.output_interval),
             wall_time_s,
             steps: out.steps,
             solver_iterations: out.solver_iterations,
@@ -152,6 +179,7 @@ impl Summary {
             blocks,
             notes: out.notes.clone(),
             command: None,
+            trajectory_sha256: String::new(),
         }
     }
 }

@@ -371,9 +371,20 @@ fn animate_draws_runs_made_with_run() {
     assert!(err.contains("nope/summary.json"), "{err}");
     // A run whose trajectory has a time that does not increase, or a value that is not finite:
     // one line naming the file (it was drawn as given).
+    // (A summary without the trajectory's sha256, as written before it was recorded: the file's
+    // own checks speak.)
     let bad = out.join("bad");
     std::fs::create_dir_all(&bad).unwrap();
-    std::fs::copy(out.join("native/summary.json"), bad.join("summary.json")).unwrap();
+    std::fs::copy(out.join("native/scene.json"), bad.join("scene.json")).unwrap();
+    let mut summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("native/summary.json")).unwrap())
+            .unwrap();
+    summary
+        .as_object_mut()
+        .unwrap()
+        .remove("trajectory_sha256")
+        .unwrap();
+    std::fs::write(bad.join("summary.json"), summary.to_string()).unwrap();
     let text = std::fs::read_to_string(out.join("native/trajectory.csv")).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let with = |k: usize, col: usize, value: &str| {
@@ -441,4 +452,192 @@ fn animate_draws_runs_made_with_run() {
         .unwrap();
     let err = common::one_error_line(&o);
     assert!(err.contains("--video"), "{err}");
+}
+
+/// `rockbench animate` draws nothing it cannot tie to its runs: a run of other blocks, a scene
+/// given or named that is not the run's, a summary beside another trajectory, runs of other
+/// lengths, an ambiguous reference and a video over the page are each one line, and no page.
+/// A run's end is a frame of its own.
+#[test]
+fn animate_refuses_what_it_would_draw_wrong() {
+    let out = tmp("refuses");
+    let two = std::fs::read_to_string(root().join("validation/scenes/two-block-free-rocking.toml"))
+        .unwrap();
+    let narrow = two.replace("width = 1.0\n", "width = 0.8\n");
+    assert_ne!(two, narrow);
+    let (two_file, narrow_file) = (out.join("two.toml"), out.join("narrow.toml"));
+    std::fs::write(&two_file, &two).unwrap();
+    std::fs::write(&narrow_file, &narrow).unwrap();
+    let run = |scene: &Path, dir: &str, duration: &str| {
+        run_ok(
+            bin()
+                .args([
+                    "run",
+                    scene.to_str().unwrap(),
+                    "--engine",
+                    "native",
+                    "--quiet",
+                ])
+                .args(["--set", &format!("duration={duration}"), "--out"])
+                .arg(out.join(dir)),
+        );
+        out.join(dir)
+    };
+    let r_two = run(&two_file, "two", "0.213");
+    let r_narrow = run(&narrow_file, "narrow", "0.213");
+    let r_short = run(&two_file, "short", "0.1");
+    let page = out.join("a.html");
+    let animate = |args: &[&Path], extra: &[&str]| {
+        bin()
+            .arg("animate")
+            .args(args)
+            .args(extra)
+            .arg("--out")
+            .arg(&page)
+            .output()
+            .unwrap()
+    };
+    let refused = |o: Output, says: &[&str]| {
+        let err = common::one_error_line(&o);
+        for s in says {
+            assert!(err.contains(s), "{err} (expected `{s}`)");
+        }
+        assert!(!page.exists(), "a page was written: {err}");
+    };
+    refused(
+        animate(&[&r_two, &r_narrow], &[]),
+        &["narrow/scene.json", "blocks differ", "two/scene.json)"],
+    );
+    refused(
+        animate(&[&r_two], &["--scene", narrow_file.to_str().unwrap()]),
+        &["two/scene.json", "blocks differ"],
+    );
+    refused(
+        animate(&[&r_two, &r_short], &[]),
+        &["short/trajectory.csv: ends at t = 0.1 s", "at 0.213 s"],
+    );
+    // Without its scene.json, the run is drawn over the scene file its summary names only while
+    // that file is still the run's scene.
+    let bare = out.join("bare");
+    std::fs::create_dir_all(&bare).unwrap();
+    for f in ["summary.json", "trajectory.csv"] {
+        std::fs::copy(r_two.join(f), bare.join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(r_two.join("summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(summary["scene_file"], two_file.to_str().unwrap());
+    let mut rewritten = summary.clone();
+    rewritten["scene_file"] = serde_json::Value::from(out.join("two-run.toml").to_str().unwrap());
+    std::fs::write(bare.join("summary.json"), rewritten.to_string()).unwrap();
+    std::fs::write(
+        out.join("two-run.toml"),
+        two.replace("duration = 6.0", "duration = 0.213"),
+    )
+    .unwrap();
+    run_ok(
+        bin()
+            .args(["animate", bare.to_str().unwrap(), "--out"])
+            .arg(&page),
+    );
+    std::fs::remove_file(&page).unwrap();
+    std::fs::write(
+        out.join("two-run.toml"),
+        narrow.replace("duration = 6.0", "duration = 0.213"),
+    )
+    .unwrap();
+    refused(
+        animate(&[&bare], &[]),
+        &["two-run.toml: not the scene of the run", "--scene"],
+    );
+    // A summary beside another run's trajectory.
+    let swapped = out.join("swapped");
+    std::fs::create_dir_all(&swapped).unwrap();
+    std::fs::copy(
+        r_narrow.join("trajectory.csv"),
+        swapped.join("trajectory.csv"),
+    )
+    .unwrap();
+    std::fs::copy(r_two.join("summary.json"), swapped.join("summary.json")).unwrap();
+    refused(
+        animate(&[&swapped], &["--scene", two_file.to_str().unwrap()]),
+        &[
+            "swapped/trajectory.csv: not the trajectory of",
+            "swapped/summary.json",
+        ],
+    );
+    // The reference: a directory however spelt; an engine name only when one run has it.
+    let again = run(&two_file, "again", "0.213");
+    let spelt = format!("{}/./", r_two.display());
+    run_ok(
+        bin()
+            .args(["animate"])
+            .arg(&again)
+            .arg(&r_two)
+            .args(["--reference", &spelt, "--out"])
+            .arg(&page),
+    );
+    let html = std::fs::read_to_string(&page).unwrap();
+    let reference = format!(
+        "\"name\":\"native ({})\",\"color\":\"#3a3a3a\",\"ref\":true",
+        r_two.display()
+    );
+    assert!(
+        html.contains(&reference),
+        "{}",
+        &html[..400.min(html.len())]
+    );
+    // The run's end, 0.213 s, is the last of 12 frames (0, 0.02, ..., 0.2, 0.213).
+    assert!(
+        html.contains("\"fps\":50,\"n\":12,\"te\":0.213,"),
+        "{}",
+        &html[..200]
+    );
+    std::fs::remove_file(&page).unwrap();
+    refused(
+        animate(&[&again, &r_two], &["--reference", "native"]),
+        &["--reference native: 2 runs are of that engine"],
+    );
+    let mp4 = out.join("same.mp4");
+    let o = bin()
+        .arg("animate")
+        .arg(&r_two)
+        .arg("--out")
+        .arg(&mp4)
+        .arg("--video")
+        .arg(out.join(".").join("same.mp4"))
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(err.contains("the page's own path"), "{err}");
+    assert!(!mp4.exists());
+    // An ffmpeg that ends well but writes no video: no "wrote", no page.
+    let fake = out.join("fakebin");
+    std::fs::create_dir_all(&fake).unwrap();
+    let ffmpeg = fake.join("ffmpeg");
+    std::fs::write(&ffmpeg, "#!/bin/sh\ncat > /dev/null\nexit 0\n").unwrap();
+    let mut mode = std::fs::metadata(&ffmpeg).unwrap().permissions();
+    std::os::unix::fs::PermissionsExt::set_mode(&mut mode, 0o755);
+    std::fs::set_permissions(&ffmpeg, mode).unwrap();
+    let path = format!(
+        "{}:{}",
+        fake.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let o = bin()
+        .env("PATH", path)
+        .arg("animate")
+        .arg(&r_two)
+        .arg("--out")
+        .arg(&page)
+        .arg("--video")
+        .arg(out.join("none.mp4"))
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(
+        err.contains("ffmpeg reported success but wrote no"),
+        "{err}"
+    );
+    assert!(String::from_utf8_lossy(&o.stdout).is_empty());
+    assert!(!page.exists());
 }

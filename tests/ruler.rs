@@ -189,3 +189,22 @@ fn a_stack_and_its_mirror_image_have_the_same_impacts() {
         }
     }
 }
+
+/// The summary records the interval of the samples the events were located from: a native step
+/// of 3 ms, longer than the scene's 1 ms interval, samples every 3 ms, and an interval of
+/// 2.5 ms is rounded to 3 steps of 1 ms. Housner samples at the interval asked for.
+#[test]
+fn the_summary_records_the_interval_of_its_samples() {
+    let interval = |engine: &str, set: &[&str]| {
+        let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+        let s = summary("housner-slender", engine, &set);
+        (s.output_interval, s.settings["output_interval"].as_f64())
+    };
+    let (native, setting) = interval("native", &["duration=0.5", "native.dt=3e-3"]);
+    assert!((native - 3e-3).abs() < 1e-12, "{native}");
+    assert_eq!(setting, Some(native));
+    let (rounded, _) = interval("native", &["duration=0.5", "output.interval=2.5e-3"]);
+    assert!((rounded - 3e-3).abs() < 1e-12, "{rounded}");
+    let (housner, _) = interval("housner", &["duration=0.5", "output.interval=2.5e-3"]);
+    assert!((housner - 2.5e-3).abs() < 1e-12, "{housner}");
+}

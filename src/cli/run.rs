@@ -168,15 +168,8 @@ pub fn run(a: RunArgs) -> Result<()> {
         }
     };
     summary.command = Some(std::env::args().collect::<Vec<_>>().join(" "));
-    write_outputs(&a.out, &output, &summary)
+    write_outputs(&a.out, &s, &output, &summary)
         .with_context(|| format!("writing {}", a.out.display()))?;
-    // The scene as run (overrides applied), for `rockbench animate`.
-    let sp = a.out.join("scene.json");
-    std::fs::write(
-        &sp,
-        serde_json::to_string_pretty(&s.to_json()).unwrap_or_default() + "\n",
-    )
-    .with_context(|| format!("writing {}", sp.display()))?;
     if let Some(path) = &a.checkpoint {
         crate::native::checkpoint::remove(path).map_err(anyhow::Error::msg)?;
     }

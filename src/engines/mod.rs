@@ -164,14 +164,26 @@ pub fn timed(
     Ok((out, summary))
 }
 
-/// Write `trajectory.csv` and `summary.json` into `dir`.
-pub fn write_outputs(dir: &Path, out: &RunOutput, summary: &Summary) -> Result<(), EngineError> {
+/// Write `trajectory.csv`, `summary.json` (with the trajectory file's SHA-256) and the scene as
+/// run, `scene.json` (what `rockbench animate` draws; its SHA-256 is the summary's
+/// `scene_sha256`), into `dir`.
+pub fn write_outputs(
+    dir: &Path,
+    scene: &Scene,
+    out: &RunOutput,
+    summary: &Summary,
+) -> Result<(), EngineError> {
     let io = |e: std::io::Error| EngineError::Io(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(io)?;
-    out.trajectory
-        .write_csv(&dir.join("trajectory.csv"))
-        .map_err(io)?;
-    let json = serde_json::to_string_pretty(summary).expect("summaries serialise");
+    let scene_json = serde_json::to_string_pretty(&scene.to_json()).expect("scenes serialise");
+    std::fs::write(dir.join("scene.json"), scene_json + "\n").map_err(io)?;
+    let csv = dir.join("trajectory.csv");
+    out.trajectory.write_csv(&csv).map_err(io)?;
+    let summary = Summary {
+        trajectory_sha256: crate::digest::sha256_hex(&std::fs::read(&csv).map_err(io)?),
+        ..summary.clone()
+    };
+    let json = serde_json::to_string_pretty(&summary).expect("summaries serialise");
     std::fs::write(dir.join("summary.json"), json + "\n").map_err(io)?;
     Ok(())
 }

@@ -138,9 +138,49 @@ pub fn video_kind(path: &Path) -> Result<&'static str, String> {
     }
 }
 
+/// The page's quantum of length for `scene`: positions are written as whole multiples of it.
+fn length_quantum(scene: &Scene) -> f64 {
+    scene
+        .blocks
+        .iter()
+        .map(|b| b.width.max(b.height))
+        .fold(0.0, f64::max)
+        .max(1e-9)
+        * 1e-5
+}
+
+/// Quantum of the page's angles, rad.
+const ANGLE_QUANTUM: f64 = 1e-5;
+
+/// Whether every position and angle of `tr` can be written to the page over `scene`: as whole
+/// multiples of the page's quanta that JavaScript holds exactly (below 2^53). A value past that
+/// (of some 1e11 block sizes) is no motion the page could draw, and an error naming it.
+pub fn check_drawable(scene: &Scene, tr: &crate::trajectory::Trajectory) -> Result<(), String> {
+    const EXACT: f64 = 9_007_199_254_740_992.0;
+    let q = length_quantum(scene);
+    for b in &tr.blocks {
+        for (column, values, quantum) in [
+            ("x", &b.x, q),
+            ("z", &b.z, q),
+            ("phi", &b.phi, ANGLE_QUANTUM),
+        ] {
+            if let Some(k) = values.iter().position(|v| (v / quantum).abs() >= EXACT) {
+                return Err(format!(
+                    "{}_{column} = {:e} at t = {} s: beyond what the page can draw (|value| < {:e})",
+                    b.name,
+                    values[k],
+                    tr.t[k],
+                    EXACT * quantum
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Animation {
-    /// Frames at up to 50 per second (fewer for long runs or many blocks, at least 10), for
-    /// the scene's duration.
+    /// Frames at up to 50 per second (fewer for long runs or many blocks, at least 10), over
+    /// the scene's duration, its end included.
     pub fn new(scene: &Scene, tracks: &[Track]) -> Animation {
         let nb = scene.blocks.len().max(1);
         let nt = tracks.len().max(1);
@@ -149,7 +189,11 @@ impl Animation {
             .clamp(10.0, 50.0)
             .floor();
         let n = (scene.duration * fps + 1e-9).floor() as usize + 1;
-        let times: Vec<f64> = (0..n).map(|k| k as f64 / fps).collect();
+        let mut times: Vec<f64> = (0..n).map(|k| k as f64 / fps).collect();
+        // The run's end is a frame of its own where the rate does not reach it.
+        if scene.duration - times[n - 1] > 1e-9 * scene.duration.max(1.0) {
+            times.push(scene.duration);
+        }
         let gm = GroundMotion::from_scene(scene).unwrap_or_default();
         let moving_ground = !gm.is_none();
         let ground: Vec<(f64, f64)> = times
@@ -265,7 +309,7 @@ impl Animation {
             moving_ground,
             tracks: frames,
             view,
-            q: largest * 1e-5,
+            q: length_quantum(scene),
         }
     }
 
@@ -304,7 +348,11 @@ impl Animation {
 
     /// Frame index nearest to time t.
     pub fn frame_at(&self, t: f64) -> usize {
-        ((t * self.fps).round().max(0.0) as usize).min(self.frames() - 1)
+        let last = self.frames() - 1;
+        if t >= self.times[last] {
+            return last;
+        }
+        ((t * self.fps).round().max(0.0) as usize).min(last)
     }
 
     /// The SVG elements of frame k: ground, ticks, blocks (reference first, solid).
@@ -399,9 +447,10 @@ impl Animation {
     /// The compact data the script animates.
     fn data_json(&self) -> String {
         let mut s = format!(
-            "{{\"fps\":{},\"n\":{},\"q\":{:e},\"qa\":1e-5,\"s\":{},\"ox\":{},\"oy\":{},\"follow\":{},\"tick\":{},\"width\":{WIDTH},\"blocks\":[",
+            "{{\"fps\":{},\"n\":{},\"te\":{},\"q\":{:e},\"qa\":{ANGLE_QUANTUM:e},\"s\":{},\"ox\":{},\"oy\":{},\"follow\":{},\"tick\":{},\"width\":{WIDTH},\"blocks\":[",
             self.fps,
             self.frames(),
+            self.times.last().copied().unwrap_or(0.0),
             self.q,
             self.view.s,
             self.view.ox,
@@ -459,7 +508,7 @@ impl Animation {
                         if first { "" } else { "," },
                         qi(x, self.q),
                         qi(z, self.q),
-                        qi(phi, 1e-5)
+                        qi(phi, ANGLE_QUANTUM)
                     );
                     first = false;
                 }
@@ -596,7 +645,15 @@ impl Animation {
             ((self.view.height * scale / 2.0).ceil() as usize * 2).max(2),
         );
         let duration = self.times.last().copied().unwrap_or(0.0);
-        let nframes = (duration * vfps).floor() as usize + 1;
+        let whole = (duration * vfps + 1e-9).floor() as usize + 1;
+        // The run's end gets a frame of its own where the video's rate does not reach it.
+        let video_times: Vec<f64> = (0..whole)
+            .map(|f| f as f64 / vfps)
+            .chain(
+                (duration - (whole - 1) as f64 / vfps > 1e-9 * duration.max(1.0))
+                    .then_some(duration),
+            )
+            .collect();
         let mut child = std::process::Command::new("ffmpeg")
             .args([
                 "-y",
@@ -630,8 +687,8 @@ impl Animation {
         // would end rockbench without a word (the binary restores SIGPIPE's default).
         let _ignore_sigpipe = IgnoreSigpipe::new();
         let mut buf = vec![0u8; w * h * 3];
-        for f in 0..nframes {
-            let k = self.frame_at(f as f64 / vfps);
+        for &t in &video_times {
+            let k = self.frame_at(t);
             self.rasterise(k, scale, w, h, &mut buf);
             // Time bar.
             let bw = ((w as f64) * self.times[k] / duration.max(1e-9)) as usize;
@@ -817,6 +874,8 @@ var nb=D.blocks.length,k=0,playing=false,timer=null,t=0;
 function cam(f){return (D.follow&&D.g)?D.g[2*f]*D.q:0;}
 function gnd(f){return D.g?[D.g[2*f]*D.q,D.g[2*f+1]*D.q]:[0,0];}
 function px(f,x,z){return [D.ox+D.s*(x-cam(f)),D.oy-D.s*z];}
+function tof(f){return f>=D.n-1?D.te:f/D.fps;}
+function fat(t){return t>=D.te?D.n-1:Math.min(D.n-1,Math.round(t*D.fps));}
 function draw(f){
  k=f;var g=gnd(f),c=cam(f),gy=D.oy-D.s*g[1];
  gr.setAttribute('y',gy.toFixed(1));
@@ -835,20 +894,20 @@ function draw(f){
   if(nb>3){var m=0;for(var i=0;i<nb;i++)m=Math.max(m,Math.abs(tr.d[3*(f*nb+i)+2]*D.qa));rot.push('max |φ| '+m.toFixed(4));}
   txt.push('<b style="color:'+(tr.ref?'#3a3a3a':tr.color)+'">'+tr.name.replace(/[<&]/g,'')+'</b> φ (rad): '+rot.join(', '));
  });
- out.textContent='t = '+(f/D.fps).toFixed(3)+' s';
+ out.textContent='t = '+tof(f).toFixed(3)+' s';
  ro.innerHTML=txt.join(' · ');
  sl.value=f;
 }
 function stop(){playing=false;btn.textContent='▶ play';if(timer){clearInterval(timer);timer=null;}}
-function play(){if(k>=D.n-1){t=0;}playing=true;btn.textContent='❚❚ pause';var dt=1/Math.min(D.fps,30);timer=setInterval(function(){t+=dt*parseFloat(sp.value);var f=Math.min(D.n-1,Math.round(t*D.fps));draw(f);if(f>=D.n-1)stop();},1000*dt);}
+function play(){if(k>=D.n-1){t=0;}playing=true;btn.textContent='❚❚ pause';var dt=1/Math.min(D.fps,30);timer=setInterval(function(){t+=dt*parseFloat(sp.value);var f=fat(t);draw(f);if(f>=D.n-1)stop();},1000*dt);}
 btn.addEventListener('click',function(){playing?stop():play();});
-sl.addEventListener('input',function(){stop();t=parseInt(sl.value,10)/D.fps;draw(parseInt(sl.value,10));});
+sl.addEventListener('input',function(){stop();t=tof(parseInt(sl.value,10));draw(parseInt(sl.value,10));});
 document.getElementById('anim-controls').hidden=false;
 var P={};location.hash.replace(/^#/,'').split('&').forEach(function(p){if(!p)return;var kv=p.split('=');P[decodeURIComponent(kv[0])]=kv.length>1?decodeURIComponent(kv[1]):'';});
 if('solo' in P)document.body.classList.add('solo');
 if('only' in P)D.tracks.forEach(function(tr,ti){if(tr.name!==P.only)document.getElementById('a-track-'+ti).setAttribute('display','none');});
 if('t' in P){t=parseFloat(P.t)||0;}
-draw(Math.max(0,Math.min(D.n-1,Math.round(t*D.fps))));
+draw(fat(Math.max(0,t)));
 if('play' in P)play();
 document.body.setAttribute('data-anim-ready','1');
 })();"#;
@@ -957,5 +1016,49 @@ mod tests {
         let c0 = a.block_px(0, 0, 0);
         let c1 = a.block_px(0, a.frame_at(0.5), 0);
         assert!((c1[0].0 - c0[0].0 - a.view.s * want).abs() < 0.5);
+    }
+
+    /// A position the page cannot hold exactly (here 1e30 m, past 2^53 quanta of 2.5e-5 m) is an
+    /// error naming the block, the column and the instant; one just inside is drawn.
+    #[test]
+    fn a_position_past_the_pages_quanta_is_refused() {
+        let (scene, mut tr) = slender();
+        assert!(check_drawable(&scene, &tr).is_ok());
+        let limit = 9_007_199_254_740_992.0 * 2.5 * 1e-5;
+        tr.blocks[0].x[7] = 0.999 * limit;
+        assert!(check_drawable(&scene, &tr).is_ok());
+        tr.blocks[0].x[7] = 1e30;
+        let e = check_drawable(&scene, &tr).unwrap_err();
+        assert!(
+            e.starts_with(&format!("block_x = 1e30 at t = {} s", tr.t[7])),
+            "{e}"
+        );
+        tr.blocks[0].x[7] = 0.0;
+        tr.blocks[0].phi[3] = -1e12;
+        let e = check_drawable(&scene, &tr).unwrap_err();
+        assert!(e.starts_with("block_phi = -1e12"), "{e}");
+    }
+
+    /// The run's end is the last frame where the frame rate does not reach it.
+    #[test]
+    fn the_runs_end_is_a_frame() {
+        let (mut scene, tr) = slender();
+        scene.duration = 1.013;
+        let a = Animation::new(
+            &scene,
+            &[Track {
+                name: "h".into(),
+                color: REFERENCE_COLOR.into(),
+                reference: true,
+                trajectory: tr,
+            }],
+        );
+        assert_eq!(a.fps, 50.0);
+        assert_eq!(a.frames(), 52);
+        assert_eq!(a.times[50], 1.0);
+        assert_eq!(a.times[51], 1.013);
+        assert_eq!(a.frame_at(1.013), 51);
+        assert_eq!(a.frame_at(2.0), 51);
+        assert_eq!(a.frame_at(0.99), 50);
     }
 }

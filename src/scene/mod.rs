@@ -514,4 +514,17 @@ impl Scene {
         }
         serde_json::to_value(&scene).expect("a scene always serialises")
     }
+
+    /// The SHA-256 of the scene as [`Scene::to_json`] gives it (a `scene.json` written from
+    /// it has the same: [`json_sha256`]).
+    pub fn sha256(&self) -> String {
+        json_sha256(&self.to_json())
+    }
+}
+
+/// The SHA-256 of a scene's JSON value, as [`Scene::sha256`] computes it: of its compact text,
+/// keys in order.
+pub fn json_sha256(scene: &serde_json::Value) -> String {
+    let text = serde_json::to_string(scene).expect("JSON values serialise");
+    crate::digest::sha256_hex(text.as_bytes())
 }
