@@ -93,6 +93,7 @@ pub fn stepper_with(
         v,
         ground_d: (0.0, 0.0),
         ground_w: (0.0, 0.0),
+        ground_t: 0.0,
     };
     Ok((
         Stepper::new(settings, bodies, scene.gravity, motion, applied_as, solver),

@@ -98,6 +98,8 @@ impl Stepper {
         s.ground_d.1 += g.dd.1;
         s.ground_w = g.w1;
         s.t += h;
+        // The instant `g` took the ground to (`ground_step`'s `t1`).
+        s.ground_t = s.t;
         self.iterations += sol.iterations as u64;
         self.polished_steps += sol.polished as u64;
         if impact && kept {

@@ -111,6 +111,12 @@ pub struct NativeState {
     /// Discrete ground displacement and velocity (x, z).
     pub ground_d: (f64, f64),
     pub ground_w: (f64, f64),
+    /// The instant the ground motion has been taken to: the end of the last (sub)step's ground
+    /// increment, where the next one starts. A run sets `t` to `k dt` after step `k`, which
+    /// can differ from the sum of the steps by a rounding; starting each ground increment here
+    /// makes the increments add up to the whole motion exactly, so that a displacement
+    /// record's velocity jump at a sample between the two is neither lost nor counted twice.
+    pub ground_t: f64,
 }
 
 impl Clone for NativeState {
@@ -122,6 +128,7 @@ impl Clone for NativeState {
             v: self.v.clone(),
             ground_d: self.ground_d,
             ground_w: self.ground_w,
+            ground_t: self.ground_t,
         }
     }
     /// Into the buffers already held (a located step copies its start state every round).
@@ -132,6 +139,7 @@ impl Clone for NativeState {
         self.v.clone_from(&source.v);
         self.ground_d = source.ground_d;
         self.ground_w = source.ground_w;
+        self.ground_t = source.ground_t;
     }
 }
 
@@ -510,7 +518,7 @@ impl Stepper {
         // Midpoint kinematics: the ground follows the same update as the blocks,
         // from its exact mean acceleration, for both definitions.
         let from_velocity = self.settings.stepper == StepperKind::Impact;
-        let (t0, t1) = (s.t, s.t + dt);
+        let (t0, t1) = (s.ground_t, s.t + dt);
         let comp = |c: Option<&crate::excitation::Component>, w0: f64| -> (f64, f64, f64) {
             match c {
                 None => (0.0, w0, 0.0),
