@@ -53,6 +53,20 @@ pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
         if let Some(s) = sets.iter().find(|s| !s.contains('=')) {
             bail!("--configs: {label:?}: {s:?} is not KEY=VALUE");
         }
+        // A key given twice: the last would win without a word.
+        if let Err(e) = crate::scene::check_override_keys(&sets) {
+            bail!("--configs: {label:?}: {e}");
+        }
+        // Another engine's setting: this configuration's engine would not read it.
+        if let Some(s) = sets
+            .iter()
+            .find(|s| other_engines_setting(s, engine).is_some())
+        {
+            bail!(
+                "--configs: {label:?}: {s} is a setting of engine `{}`, not of `{engine}`",
+                other_engines_setting(s, engine).unwrap_or_default()
+            );
+        }
         if configs.iter().any(|c| c.label == label) {
             bail!("--configs: {label:?} given twice");
         }
@@ -72,6 +86,14 @@ pub fn parse_configs(text: &str) -> anyhow::Result<Vec<Config>> {
         });
     }
     Ok(configs)
+}
+
+/// The engine whose table `set` (`KEY=VALUE` or `KEY`) writes, when `engine` does not read
+/// that table (`auto` reads native's and Housner's).
+fn other_engines_setting<'a>(set: &'a str, engine: &str) -> Option<&'a str> {
+    let table = set.split(['=', '.']).next()?.trim();
+    let read = table == engine || (engine == "auto" && ["native", "housner"].contains(&table));
+    (!read && crate::engines::registry::names().contains(&table)).then_some(table)
 }
 
 /// A study: the scene, what is perturbed, and the configurations.
@@ -143,8 +165,38 @@ impl Study {
         {
             bail!("--set {s}: sets {key}, the perturbed value, which --perturb replaces");
         }
+        // A perturbation too small to change the value (a subnormal value times 1 + epsilon
+        // rounds to itself) gives every member the same scene, whatever the configuration.
+        let member = |k: usize| {
+            let value = value * (1.0 + k as f64 * self.epsilon);
+            let mut sets = self.sets.clone();
+            sets.push(format!("{key}={value:?}"));
+            load_scene_with_overrides(&self.scene, &sets).map(|s| s.to_json())
+        };
+        if member(0)? == member(1)? {
+            bail!(
+                "--perturb: {key} = {} and the next member's value round to the same scene: \
+                 perturb a larger value",
+                crate::scene::num(*value)
+            );
+        }
+        // A perturbed setting of another engine's table: the configuration's engine does not
+        // read it, and its members would not differ.
+        if let Some(c) = self
+            .configs
+            .iter()
+            .find(|c| other_engines_setting(key, &c.engine).is_some())
+        {
+            bail!(
+                "--perturb: {key} is a setting of engine `{}`, which configuration {:?} does not read",
+                other_engines_setting(key, &c.engine).unwrap_or_default(),
+                c.label
+            );
+        }
         // A configuration that sets the perturbed value, however written (a key or a table),
-        // gives every member the same scene.
+        // gives every member the same scene; two configurations of one engine whose scenes
+        // are the same (`dt=5e-4` and `dt=0.0005`) make the same runs.
+        let mut firsts: Vec<(&Config, serde_json::Value)> = Vec::new();
         for c in &self.configs {
             let first = load_scene_with_overrides(&self.scene, &self.run_sets(c, 0))
                 .with_context(|| c.label.clone())?;
@@ -156,6 +208,18 @@ impl Study {
                     c.label
                 );
             }
+            let first = first.to_json();
+            if let Some((same, _)) = firsts
+                .iter()
+                .find(|(o, scene)| o.engine == c.engine && *scene == first)
+            {
+                bail!(
+                    "--configs: {:?} makes the same runs as {:?}",
+                    c.label,
+                    same.label
+                );
+            }
+            firsts.push((c, first));
         }
         let base = load_scene_with_overrides(&self.scene, &self.sets)?;
         let names: Vec<String> = base.blocks.iter().map(|b| b.name.clone()).collect();
@@ -215,6 +279,23 @@ impl Study {
                         .map(|i| displacement(&o.trajectory, i, window).0.unwrap_or(f64::NAN))
                         .collect(),
                 };
+                // One engine version a configuration: a resumed study whose engine changed
+                // would mix two engines' runs in one ensemble.
+                if let Some(earlier) = runs
+                    .iter()
+                    .find(|r| r.config == c.label && r.engine_version != run.engine_version)
+                {
+                    bail!(
+                        "{}: configuration {:?}'s runs were made with {} {}, its member {k} now \
+                         with {}: one study is one engine version (remove the file, or give \
+                         another --out)",
+                        runs_path.display(),
+                        c.label,
+                        c.engine,
+                        earlier.engine_version,
+                        run.engine_version
+                    );
+                }
                 let overturned: Vec<String> =
                     run.overturned.iter().map(|i| i.to_string()).collect();
                 let dx: String = run.final_dx.iter().map(|x| format!(",{x:?}")).collect();

@@ -250,6 +250,30 @@ fn bad_studies_say_what_is_wrong_and_write_nothing() {
             &["--configs", "native,native:"][..],
             "\"native:\" makes the same runs as \"native\"",
         ),
+        // The same, their values written apart (both ran).
+        (
+            &["--configs", "native:native.dt=5e-4,native:native.dt=0.0005"][..],
+            "\"native:native.dt=0.0005\" makes the same runs as \"native:native.dt=5e-4\"",
+        ),
+        // A key given twice in one configuration (the last one won without a word).
+        (
+            &["--configs", "native:native.dt=1e-3;native.dt=2e-3"][..],
+            "`native.dt` is given twice",
+        ),
+        // A setting of another engine, which the configuration's engine does not read.
+        (
+            &["--configs", "native,housner:native.dt=5e-4"][..],
+            "native.dt=5e-4 is a setting of engine `native`, not of `housner`",
+        ),
+        (
+            &["--perturb", "native.dt=1e-3", "--configs", "housner"][..],
+            "--perturb: native.dt is a setting of engine `native`, which configuration \"housner\"",
+        ),
+        // A value whose members round to one (it was blamed on a configuration).
+        (
+            &["--perturb", "initial.tilt=1e-320", "--configs", "native"][..],
+            "round to the same scene",
+        ),
     ] {
         let out = dir.join(expected.replace(['-', ' '], "_"));
         let o = study(&out, extra);
@@ -296,4 +320,37 @@ fn a_changed_record_file_makes_another_study() {
     let e = stderr(&o);
     assert!(e.contains("holds the runs of another study"), "{e}");
     assert_eq!(e.trim().lines().count(), 1, "{e}");
+}
+
+/// A study resumed with another engine version than its runs were made with (an upgraded
+/// package between an interruption and the resumption) is refused before it mixes the two in
+/// one ensemble.
+#[test]
+fn a_resumed_study_keeps_one_engine_version_a_configuration() {
+    let out = tmp("rb-sensitivity", "version");
+    let o = study(&out, &["--configs", "native"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let runs = out.join("runs.csv");
+    let text = std::fs::read_to_string(&runs).unwrap();
+    let version = text
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(',')
+        .nth(4)
+        .unwrap()
+        .to_string();
+    let edited = text.replacen(&format!(",{version},"), ",rockbench 9.9.9,", 1);
+    assert_ne!(edited, text);
+    std::fs::write(&runs, &edited).unwrap();
+    let o = study(&out, &["--configs", "native", "--members", "3"]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+    assert!(
+        e.contains("configuration \"native\"'s runs were made with native rockbench 9.9.9")
+            && e.contains(&format!("member 2 now with {version}")),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&runs).unwrap(), edited);
 }
