@@ -16,4 +16,8 @@ pub struct RunOutput {
     /// events); `None`: events are taken from the trajectory.
     pub exact_impacts: Option<Vec<Vec<f64>>>,
     pub notes: Vec<String>,
+    /// The instant from which the engine's model no longer holds (Siconos' contacts, once an
+    /// overturned block lands where it has none): the trajectory past it is no physical
+    /// motion, and the events are taken from the samples before it. `None`: the whole run.
+    pub valid_until: Option<f64>,
 }

@@ -77,6 +77,10 @@ pub struct Summary {
     pub notes: Vec<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<String>,
+    /// The instant from which the engine's model no longer holds ([`RunOutput::valid_until`]):
+    /// the events, rest times, overturns and largest rotations are of the samples before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_valid_until: Option<f64>,
     /// The SHA-256 of the `trajectory.csv` written beside the summary (set as both are
     /// written, [`crate::engines::write_outputs`]; empty for a summary with no such file).
     #[serde(default, skip_serializing_if = "String::is_empty")]
@@ -112,6 +116,18 @@ fn sample_interval(t: &[f64]) -> Option<f64> {
 
 impl Summary {
     pub fn build(scene: &Scene, engine: &str, out: &RunOutput, wall_time_s: f64) -> Summary {
+        if let Some(until) = out.valid_until {
+            let within = RunOutput {
+                trajectory: out.trajectory.before(until),
+                valid_until: None,
+                ..out.clone()
+            };
+            return Summary {
+                samples: out.trajectory.len(),
+                model_valid_until: Some(until),
+                ..Self::build(scene, engine, &within, wall_time_s)
+            };
+        }
         let layout = scene.layout();
         let t = &out.trajectory.t;
         let blocks = scene
@@ -179,7 +195,65 @@ impl Summary {
             blocks,
             notes: out.notes.clone(),
             command: None,
+            model_valid_until: None,
             trajectory_sha256: String::new(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run whose model ends at 1 s (past it, here, the block is thrown upside down, as a
+    /// Siconos block falls through what it has no contact with): its events, overturn and
+    /// largest rotation are those of the samples before 1 s, its sample count the whole run's.
+    #[test]
+    fn the_events_end_where_the_model_does() {
+        let scene = crate::scene::parse_scene_str(
+            "name = \"s\"\nduration = 2.0\n[[blocks]]\nname = \"block\"\nwidth = 1.0\nheight = 2.5\n[initial]\ntilt = 0.15\n",
+            false,
+            "s.toml",
+            &[],
+        )
+        .unwrap();
+        let mut out = crate::engines::engine_by_name("native")
+            .unwrap()
+            .run(&scene)
+            .unwrap();
+        let whole = Summary::build(&scene, "native", &out, 0.0);
+        let before_one = out.trajectory.t.iter().filter(|&&t| t < 1.0).count();
+        for (t, phi) in out
+            .trajectory
+            .t
+            .iter()
+            .zip(&mut out.trajectory.blocks[0].phi)
+        {
+            if *t >= 1.0 {
+                *phi = std::f64::consts::PI;
+            }
+        }
+        assert!(Summary::build(&scene, "native", &out, 0.0).blocks[0].overturned);
+        out.valid_until = Some(1.0);
+        let s = Summary::build(&scene, "native", &out, 0.0);
+        assert_eq!(s.model_valid_until, Some(1.0));
+        assert_eq!(s.samples, out.trajectory.len());
+        assert!(!s.blocks[0].overturned);
+        assert!(
+            s.blocks[0].max_abs_phi <= 0.15 + 1e-12,
+            "{}",
+            s.blocks[0].max_abs_phi
+        );
+        let impacts_before: Vec<f64> = whole.blocks[0]
+            .impacts
+            .iter()
+            .copied()
+            .filter(|&t| t < out.trajectory.t[before_one - 1])
+            .collect();
+        assert!(!impacts_before.is_empty());
+        assert_eq!(
+            s.blocks[0].impacts[..impacts_before.len()],
+            impacts_before[..]
+        );
     }
 }

@@ -58,6 +58,28 @@ impl Trajectory {
     pub fn len(&self) -> usize {
         self.t.len()
     }
+
+    /// The samples before `t` (at least the first).
+    pub fn before(&self, t: f64) -> Trajectory {
+        let n = self.t.partition_point(|&s| s < t).max(1).min(self.t.len());
+        let cut = |v: &Vec<f64>| v[..n.min(v.len())].to_vec();
+        Trajectory {
+            t: cut(&self.t),
+            blocks: self
+                .blocks
+                .iter()
+                .map(|b| BlockHistory {
+                    name: b.name.clone(),
+                    x: cut(&b.x),
+                    z: cut(&b.z),
+                    phi: cut(&b.phi),
+                    vx: cut(&b.vx),
+                    vz: cut(&b.vz),
+                    omega: cut(&b.omega),
+                })
+                .collect(),
+        }
+    }
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }

@@ -225,3 +225,38 @@ fn a_missing_interpreter_from_the_environment_names_the_variable() {
         "{err}"
     );
 }
+
+/// PyBullet's friction is the product of two bodies' coefficients: a stack whose middle block
+/// rests on friction 0 and carries friction 0.5 cannot be made, and is a scene PyBullet cannot
+/// model (skipped with the reason, not a crash in the worker); with friction 0 above it too, or
+/// one coefficient for every body (`pybullet.lateral_friction`), it can.
+#[test]
+fn pybullet_cannot_model_a_friction_on_a_block_resting_on_none() {
+    let scene = |frictions: [f64; 3], extra: &str| {
+        let text = format!(
+            "name = \"f\"\nduration = 0.1\n[[blocks]]\nname = \"b1\"\nwidth = 1.0\nheight = 0.5\n\
+             [[blocks]]\nname = \"b2\"\nwidth = 1.0\nheight = 0.5\n[[blocks]]\nname = \"b3\"\n\
+             width = 1.0\nheight = 0.5\n[contact]\nfriction = 0.5\n[contact.interfaces]\n\
+             b1 = {{ friction = {} }}\nb2 = {{ friction = {} }}\nb3 = {{ friction = {} }}\n{extra}",
+            frictions[0], frictions[1], frictions[2]
+        );
+        rockbench::scene::parse_scene_str(&text, false, "f.toml", &[]).unwrap()
+    };
+    let pybullet = rockbench::engines::engine_by_name("pybullet").unwrap();
+    let why = pybullet
+        .cannot_model(&scene([0.5, 0.0, 0.5], ""))
+        .expect("refused");
+    assert!(
+        why.starts_with("block `b3` has friction 0.5 on `b2`, whose own coefficient must be 0"),
+        "{why}"
+    );
+    assert_eq!(pybullet.cannot_model(&scene([0.5, 0.0, 0.0], "")), None);
+    assert_eq!(pybullet.cannot_model(&scene([0.0, 0.0, 0.5], "")), None);
+    assert_eq!(
+        pybullet.cannot_model(&scene(
+            [0.5, 0.0, 0.5],
+            "[pybullet]\nlateral_friction = 0.5\n"
+        )),
+        None
+    );
+}

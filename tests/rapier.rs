@@ -430,6 +430,31 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
         s
     }
 
+    /// Rapier's ground is a box of finite width, the scene's ground is not: a block that would
+    /// slide past the box's edge (here 51 m on a box 40 m either side) ends the run with an
+    /// error naming the block and the instant, not a fall that the summary would call an
+    /// overturn.
+    #[test]
+    fn a_block_at_the_edge_of_rapiers_ground_ends_the_run() {
+        let text = "name = \"far\"\nduration = 12.0\n[[blocks]]\nname = \"slab\"\nwidth = 1.0\nheight = 0.5\n[initial.blocks.slab]\nvx = 10.0\n[contact]\nfriction = 0.1\n";
+        let scene = temp_scene("far", text, &[]);
+        let e = engine_by_name("rapier").unwrap().run(&scene).unwrap_err();
+        let message = e.to_string();
+        assert!(
+            message.contains("block `slab` reached the edge of rapier's ground box")
+                && message.contains("40.000 m either side"),
+            "{message}"
+        );
+        // The same launch at 5 m/s stops at 12.7 m, well inside the box: it runs.
+        let slower = temp_scene("near", &text.replace("vx = 10.0", "vx = 5.0"), &[]);
+        let (o, _) = run("rapier", &slower);
+        let travel = o.trajectory.blocks[0].x.last().unwrap() - o.trajectory.blocks[0].x[0];
+        assert!(
+            (travel / (25.0 / (2.0 * 0.1 * slower.gravity)) - 1.0).abs() < 0.01,
+            "{travel}"
+        );
+    }
+
     /// A block launched along its support stops after `v^2 / (2 mu g)` with the friction of its
     /// own interface: one slab on the ground (interface friction 0.3 against the scene's 0.7,
     /// through the contact hook; and 0.3 everywhere, through rapier's own combination), and a

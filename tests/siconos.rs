@@ -281,3 +281,44 @@ fn two_block_ground_impact_agrees_with_native() {
     );
     assert!((0.55..0.65).contains(&sic), "{sic}");
 }
+
+/// A block overturned by a pulse has no contact on its side in Siconos' model and falls through
+/// the ground: the summary says from when the run leaves the model (a corner 5 % of the block's
+/// width below the ground, between the overturn and the end), its events end there, and the
+/// overturn, before it, stands, as in Housner's solution.
+#[test]
+fn a_run_past_its_model_says_where_its_events_end() {
+    require_siconos();
+    let scene = load_scene_with_overrides(
+        &root().join("validation/scenes/pulse-half-sine-w2-above.toml"),
+        &["duration=4.5".into()],
+    )
+    .unwrap();
+    let run = |name: &str| {
+        rockbench::engines::run_timed(engine_by_name(name).unwrap().as_ref(), &scene)
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+            .1
+    };
+    let (sic, housner) = (run("siconos"), run("housner"));
+    let overturn = housner.blocks[0]
+        .overturn_time
+        .expect("Housner: overturned");
+    assert!(sic.blocks[0].overturned);
+    let until = sic.model_valid_until.expect("the run leaves the model");
+    assert!(
+        until > overturn && until < scene.duration,
+        "{until} vs {overturn}"
+    );
+    assert!(
+        sic.notes
+            .iter()
+            .any(|n| n.contains("leaves the model") && n.contains("below the ground")),
+        "{:?}",
+        sic.notes
+    );
+    assert!(
+        sic.blocks[0].max_abs_phi < std::f64::consts::PI,
+        "{}",
+        sic.blocks[0].max_abs_phi
+    );
+}

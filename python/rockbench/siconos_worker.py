@@ -293,6 +293,64 @@ def time_grid(
     return n_total, list(range(0, n_total, every)) + [n_total], last
 
 
+# Depth past which a corner inside another body, or below the ground, means the run has left
+# the model: the worker's contacts are each block's base corners on the face below and the top
+# corners of the block below on its base, so a block that overturns (its side on the ground, a
+# corner on another block's side) has none where it lands and passes through. The modelled
+# contacts keep their penetration at round-off; this is a fraction of the bodies' smallest side.
+MODEL_DEPTH_FRACTION = 0.05
+
+
+def corners(states: Any, blocks: list[dict[str, Any]]) -> Any:
+    """Corners of every block at every sample: (samples, blocks, 4, 2), from the states'
+    (x, z, phi) columns."""
+    half = np.array([[b["width"] / 2, b["height"] / 2] for b in blocks])
+    signs = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    local = signs[None, :, :] * half[:, None, :]  # (blocks, 4, 2)
+    x, z, ph = states[:, :, 0], states[:, :, 1], states[:, :, 2]
+    c, s = np.cos(ph)[:, :, None], np.sin(ph)[:, :, None]
+    rx, rz = local[None, :, :, 0], local[None, :, :, 1]
+    return np.stack([x[:, :, None] + c * rx - s * rz, z[:, :, None] + s * rx + c * rz], axis=-1)
+
+
+def left_model(t: Any, states: Any, blocks: list[dict[str, Any]]) -> tuple[float, str] | None:
+    """The first sample at which a corner lies deeper than ``MODEL_DEPTH_FRACTION`` of the
+    smaller body's smallest side inside another block or below the ground, and what it is;
+    None if the run stays in the model throughout."""
+    pts = corners(states, blocks)
+    smallest = np.array([min(b["width"], b["height"]) for b in blocks])
+    first: tuple[int, str] | None = None
+
+    def found(k: int, what: str) -> None:
+        nonlocal first
+        if first is None or k < first[0]:
+            first = (k, what)
+
+    below = -pts[:, :, :, 1].min(axis=2)  # (samples, blocks)
+    for i, b in enumerate(blocks):
+        deep = np.nonzero(below[:, i] > MODEL_DEPTH_FRACTION * smallest[i])[0]
+        if deep.size:
+            found(int(deep[0]), f"block `{b['name']}` lies {below[deep[0], i]:.3g} m below the ground")
+    for a, ba in enumerate(blocks):
+        for j, bj in enumerate(blocks):
+            if a == j:
+                continue
+            dx = pts[:, a, :, 0] - states[:, j, 0][:, None]
+            dz = pts[:, a, :, 1] - states[:, j, 1][:, None]
+            c, s = np.cos(states[:, j, 2])[:, None], np.sin(states[:, j, 2])[:, None]
+            lx, lz = c * dx + s * dz, -s * dx + c * dz
+            depth = np.minimum(bj["width"] / 2 - np.abs(lx), bj["height"] / 2 - np.abs(lz)).max(axis=1)
+            deep = np.nonzero(depth > MODEL_DEPTH_FRACTION * min(smallest[a], smallest[j]))[0]
+            if deep.size:
+                found(
+                    int(deep[0]),
+                    f"a corner of block `{ba['name']}` lies {depth[deep[0]]:.3g} m inside block `{bj['name']}`",
+                )
+    if first is None:
+        return None
+    return float(t[first[0]]), first[1]
+
+
 def build_and_run(inp: dict[str, Any], s: dict[str, Any]) -> dict[str, Any]:
     import siconos.kernel as sk
     import siconos.numerics as sn
@@ -464,6 +522,7 @@ def run(input_path: str, out: str, source: str | None) -> dict[str, Any]:
         os.close(devnull)
         os.close(saved)
     wall = time.perf_counter() - start
+    left = left_model(res["t"], res["states"], spec["blocks"])
     names = [b["name"] for b in spec["blocks"]]
     os.makedirs(out, exist_ok=True)
     header = ["t"] + [f"{nm}_{f}" for nm in names for f in FIELDS]
@@ -493,8 +552,15 @@ def run(input_path: str, out: str, source: str | None) -> dict[str, Any]:
             "excitation.applied_as = moving-ground was applied as inertial forces on every "
             "block (the same motion relative to the ground)"
         )
+    if left is not None:
+        notes.append(
+            f"the run leaves the model at t = {left[0]:.6g} s: {left[1]} (the model's contacts "
+            "are each block's base corners on the face below, and none where an overturned "
+            "block lands): the trajectory past it is no physical motion, and the events end there"
+        )
     summary = {
         "engine": "siconos",
+        "model_valid_until": None if left is None else left[0],
         "engine_version": version,
         "settings": settings,
         "steps": res["steps"],

@@ -96,14 +96,14 @@ def run(
     except ModuleNotFoundError as e:
         raise missing(e.name or PACKAGES[engine]) from None
 
-    from rockbench.engines.common import SettingsError, first_non_finite
+    from rockbench.engines.common import EngineFailure, SettingsError, first_non_finite
 
     start = time.perf_counter()
     try:
         res = mod.run(scene, spec) if rule is None else mod.run(scene, spec, rule)
     except SettingsError as e:
         raise WorkerError(2, f"{source or scene_path}: {e}") from None
-    except FloatingPointError as e:
+    except (FloatingPointError, EngineFailure) as e:
         raise WorkerError(4, f"{engine}: {e}") from None
     wall = time.perf_counter() - start
     bad = first_non_finite(res.t, res.states)

@@ -94,7 +94,12 @@ pub static MUJOCO: WorkerSpec = WorkerSpec::rockbench_worker(
     ],
 );
 /// PyBullet (`python/rockbench/engines/pybullet_engine.py`).
-pub static PYBULLET: WorkerSpec = WorkerSpec::rockbench_worker(
+pub static PYBULLET: WorkerSpec = WorkerSpec {
+    cannot_model: Some(pybullet_cannot_model),
+    ..PYBULLET_WORKER
+};
+
+const PYBULLET_WORKER: WorkerSpec = WorkerSpec::rockbench_worker(
     "pybullet",
     &[
         "contact_erp",
@@ -110,6 +115,46 @@ pub static PYBULLET: WorkerSpec = WorkerSpec::rockbench_worker(
         "timeout",
     ],
 );
+
+/// What PyBullet's friction cannot give. It combines two bodies' coefficients as their
+/// product; with `pybullet.lateral_friction` unset each block's coefficient is its interface's
+/// friction over the coefficient of the body it rests on, so a block resting on friction 0 has
+/// coefficient 0 (or any, when nothing on it has friction), and a friction on such a block is
+/// no product.
+fn pybullet_cannot_model(scene: &Scene) -> Option<String> {
+    let one_coefficient = scene
+        .engine_table("pybullet")
+        .and_then(|t| t.get("lateral_friction"))
+        .is_some_and(|v| !v.is_null());
+    if one_coefficient {
+        return None;
+    }
+    let layout = scene.layout();
+    // Whether a block's coefficient is 0 (the ground's, `ground_friction`, is positive), from
+    // the lowest block up: each after the one it rests on.
+    let mut order: Vec<usize> = (0..scene.blocks.len()).collect();
+    order.sort_by(|a, b| layout.upright[*a].1.total_cmp(&layout.upright[*b].1));
+    let mut zero = vec![false; scene.blocks.len()];
+    for i in order {
+        let support = &layout.supports[i];
+        let mu = scene.friction_between(*support, i);
+        match support {
+            Some(s) if zero[*s] && mu != 0.0 => {
+                return Some(format!(
+                    "block `{}` has friction {} on `{}`, whose own coefficient must be 0 (it rests on \
+                     friction 0): PyBullet's friction is the product of two bodies' coefficients \
+                     (pybullet.lateral_friction sets one coefficient for every body)",
+                    scene.blocks[i].name,
+                    crate::scene::num(mu),
+                    scene.blocks[*s].name
+                ));
+            }
+            Some(s) if zero[*s] => {}
+            _ => zero[i] = mu == 0.0,
+        }
+    }
+    None
+}
 
 impl WorkerSpec {
     /// An engine of `python -m rockbench.worker` in `.venv` with the settings `settings`.
@@ -494,6 +539,18 @@ impl ExternalEngine {
                 }
             }
         };
+        let valid_until = match summary.get("model_valid_until") {
+            None | Some(serde_json::Value::Null) => None,
+            Some(v) => match v.as_f64() {
+                Some(t) if t.is_finite() => Some(t),
+                _ => {
+                    return Err(self.failed(format!(
+                        "worker output: {}: `model_valid_until` is not a time (got {v})",
+                        path.display()
+                    )));
+                }
+            },
+        };
         let trajectory = Trajectory::read_csv(&out.join("trajectory.csv"))
             .map_err(|e| self.failed(format!("worker output: {e}")))?;
         let names: Vec<&str> = trajectory.blocks.iter().map(|b| b.name.as_str()).collect();
@@ -551,6 +608,7 @@ impl ExternalEngine {
                 solver_iterations: None,
                 exact_impacts: None,
                 notes,
+                valid_until,
             },
             stopped.map(|(s, _)| s),
         ))

@@ -595,6 +595,7 @@ impl Engine for HousnerEngine {
             steps: run.steps,
             solver_iterations: None,
             exact_impacts: Some(vec![impacts]),
+            valid_until: None,
             notes,
         })
     }

@@ -215,6 +215,7 @@ impl NativeEngine {
             steps: computed,
             solver_iterations: Some(stepper.iterations),
             exact_impacts: None,
+            valid_until: None,
             notes: {
                 let mut notes = vec![format!(
                     "{} steps, {} split at a located impact, {} position projections after impacts (gaining {:.3e} J/m of potential energy); {} solutions polished on their active set; {} steps fell back to Clarabel; {} factorisations; {} rows updated into or out of a factor; {} interior-point rescues",

@@ -152,6 +152,11 @@ pub struct RapierSim {
     masses: Vec<f64>,
     ground: RigidBodyHandle,
     ground_half_height: f64,
+    /// Half the ground box's width, m: a block whose centre comes within its half-diagonal of
+    /// the box's edge ends the run (rapier's ground is finite, the scene's is not).
+    ground_half_width: f64,
+    /// Each block's half-diagonal, m.
+    reach: Vec<f64>,
     motion: GroundMotion,
     applied_as: AppliedAs,
     /// Unwrapped rotation of each block and the raw angle it was unwrapped from.
@@ -261,6 +266,12 @@ impl RapierSim {
             masses,
             ground,
             ground_half_height: ground_hy,
+            ground_half_width: ground_hx,
+            reach: scene
+                .blocks
+                .iter()
+                .map(|b| 0.5 * b.width.hypot(b.height))
+                .collect(),
             motion,
             applied_as: if moving {
                 AppliedAs::MovingGround
@@ -366,6 +377,21 @@ impl RapierSim {
                         "block `{}` reached rapier's speed limit rapier.max_linear_velocity = {} m/s at t = {t1:.6} s; rapier would clamp its motion",
                         self.names[i],
                         crate::scene::num(cap)
+                    ),
+                });
+            }
+        }
+        let ground_x = self.world.bodies[self.ground].translation().x;
+        for (i, h) in self.blocks.iter().enumerate() {
+            let x = self.world.bodies[*h].translation().x - ground_x;
+            if x.abs() + self.reach[i] >= self.ground_half_width {
+                return Err(EngineError::Failed {
+                    engine: "rapier",
+                    message: format!(
+                        "block `{}` reached the edge of rapier's ground box (x = {x:.3} m, the box \
+                         {:.3} m either side of the scene's centre) at t = {t1:.6} s: past it the \
+                         block would fall off a ground the scene does not have",
+                        self.names[i], self.ground_half_width
                     ),
                 });
             }
@@ -516,6 +542,7 @@ impl Engine for RapierEngine {
             steps: sim.steps,
             solver_iterations: None,
             exact_impacts: None,
+            valid_until: None,
             notes,
         })
     }

@@ -133,6 +133,7 @@ fn load(entry: &Path, engine: &str) -> Option<EngineRun> {
             solver_iterations: summary.solver_iterations,
             exact_impacts,
             notes: summary.notes.clone(),
+            valid_until: summary.model_valid_until,
         }),
         summary: Some(summary),
         cached: true,

@@ -276,3 +276,48 @@ def test_first_impact_is_located_from_the_pre_impact_samples(engine: str) -> Non
     assert abs(firsts[0] - want) < tol, f"{engine}: first impact {firsts[0]:.7f} s, Housner {want:.7f} s"
     own = abs(firsts[1] - want)
     assert abs(firsts[0] - firsts[1]) <= max(own, 1e-6), f"{engine}: output sampling moved the impact: {firsts}"
+
+
+def test_pybullet_ends_a_run_at_the_edge_of_its_ground_box(tmp_path: Path) -> None:
+    """PyBullet's ground is a box (``pybullet.ground_half_size``), the scene's is not: a slab
+    launched at 10 m/s on friction 0.1 would slide 51 m, past a box of 30 m, and fell off it;
+    the run ends there as an engine failure (exit code 4) naming the block and the instant."""
+    scene = tmp_path / "far.toml"
+    scene.write_text(
+        'name = "far"\nduration = 12.0\n[[blocks]]\nname = "slab"\nwidth = 1.0\nheight = 0.5\n'
+        "[initial.blocks.slab]\nvx = 10.0\n[contact]\nfriction = 0.1\n[pybullet]\n"
+        "ground_half_size = 30.0\n"
+    )
+    out = tmp_path / "out"
+    with pytest.raises(worker.WorkerError) as e:
+        worker.run("pybullet", str(scene), str(out), None, None)
+    assert e.value.code == 4
+    assert "block `slab` reached the edge of PyBullet's ground box" in str(e.value), e.value
+    assert not out.exists()
+
+
+def test_pybullet_frictions_are_products_where_they_can_be() -> None:
+    """PyBullet multiplies two bodies' coefficients. Friction 0 on the ground under a block
+    with friction 0 on it (it divided 0 by 0) gives the upper block any coefficient; a friction
+    on a block resting on friction 0 is no product, and is refused."""
+
+    class Scene:
+        def __init__(self, mu: list[float]) -> None:
+            self.mu = mu
+
+        def friction_between(self, below: int | None, upper: int) -> float:
+            return self.mu[upper]
+
+    layout = [
+        {"name": "b1", "support": None},
+        {"name": "b2", "support": "b1"},
+        {"name": "b3", "support": "b2"},
+    ]
+    s = {"lateral_friction": None, "ground_friction": 1.0}
+    ground, per = pybullet_engine.frictions(Scene([0.0, 0.0, 0.5]), layout, s)
+    assert ground == 1.0 and per[0] == 0.0 and per[0] * per[1] == 0.0
+    assert per[1] * per[2] == 0.5
+    ground, per = pybullet_engine.frictions(Scene([0.5, 0.7, 0.3]), layout, s)
+    assert [ground * per[0], per[0] * per[1], per[1] * per[2]] == pytest.approx([0.5, 0.7, 0.3])
+    with pytest.raises(ValueError, match="no product"):
+        pybullet_engine.frictions(Scene([0.5, 0.0, 0.5]), layout, s)

@@ -24,6 +24,10 @@ class SettingsError(ValueError):
     """A bad ``[mujoco]`` / ``[pybullet]`` setting: one line naming the field."""
 
 
+class EngineFailure(RuntimeError):
+    """A run the engine cannot go on with (the worker's exit code 4): one line saying why."""
+
+
 @dataclass(frozen=True)
 class Setting:
     """One named engine setting: default, check and meaning."""

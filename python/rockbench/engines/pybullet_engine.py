@@ -43,6 +43,7 @@ from rockbench.engines.common import (
     HARNESS_SETTINGS,
     MAX_STEPS,
     EarlyStop,
+    EngineFailure,
     EngineResult,
     Setting,
     SettingsError,
@@ -175,7 +176,19 @@ def frictions(scene: Any, layout: list[dict[str, Any]], s: dict[str, Any]) -> tu
     for i, b in enumerate(layout):
         below = None if b["support"] is None else names.index(b["support"])
         f_below = ground if below is None else per[below]
-        per.append(scene.friction_between(below, i) / f_below)
+        mu = scene.friction_between(below, i)
+        if f_below == 0.0:
+            # Any coefficient makes a frictionless product with the block below; 1 leaves the
+            # blocks above free to have theirs. A friction on it cannot be made (the harness
+            # says so before the run: `pybullet_cannot_model` in src/engines/external.rs).
+            if mu != 0.0:
+                raise ValueError(
+                    f"block `{b['name']}`: friction {mu} on `{b['support']}`, whose own "
+                    "coefficient is 0, is no product of per-body coefficients"
+                )
+            per.append(1.0)
+        else:
+            per.append(mu / f_below)
     return ground, per
 
 
@@ -311,8 +324,19 @@ def _run(
             now[i, :3] = [j[0] for j in js]
             now[i, 3:] = [j[1] for j in js]
 
+    # Each block's half-diagonal: its centre that near the ground box's edge has a corner past it.
+    reach = [0.5 * math.hypot(b["width"], b["height"]) for b in spec["blocks"]]
+
     def record(t: float) -> None:
         nonlocal k, out_of_plane
+        for i, b in enumerate(spec["blocks"]):
+            if abs(now[i, 0]) + reach[i] >= half:
+                raise EngineFailure(
+                    f"block `{b['name']}` reached the edge of PyBullet's ground box (x = "
+                    f"{now[i, 0]:.3f} m, the box {half:.3f} m either side of x = 0, "
+                    f"pybullet.ground_half_size) at t = {t:.6f} s: past it the block would fall "
+                    "off a ground the scene does not have"
+                )
         times.append(t)
         states[k] = now
         for body in bodies:
