@@ -455,6 +455,42 @@ horizontal = { kind = "half-sine", amplitude = 8.0, duration = 0.4, start = 0.1 
         );
     }
 
+    /// With one of rapier's combine rules the summary records the friction rapier applies (the
+    /// block's coefficient, 0.3, combined with the ground's, 0.7), and the slab stops where
+    /// Coulomb's law with that value says.
+    #[test]
+    fn a_combine_rules_friction_is_the_one_recorded() {
+        let text = "name = \"slide\"\nduration = 0.6\n[[blocks]]\nname = \"slab\"\nwidth = 2.0\nheight = 0.4\n[initial.blocks.slab]\nvx = 1.0\n[contact]\nfriction = 0.7\ninterfaces = { slab = { friction = 0.3 } }\n";
+        for (rule, mu) in [
+            ("multiply", 0.21),
+            ("average", 0.5),
+            ("min", 0.3),
+            ("max", 0.7),
+            ("clamped-sum", 1.0),
+            ("interface", 0.3),
+        ] {
+            let scene = temp_scene(&format!("rule-{rule}"), text, &[]);
+            let scene = load_scene_with_overrides(
+                Path::new(&scene.source),
+                &[format!("rapier.friction_rule=\"{rule}\"")],
+            )
+            .unwrap();
+            let (o, _) = run("rapier", &scene);
+            let recorded = o.settings["interface_friction"]["slab"].as_f64().unwrap();
+            assert!(
+                (recorded - mu).abs() < 1e-12,
+                "{rule}: recorded {recorded}, rapier's {mu}"
+            );
+            let b = &o.trajectory.blocks[0];
+            let travel = b.x.last().unwrap() - b.x[0];
+            let want = 1.0 / (2.0 * recorded * scene.gravity);
+            assert!(
+                (travel / want - 1.0).abs() < 0.02,
+                "{rule}: travel {travel} m, Coulomb with {recorded}: {want} m"
+            );
+        }
+    }
+
     /// A block launched along its support stops after `v^2 / (2 mu g)` with the friction of its
     /// own interface: one slab on the ground (interface friction 0.3 against the scene's 0.7,
     /// through the contact hook; and 0.3 everywhere, through rapier's own combination), and a

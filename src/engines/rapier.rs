@@ -81,6 +81,29 @@ fn friction_combine(r: FrictionRule) -> Option<CombineRule> {
     }
 }
 
+/// The friction block `i` has on what it initially rests on, as rapier applies it: the
+/// interface's (`friction_rule = "interface"`), or rapier's combination of the two colliders'
+/// coefficients (the block's: the interface under it; the ground's: `contact.friction`; a
+/// block's below: the interface under that block), raised to `min_friction`.
+fn friction_on_support(
+    scene: &Scene,
+    supports: &[Option<usize>],
+    s: &RapierSettings,
+    i: usize,
+) -> f64 {
+    let mu = match friction_combine(s.friction_rule).map(combine_rule) {
+        None => scene.friction_below(i),
+        Some(rule) => {
+            let under = match supports[i] {
+                None => scene.contact.friction,
+                Some(j) => scene.friction_below(j),
+            };
+            CoefficientCombineRule::combine(scene.friction_below(i), under, rule, rule)
+        }
+    };
+    mu.max(s.min_friction)
+}
+
 /// Sets each contact pair's friction (see the module docs).
 struct FrictionHook {
     /// Friction of the interface under each block (`Scene::friction_below`).
@@ -502,6 +525,7 @@ impl Engine for RapierEngine {
             );
             o.insert("output_interval".into(), (every as f64 * dt).into());
             o.insert("friction_hook".into(), sim.friction_hook_active().into());
+            let supports = scene.layout().supports;
             o.insert(
                 "interface_friction".into(),
                 scene
@@ -511,7 +535,7 @@ impl Engine for RapierEngine {
                     .map(|(i, b)| {
                         (
                             b.name.clone(),
-                            serde_json::Value::from(scene.friction_below(i).max(s.min_friction)),
+                            serde_json::Value::from(friction_on_support(scene, &supports, s, i)),
                         )
                     })
                     .collect::<serde_json::Map<_, _>>()
