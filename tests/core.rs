@@ -310,6 +310,43 @@ fn a_displacement_record_moves_a_frictionless_block_by_its_whole_velocity_at_any
     }
 }
 
+/// A displacement record of a constant 0.3 g ground acceleration, sampled at the step (1 ms),
+/// below the block's uplift (0.4 g) and slip (0.7 g): each sample's velocity jump falls in the
+/// step that ends at it, so the block stays still. (From 1.001 s, where `(k - 1) dt + dt` falls
+/// a bit below `k dt`, the jumps went to the next step, two in one: the block chattered, 1.6e-5
+/// rad and 8 impacts.)
+#[test]
+fn a_displacement_record_sampled_at_the_step_applies_each_jump_in_its_own_step() {
+    let dir = common::tmp("rb-disp-steps", "constant");
+    let a = 0.3 * 9.81;
+    let mut csv = String::from("time,displacement\n");
+    for k in 0..=2500 {
+        let t = k as f64 * 1e-3;
+        csv += &format!("{t},{}\n", 0.5 * a * t * t);
+    }
+    std::fs::write(dir.join("disp.csv"), csv).unwrap();
+    let p = dir.join("still.toml");
+    std::fs::write(
+        &p,
+        "name = \"still\"\nduration = 2.0\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.5\n\
+         [contact]\nfriction = 0.7\n[native]\ndt = 1e-3\n[excitation.horizontal]\n\
+         kind = \"displacement\"\nfile = \"disp.csv\"\n",
+    )
+    .unwrap();
+    let s = load_scene_with_overrides(&p, &[]).unwrap();
+    let (out, summary) = run("native", &s);
+    let phi = out.trajectory.blocks[0]
+        .phi
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.abs()));
+    assert!(phi < 1e-12, "max |phi| {phi:e} rad");
+    assert!(
+        summary.blocks[0].impacts.is_empty(),
+        "{:?}",
+        summary.blocks[0].impacts
+    );
+}
+
 /// The sign convention of ground acceleration is the same in both engines: a +x pulse throws
 /// the block back (counter-clockwise, on its left corner), to about the same amplitude.
 #[test]

@@ -221,10 +221,15 @@ impl Component {
                 let slope = (a[k + 1] - a[k]) / (ts[k + 1] - ts[k]);
                 v[k] + a[k] * h + 0.5 * slope * h * h
             }
-            Component::DisplacementRecord { t: ts, d } => match segment(ts, t) {
-                Some(k) => (d[k + 1] - d[k]) / (ts[k + 1] - ts[k]),
-                None => 0.0,
-            },
+            // Piecewise constant, its jump at a sample taken from the right; within 1e-12
+            // relative below a sample is on it (a step's end, computed as a sum, lands a bit
+            // below the sample it is meant to reach, and the jump went to the next step).
+            Component::DisplacementRecord { t: ts, d } => {
+                match segment(ts, t + 1e-12 * (1.0 + t.abs())) {
+                    Some(k) => (d[k + 1] - d[k]) / (ts[k + 1] - ts[k]),
+                    None => 0.0,
+                }
+            }
         }
     }
 

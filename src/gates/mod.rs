@@ -465,10 +465,16 @@ pub fn run_gates(gates: &[Gate], opts: &GateOptions) -> (Vec<GateResult>, CacheS
     )
 }
 
+/// A gate that could not be evaluated: a failure, the known failures too (a known failure is
+/// a value beyond its tolerance; a gate whose metric is not produced, or whose engine did not
+/// run, is broken, and says so).
 fn failed(g: &Gate, message: String, run: Option<&EngineRun>) -> GateResult {
-    let outcome = match g.expect {
-        Expect::Pass => Outcome::Fail,
-        Expect::KnownFailure => Outcome::KnownFailure,
+    let (outcome, message) = match g.expect {
+        Expect::Pass => (Outcome::Fail, message),
+        Expect::KnownFailure => (
+            Outcome::Fail,
+            format!("a known failure that cannot be evaluated: {message}"),
+        ),
     };
     GateResult {
         gate: g.clone(),
@@ -566,11 +572,15 @@ fn evaluate(g: &Gate, rows: &[MetricRow], run: Option<&EngineRun>) -> GateResult
         reference: g.target.or(row.reference),
         ..row.clone()
     };
-    let check = g.check.unwrap_or(if row.reference.is_some() {
-        Check::AbsDiff
-    } else {
-        Check::Value
-    });
+    // A quantity of both runs is compared with the reference's, present or not (a row without
+    // it compares with nothing); a difference between the two is a value.
+    let check = g.check.unwrap_or(
+        if row.reference.is_some() || crate::metrics::is_paired_metric(&g.metric) {
+            Check::AbsDiff
+        } else {
+            Check::Value
+        },
+    );
     let checked = match (check, row.value, row.reference) {
         (Check::Value, Some(v), _) => Some(v.abs()),
         (Check::AbsDiff, Some(v), Some(r)) => Some((v - r).abs()),
@@ -686,5 +696,86 @@ impl Gate {
                 .map(|f| f.to_string_lossy().to_string())
                 .unwrap_or_default(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A gate of `metric` on the slender block, native against Housner.
+    fn gate(metric: &str, tolerance: f64, extra: &str) -> Gate {
+        let dir =
+            std::env::temp_dir().join(format!("rb-gate-unit-{}-{metric}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/validation/scenes/housner-slender.toml"
+        );
+        let file = dir.join("gates.toml");
+        std::fs::write(
+            &file,
+            format!(
+                "[[gate]]\nname = \"g\"\nscene = \"{scene}\"\nengine = \"native\"\n\
+                 reference = \"housner\"\nmetric = \"{metric}\"\ntolerance = {tolerance:e}\n{extra}"
+            ),
+        )
+        .unwrap();
+        let g = load_gates(&file).unwrap().remove(0);
+        let _ = std::fs::remove_dir_all(&dir);
+        g
+    }
+
+    fn row(metric: &str, value: Option<f64>, reference: Option<f64>) -> MetricRow {
+        MetricRow {
+            scene: "s".into(),
+            engine: "native".into(),
+            block: "block".into(),
+            metric: metric.into(),
+            value,
+            reference,
+            unit: "rad".into(),
+        }
+    }
+
+    /// A quantity the reference does not have (its 19th peak, of 18) compares with nothing:
+    /// the gate fails. It passed, the engine's value taken for a difference (1.8e-5 <= 2e-3).
+    #[test]
+    fn a_paired_metric_without_the_references_value_fails() {
+        let g = gate("peak_amplitude_19", 2e-3, "");
+        let r = evaluate(&g, &[row("peak_amplitude_19", Some(1.8e-5), None)], None);
+        assert_eq!(r.outcome, Outcome::Fail, "{}", r.message);
+        assert!(r.message.contains("reference none"), "{}", r.message);
+        let r = evaluate(
+            &g,
+            &[row("peak_amplitude_19", Some(1.8e-5), Some(1.9e-5))],
+            None,
+        );
+        assert_eq!(r.outcome, Outcome::Pass, "{}", r.message);
+        // A difference of the two runs is checked as it is.
+        let g = gate("rotation_rms_error", 1e-3, "");
+        let r = evaluate(&g, &[row("rotation_rms_error", Some(1e-4), None)], None);
+        assert_eq!(r.outcome, Outcome::Pass, "{}", r.message);
+    }
+
+    /// A known failure is a value beyond its tolerance; one that cannot be evaluated (its
+    /// metric not produced) is a broken gate, and fails.
+    #[test]
+    fn a_known_failure_that_cannot_be_evaluated_fails() {
+        let g = gate(
+            "impact_time_19",
+            1e-3,
+            "expect = \"known-failure\"\nreason = \"the 19th impact is late\"\n",
+        );
+        let r = evaluate(&g, &[row("impact_time_19", Some(3.2), Some(3.0))], None);
+        assert_eq!(r.outcome, Outcome::KnownFailure, "{}", r.message);
+        let r = evaluate(&g, &[row("impact_count", Some(18.0), Some(18.0))], None);
+        assert_eq!(r.outcome, Outcome::Fail, "{}", r.message);
+        assert!(
+            r.message
+                .starts_with("a known failure that cannot be evaluated: metric impact_time_19"),
+            "{}",
+            r.message
+        );
     }
 }

@@ -629,8 +629,10 @@ pub fn compare_runs(
         let (e, f) = (&ev[si], &er[si]);
         let lab = s.label.as_str();
         // Rotation-history errors.
+        // Normalised by the reference's largest |phi|; not at all where the reference does not
+        // rock (below the impacts' noise floor, a ratio of round-off).
         let scale = r.iter().fold(0.0f64, |m, p| m.max(p.abs()));
-        let norm = |x: f64| (scale > 0.0).then(|| x / scale);
+        let norm = |x: f64| (scale > crate::events::NOISE_FLOOR).then(|| x / scale);
         let mut err_rows = |suffix: &str, n: usize| {
             let (rms, max) = grid::rms_and_max(a, r, n);
             push(
@@ -695,6 +697,8 @@ pub fn compare_runs(
                 }
                 push(lab, format!("impact_time_{}", k + 1), x, y, "s");
             }
+            // No impact in either: no instant differs.
+            let max_diff = max_diff.or((ni == 0 && nr == 0).then_some(0.0));
             push(lab, "impact_time_max_abs_diff".into(), max_diff, None, "s");
             let n_peaks = e
                 .peaks
@@ -860,6 +864,42 @@ pub fn compare_runs(
 }
 
 /// Whether `name` is a metric [`compare_runs`] can produce (for checking gate files).
+/// Whether metric `name` is a quantity of the run beside the same quantity of the reference
+/// (`impact_time_3`, `rest_time_1e-4`, ...), rather than a difference between the two
+/// (`rotation_rms_error`, `impact_time_max_abs_diff`, ...): a row of it without the
+/// reference's value (fewer impacts in the reference) compares with nothing.
+pub fn is_paired_metric(name: &str) -> bool {
+    const PAIRED: &[&str] = &[
+        "impact_count",
+        "housner_restitution",
+        "overturned",
+        "overturn_time",
+        "max_abs_rotation",
+        "energy_initial",
+        "energy_final",
+        "displacement_x_final",
+        "max_drift",
+        "displaced",
+        "overturned_count",
+        "displaced_count",
+        "wall_time",
+        "steps",
+        "solver_iterations",
+    ];
+    PAIRED.contains(&name)
+        || [
+            "impact_time_",
+            "peak_amplitude_",
+            "restitution_",
+            "rest_time_",
+        ]
+        .iter()
+        .any(|p| {
+            name.strip_prefix(p)
+                .is_some_and(|k| k.starts_with(|c: char| c.is_ascii_digit()))
+        }) && is_known_metric(name)
+}
+
 pub fn is_known_metric(name: &str) -> bool {
     const FIXED: &[&str] = &[
         "impact_count",

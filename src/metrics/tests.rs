@@ -645,3 +645,22 @@ fn a_reference_file_needs_two_finite_samples_of_the_scenes_blocks() {
         "ref.csv: time 0.001 s is repeated at sample 2; a reference's times must increase (which of its states would hold there?)"
     );
 }
+
+/// A reference that does not rock (its largest |phi| at round-off, below the impacts' noise
+/// floor) has no normalised error: a ratio of round-off said 1e12 %. With no impact in either
+/// run, no impact instant differs.
+#[test]
+fn a_still_reference_has_no_normalised_error_and_no_impact_differs() {
+    let sc = scene(ONE_BLOCK);
+    let t = times(1.0, 1e-3);
+    let still: Vec<f64> = t.iter().map(|x| 1e-16 * (7.0 * x).sin()).collect();
+    let small: Vec<f64> = t.iter().map(|x| 3e-6 * (3.0 * x).sin().abs()).collect();
+    let reference = synthetic("ref", &["block"], &t, &[still]);
+    let run = synthetic("run", &["block"], &t, &[small]);
+    let rows = compare_runs(&sc, &run, &reference, &MetricSettings::default()).unwrap();
+    assert!(get(&rows, "block", "rotation_rms_error").0.unwrap() > 1e-6);
+    assert_eq!(get(&rows, "block", "rotation_rms_error_normalised").0, None);
+    assert_eq!(get(&rows, "block", "rotation_max_error_normalised").0, None);
+    assert_eq!(get(&rows, "block", "impact_count"), (Some(0.0), Some(0.0)));
+    assert_eq!(get(&rows, "block", "impact_time_max_abs_diff").0, Some(0.0));
+}

@@ -440,7 +440,8 @@ fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows
     let mut out = Vec::new();
     for e in &engines {
         let mut cells = Vec::new();
-        // History before the first impact.
+        // History before the first impact; on a block whose reference does not rock (no
+        // normalised error), the RMS error itself against the impacts' noise floor.
         let worst = measured
             .iter()
             .filter_map(|s| {
@@ -450,8 +451,30 @@ fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows
                     .map(|v| (v, b))
             })
             .max_by(|a, b| a.0.total_cmp(&b.0));
-        cells.push(match worst {
-            Some((v, b)) => VCell::new(
+        let still = measured
+            .iter()
+            .filter(|s| {
+                rows.v(e, &s.label, "rotation_rms_error_normalised")
+                    .is_none()
+            })
+            .filter_map(|s| {
+                let b = s.label.as_str();
+                rows.v(e, b, "rotation_rms_error").map(|v| (v, b))
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let floor = crate::events::NOISE_FLOOR;
+        cells.push(match (worst, still) {
+            (_, Some((v, b))) if v > floor => VCell::new(
+                Verdict::Differs,
+                "differs",
+                format!("RMS {v:.3e} rad where the reference does not rock ({b}: max |φ| ≤ {floor:e} rad)"),
+            ),
+            (None, Some((v, b))) => VCell::new(
+                Verdict::Agree,
+                "agrees",
+                format!("neither rocks: RMS {v:.1e} ≤ {floor:e} rad ({b})"),
+            ),
+            (Some((v, b)), _) => VCell::new(
                 if v <= WORDING_NORMALISED_RMS {
                     Verdict::Agree
                 } else {
@@ -472,7 +495,7 @@ fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows
                     }
                 ),
             ),
-            None => VCell::new(Verdict::Info, "not compared", ""),
+            (None, None) => VCell::new(Verdict::Info, "not compared", ""),
         });
         // Impact instants.
         let mut counts_differ = Vec::new();
@@ -526,8 +549,10 @@ fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows
                 ),
             )
         });
-        // Peaks.
+        // Peaks (relative to the reference's; a reference peak below the impacts' noise floor
+        // is no rocking to compare with).
         let mut worst: Option<(f64, String)> = None;
+        let mut not_rocking: Option<String> = None;
         for s in &measured {
             let b = s.label.as_str();
             let n = rows.count(None, b, "peak_amplitude_").min(VERDICT_PEAKS);
@@ -536,8 +561,16 @@ fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows
                 let m = format!("peak_amplitude_{k}");
                 let Some(y) = rows.r(b, &m) else { continue };
                 let d = match rows.v(e, b, &m) {
-                    Some(x) if y.abs() > 0.0 => (x - y).abs() / y.abs(),
-                    _ => f64::INFINITY,
+                    Some(x) if y.abs() > floor => (x - y).abs() / y.abs(),
+                    Some(x) if x.abs() <= floor => 0.0,
+                    Some(x) => {
+                        not_rocking.get_or_insert(format!(
+                            "peak {k} of {b}: {x:.3e} rad where the reference does not rock \
+                             ({y:.1e} rad)"
+                        ));
+                        0.0
+                    }
+                    None => f64::INFINITY,
                 };
                 if worst.as_ref().is_none_or(|w| d > w.0) {
                     worst = Some((d, format!("peak {k} of {b}")));
@@ -546,6 +579,9 @@ fn verdict_rows(c: &Comparison, rows: &Rows, series: &[Series]) -> verdict::Rows
         }
         let tol = format!("{:.0} %", 100.0 * VERDICT_PEAK_RELATIVE);
         cells.push(match worst {
+            _ if not_rocking.is_some() => {
+                VCell::new(Verdict::Differs, "differs", not_rocking.unwrap_or_default())
+            }
             None => VCell::new(Verdict::Info, "not compared", "no peak in the reference"),
             Some((d, w)) if d.is_infinite() => {
                 VCell::new(Verdict::Differs, "differs", format!("{w}: missing"))
