@@ -20,8 +20,9 @@ pub fn parse_acceleration(format: RecordFormat, text: &str) -> Result<(Samples, 
 }
 
 /// The factor to m/s^2 of the values of an `.AT2` record, from its third line (`ACCELERATION
-/// TIME SERIES IN UNITS OF G`): g where it names no units; cm/s^2 and m/s^2 read as such; a
-/// velocity or displacement series, or other units, an error.
+/// TIME SERIES IN UNITS OF G`, or units named otherwise: `IN CM/SEC/SEC`, `(GAL)`): g where it
+/// names no units; cm/s^2 and m/s^2 read as such; a velocity or displacement series, other
+/// units, or several, an error.
 fn at2_unit(text: &str) -> Result<f64, String> {
     let Some(line) = text.trim_start_matches('\u{feff}').lines().nth(2) else {
         return Ok(STANDARD_GRAVITY); // too short: parse_at2 says so
@@ -36,23 +37,53 @@ fn at2_unit(text: &str) -> Result<f64, String> {
             ));
         }
     }
-    let Some(at) = up.find("UNITS OF") else {
-        return Ok(STANDARD_GRAVITY);
+    let normalise = |token: &str| {
+        token
+            .trim_matches(['.', ',', ';', ':', '(', ')', '[', ']'])
+            .replace("SEC", "S")
+            .replace("**", "^")
     };
-    let unit: String = up[at + "UNITS OF".len()..]
-        .split_whitespace()
-        .next()
-        .unwrap_or("")
-        .trim_end_matches(['.', ',', ';'])
-        .replace("SEC", "S")
-        .replace("**", "^");
-    match unit.as_str() {
-        "G" => Ok(STANDARD_GRAVITY),
-        "CM/S/S" | "CM/S2" | "CM/S^2" | "GAL" | "GALS" => Ok(0.01),
-        "MM/S/S" | "MM/S2" | "MM/S^2" => Ok(0.001),
-        "M/S/S" | "M/S2" | "M/S^2" => Ok(1.0),
-        _ => Err(format!(
-            "line 3: units `{unit}`: expected an acceleration in G, CM/S/S, MM/S/S or M/S/S"
+    let factor = |unit: &str| match unit {
+        "G" => Some(STANDARD_GRAVITY),
+        "CM/S/S" | "CM/S2" | "CM/S^2" | "GAL" | "GALS" => Some(0.01),
+        "MM/S/S" | "MM/S2" | "MM/S^2" => Some(0.001),
+        "M/S/S" | "M/S2" | "M/S^2" => Some(1.0),
+        _ => None,
+    };
+    let unknown = |unit: &str| {
+        format!("line 3: units `{unit}`: expected an acceleration in G, CM/S/S, MM/S/S or M/S/S")
+    };
+    if let Some(at) = up.find("UNITS OF") {
+        let unit = normalise(
+            up[at + "UNITS OF".len()..]
+                .split_whitespace()
+                .next()
+                .unwrap_or(""),
+        );
+        return factor(&unit).ok_or_else(|| unknown(&unit));
+    }
+    // Units named otherwise (`IN CM/SEC/SEC`, `UNITS: GAL`, `(GAL)`): every word that reads
+    // as units; g only where none does (a line in cm/s^2 read as g is 980 times too strong).
+    let words: Vec<String> = up
+        .split(|c: char| c.is_whitespace() || matches!(c, ':' | '(' | ')' | ',' | '='))
+        .map(normalise)
+        .filter(|w| !w.is_empty())
+        .collect();
+    let named: Vec<&String> = words
+        .iter()
+        .filter(|w| factor(w).is_some() || w.contains('/') || w.ends_with("^2"))
+        .collect();
+    match named.as_slice() {
+        [] => Ok(STANDARD_GRAVITY),
+        [unit] => factor(unit).ok_or_else(|| unknown(unit)),
+        several => Err(format!(
+            "line 3: `{}`: names several units ({}): write one, `UNITS OF G` for instance",
+            line.trim(),
+            several
+                .iter()
+                .map(|w| w.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         )),
     }
 }
@@ -323,6 +354,20 @@ mod tests {
         ] {
             assert_eq!(unit(line).unwrap().1, factor, "{line}");
         }
+        // Units named without `UNITS OF` are read too (they were taken for g).
+        for (line, factor) in [
+            ("ACCELERATION TIME SERIES IN CM/SEC/SEC", 0.01),
+            ("ACCELERATION TIME SERIES, UNITS: CM/S/S", 0.01),
+            ("ACCELERATION (GAL)", 0.01),
+            ("ACCELERATION IN M/S^2", 1.0),
+            ("ACCELERATION TIME SERIES", STANDARD_GRAVITY),
+        ] {
+            assert_eq!(unit(line).unwrap().1, factor, "{line}");
+        }
+        let e = unit("ACCELERATION TIME SERIES IN FT/S/S").unwrap_err();
+        assert!(e.contains("units `FT/S/S`"), "{e}");
+        let e = unit("ACCELERATION IN G (CM/S/S)").unwrap_err();
+        assert!(e.contains("names several units (G, CM/S/S)"), "{e}");
         let e = unit("VELOCITY TIME SERIES IN UNITS OF CM/S").unwrap_err();
         assert!(e.contains("a velocity series"), "{e}");
         let e = unit("DISPLACEMENT TIME SERIES IN UNITS OF CM").unwrap_err();
