@@ -641,3 +641,57 @@ fn animate_refuses_what_it_would_draw_wrong() {
     assert!(String::from_utf8_lossy(&o.stdout).is_empty());
     assert!(!page.exists());
 }
+
+/// A scene given by a relative path names its record in the run's scene.json by an absolute
+/// path: the run directory animates, and its scene.json runs again to the same trajectory,
+/// from anywhere (the path was relative to where the run was started).
+#[test]
+fn a_runs_scene_names_its_record_from_anywhere() {
+    let dir = tmp("relative");
+    std::fs::create_dir_all(dir.join("s")).unwrap();
+    let mut csv = String::from("time,acceleration\n");
+    for k in 0..=300 {
+        let t = k as f64 * 1e-3;
+        csv += &format!("{t},{}\n", 3.0 * (20.0 * t).sin());
+    }
+    std::fs::write(dir.join("s/rec.csv"), csv).unwrap();
+    std::fs::write(
+        dir.join("s/scene.toml"),
+        "name = \"r\"\nduration = 0.3\n[[blocks]]\nname = \"b\"\nwidth = 0.5\nheight = 2.0\n\
+         [excitation.horizontal]\nkind = \"record\"\nfile = \"rec.csv\"\n",
+    )
+    .unwrap();
+    run_ok(bin().current_dir(&dir).args([
+        "run",
+        "s/scene.toml",
+        "--engine",
+        "native",
+        "--quiet",
+        "--out",
+        "o",
+    ]));
+    let scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("o/scene.json")).unwrap()).unwrap();
+    let file = scene["excitation"]["horizontal"]["file"].as_str().unwrap();
+    assert!(Path::new(file).is_absolute(), "{file}");
+    run_ok(
+        bin()
+            .arg("animate")
+            .arg(dir.join("o"))
+            .arg("--out")
+            .arg(dir.join("a.html")),
+    );
+    run_ok(
+        bin()
+            .args(["run"])
+            .arg(dir.join("o/scene.json"))
+            .args(["--engine", "native", "--quiet", "--out"])
+            .arg(dir.join("again")),
+    );
+    let sha = |p: &str| {
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join(p)).unwrap()).unwrap();
+        s["trajectory_sha256"].as_str().unwrap().to_string()
+    };
+    assert_eq!(sha("o/summary.json"), sha("again/summary.json"));
+}

@@ -508,7 +508,13 @@ impl Scene {
                 .flatten()
             {
                 if let MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } = m {
-                    *file = self.base_dir.join(&*file).display().to_string();
+                    // Absolute: a scene read through a relative path names its records from
+                    // wherever its JSON is read next (a run directory's scene.json).
+                    let path = self.base_dir.join(&*file);
+                    *file = std::path::absolute(&path)
+                        .unwrap_or(path)
+                        .display()
+                        .to_string();
                 }
             }
         }
