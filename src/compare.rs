@@ -326,6 +326,18 @@ pub fn compare_with(
     }) {
         return Err(CompareError::Refused(reason.clone()));
     }
+    // One motion for every engine: a record file changed between two engines' runs (each run
+    // checks its own) would compare runs of two motions.
+    let mut read = runs
+        .iter()
+        .filter_map(|r| r.summary.as_ref().map(|s| (&r.engine, &s.record_sha256)));
+    if let Some((first, records)) = read.next()
+        && let Some((other, _)) = read.find(|(_, r)| *r != records)
+    {
+        return Err(CompareError::Refused(format!(
+            "the record files changed between the {first} and {other} runs: compare again"
+        )));
+    }
 
     let (reference_run, reference) = match &opts.reference {
         ReferenceSpec::File(p) => (file_ref, p.display().to_string()),

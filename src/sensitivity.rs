@@ -347,8 +347,7 @@ impl Study {
         let text = std::fs::read_to_string(&self.scene)
             .with_context(|| format!("cannot read {}", self.scene.display()))?;
         let base = load_scene_with_overrides(&self.scene, &self.sets)?;
-        let records = serde_json::to_string(&crate::gates::cache::record_hashes(&base))
-            .expect("hashes serialise");
+        let records = serde_json::to_string(&base.record_hashes()).expect("hashes serialise");
         let (key, value) = &self.perturb;
         Ok(format!(
             "# sensitivity: scene {:016x}, records {:016x}, {key} = {value:?} x (1 + k {:e}), sets [{}], rockbench {} (sources {})",

@@ -58,6 +58,10 @@ pub struct Summary {
     /// summaries written before it was recorded.
     #[serde(default)]
     pub scene_sha256: String,
+    /// The SHA-256 of each record file the run read, by path ([`Scene::record_hashes`]),
+    /// unchanged over the run.
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub record_sha256: serde_json::Map<String, serde_json::Value>,
     /// Every setting that changes the answer, as used.
     pub settings: serde_json::Value,
     pub status: String,
@@ -178,6 +182,7 @@ impl Summary {
             scene: scene.name.clone(),
             scene_file: scene.source.clone(),
             scene_sha256: scene.sha256(),
+            record_sha256: serde_json::Map::new(),
             settings: out.settings.clone(),
             status: "ok".into(),
             duration: scene.duration,

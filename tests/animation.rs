@@ -694,4 +694,16 @@ fn a_runs_scene_names_its_record_from_anywhere() {
         s["trajectory_sha256"].as_str().unwrap().to_string()
     };
     assert_eq!(sha("o/summary.json"), sha("again/summary.json"));
+    // The record changed since the run: its ground is not the run's.
+    std::fs::write(dir.join("s/rec.csv"), "time,acceleration\n0,0\n0.3,1\n").unwrap();
+    let o = bin()
+        .arg("animate")
+        .arg(dir.join("o"))
+        .arg("--out")
+        .arg(dir.join("b.html"))
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(err.contains("rec.csv: not the record the run in"), "{err}");
+    assert!(!dir.join("b.html").exists());
 }

@@ -182,7 +182,10 @@ fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
         &dir.join("b"),
         &["--checkpoint", ck_arg],
     );
-    one_error(&other, "written for another scene or other --set overrides");
+    one_error(
+        &other,
+        "written for another scene, other --set overrides or other record files",
+    );
     assert!(!dir.join("b").exists());
     // Another engine.
     let rapier = run(
@@ -288,4 +291,44 @@ fn samples_beyond_the_checkpoint_are_dropped_and_missing_or_damaged_ones_are_one
         "{err}"
     );
     assert!(!dir.join("damaged").exists());
+}
+
+/// A record changed between a checkpoint and its resumption would splice two records into one
+/// run: the resumption is refused, naming what differs.
+#[test]
+fn a_checkpoint_resumes_only_with_the_records_it_was_written_with() {
+    let dir = common::tmp("rb-checkpoint", "record");
+    let record = |scale: f64| {
+        let mut csv = String::from("time,acceleration\n");
+        for k in 0..=2000 {
+            let t = k as f64 * 1e-3;
+            csv += &format!("{t},{}\n", scale * (12.0 * t).sin());
+        }
+        csv
+    };
+    std::fs::write(dir.join("rec.csv"), record(4.0)).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(
+        &path,
+        "name = \"r\"\nduration = 1.0\n[[blocks]]\nname = \"b\"\nwidth = 0.5\nheight = 2.0\n\
+         [excitation.horizontal]\nkind = \"record\"\nfile = \"rec.csv\"\n",
+    )
+    .unwrap();
+    let ck = dir.join("run.ckpt");
+    let ck_arg = ck.to_str().unwrap();
+    let stopped = run(
+        &path,
+        &[],
+        &dir.join("a"),
+        &["--checkpoint", ck_arg, "--stop-after-step", "300"],
+    );
+    assert!(!stopped.status.success());
+    assert!(ck.exists());
+    std::fs::write(dir.join("rec.csv"), record(0.8)).unwrap();
+    let resumed = run(&path, &[], &dir.join("a"), &["--checkpoint", ck_arg]);
+    assert!(!resumed.status.success());
+    let err = String::from_utf8_lossy(&resumed.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("other record files"), "{err}");
+    assert!(!dir.join("a").exists());
 }

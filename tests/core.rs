@@ -518,3 +518,58 @@ fn housner_refuses_a_ground_falling_faster_than_g_and_notes_a_drag_beyond_fricti
     assert!(drag(3.0, -9.5));
     assert!(!drag(3.0, 0.0));
 }
+
+/// A record file changed during a run, or between two engines' runs of a comparison, would
+/// give an answer of two motions: each is refused, naming the record.
+#[test]
+fn a_record_changed_while_it_is_read_is_refused() {
+    use rockbench::compare::{CompareOptions, ReferenceSpec, compare_with, run_engine};
+    let dir = common::tmp("rb-record-changed", "record");
+    let record = |scale: f64| {
+        let mut csv = String::from("time,acceleration\n");
+        for k in 0..=500 {
+            let t = k as f64 * 1e-3;
+            csv += &format!("{t},{}\n", scale * (12.0 * t).sin());
+        }
+        csv
+    };
+    let file = dir.join("rec.csv");
+    std::fs::write(&file, record(4.0)).unwrap();
+    let p = dir.join("scene.toml");
+    std::fs::write(
+        &p,
+        "name = \"r\"\nduration = 0.5\n[[blocks]]\nname = \"b\"\nwidth = 0.5\nheight = 2.0\n\
+         [excitation.horizontal]\nkind = \"record\"\nfile = \"rec.csv\"\n",
+    )
+    .unwrap();
+    let s = load_scene_with_overrides(&p, &[]).unwrap();
+    let native = engine_by_name("native").unwrap();
+    let (_, summary) = run_timed(native.as_ref(), &s).unwrap();
+    assert_eq!(summary.record_sha256.len(), 1);
+    let e = rockbench::engines::timed("native", &s, || {
+        std::fs::write(&file, record(1.0)).unwrap();
+        native.run(&s)
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("rec.csv: the record changed while the native run read it"),
+        "{e}"
+    );
+    let mut opts = CompareOptions::new(
+        vec!["native".into(), "housner".into()],
+        ReferenceSpec::Engine("housner".into()),
+    );
+    opts.jobs = 1;
+    let runner = |name: &str, scene: &rockbench::scene::Scene| {
+        if name == "housner" {
+            std::fs::write(&file, record(2.0)).unwrap();
+        }
+        run_engine(name, scene)
+    };
+    let e = compare_with(&s, &opts, &runner).err().unwrap().to_string();
+    assert!(
+        e.contains("the record files changed between the native and housner runs"),
+        "{e}"
+    );
+}

@@ -155,6 +155,21 @@ fn check_run(
             );
         }
     }
+    // The ground drawn is the records' as they are now: they must be those the run read.
+    if !summary.record_sha256.is_empty() {
+        let now = scene.record_hashes();
+        if let Some((file, _)) = summary
+            .record_sha256
+            .iter()
+            .find(|(f, h)| now.get(*f) != Some(*h))
+        {
+            bail!(
+                "{file}: not the record the run in {} read (its sha256 differs from the summary's \
+                 record_sha256): the ground drawn would not be the run's",
+                dir.display()
+            );
+        }
+    }
     let end = tr.t.last().copied().unwrap_or(0.0);
     let slack = 0.5 * summary.output_interval.max(0.0) + 1e-9 * scene.duration.max(1.0);
     if (end - scene.duration).abs() > slack {

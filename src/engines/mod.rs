@@ -144,23 +144,33 @@ pub fn run_timed_reporting(
     })
 }
 
-/// Time `run`, a run of `engine` on `scene`, check its trajectory is finite and build its
-/// summary.
+/// Time `run`, a run of `engine` on `scene`, check its trajectory is finite and its record files
+/// unchanged over it, and build its summary (with their SHA-256).
 pub fn timed(
     engine: &'static str,
     scene: &Scene,
     run: impl FnOnce() -> Result<RunOutput, EngineError>,
 ) -> Result<(RunOutput, Summary), EngineError> {
+    let records = scene.record_hashes();
     let start = Instant::now();
     let out = run()?;
     let wall = start.elapsed().as_secs_f64();
+    let after = scene.record_hashes();
+    if let Some((file, _)) = records.iter().find(|(f, h)| after.get(*f) != Some(*h)) {
+        return Err(EngineError::Io(format!(
+            "{file}: the record changed while the {engine} run read it: run again"
+        )));
+    }
     if !out.trajectory.is_finite() {
         return Err(EngineError::Failed {
             engine,
             message: "the trajectory contains NaN or infinity".into(),
         });
     }
-    let summary = Summary::build(scene, engine, &out, wall);
+    let summary = Summary {
+        record_sha256: records,
+        ..Summary::build(scene, engine, &out, wall)
+    };
     Ok((out, summary))
 }
 

@@ -64,7 +64,15 @@ impl NativeEngine {
         let names: Vec<String> = scene.blocks.iter().map(|b| b.name.clone()).collect();
         let mut tr = Trajectory::new(&names);
         tr.push(0.0, &stepper.relative_states(&state));
-        let scene_text = checkpointing.map(|_| scene.to_json().to_string());
+        // The scene as run and the bytes of its records: a record changed between a checkpoint
+        // and its resumption would splice two records into one run.
+        let scene_text = checkpointing.map(|_| {
+            format!(
+                "{}\n{}",
+                scene.to_json(),
+                serde_json::Value::Object(scene.record_hashes())
+            )
+        });
         let mut first = 1;
         let mut still = 0u64;
         let mut wall_before = 0.0;

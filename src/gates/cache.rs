@@ -3,7 +3,7 @@
 use crate::compare::{EngineRun, Status, run_engine};
 use crate::digest::sha256_hex;
 use crate::engines::RunOutput;
-use crate::scene::{MotionSpec, Scene};
+use crate::scene::Scene;
 use crate::summary::Summary;
 use crate::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
@@ -36,32 +36,11 @@ pub fn key_json(engine: &str, scene: &Scene) -> serde_json::Value {
         "format": CACHE_FORMAT,
         "engine": engine,
         "scene": scene.to_json(),
-        "record_files": record_hashes(scene),
+        "record_files": scene.record_hashes(),
         "rockbench_version": env!("CARGO_PKG_VERSION"),
         "rockbench_build": build_id(),
         "python": crate::engines::external::interpreter_id(engine),
     })
-}
-
-/// The sha256 of every record file a scene reads, by path (a file that cannot be read says
-/// so): what a scene's text alone does not fix.
-pub fn record_hashes(scene: &Scene) -> serde_json::Map<String, serde_json::Value> {
-    let mut records = serde_json::Map::new();
-    if let Some(exc) = &scene.excitation {
-        for m in [exc.horizontal.as_ref(), exc.vertical.as_ref()]
-            .into_iter()
-            .flatten()
-        {
-            if let MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } = m {
-                let p = scene.base_dir.join(file);
-                let h = std::fs::read(&p)
-                    .map(|b| sha256_hex(&b))
-                    .unwrap_or_else(|e| format!("unreadable: {e}"));
-                records.insert(p.display().to_string(), h.into());
-            }
-        }
-    }
-    records
 }
 
 /// The content hash of a run.

@@ -113,7 +113,7 @@ impl Checkpoint {
         }
         if c.scene != scene {
             return Err(format!(
-                "{}: written for another scene or other --set overrides",
+                "{}: written for another scene, other --set overrides or other record files",
                 path.display()
             ));
         }

@@ -521,6 +521,28 @@ impl Scene {
         serde_json::to_value(&scene).expect("a scene always serialises")
     }
 
+    /// The SHA-256 of every record file the scene reads, by absolute path (a file that cannot
+    /// be read says so): what the scene's text alone does not fix.
+    pub fn record_hashes(&self) -> serde_json::Map<String, serde_json::Value> {
+        let mut records = serde_json::Map::new();
+        if let Some(exc) = &self.excitation {
+            for m in [exc.horizontal.as_ref(), exc.vertical.as_ref()]
+                .into_iter()
+                .flatten()
+            {
+                if let MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } = m {
+                    let p = self.base_dir.join(file);
+                    let p = std::path::absolute(&p).unwrap_or(p);
+                    let h = std::fs::read(&p)
+                        .map(|b| crate::digest::sha256_hex(&b))
+                        .unwrap_or_else(|e| format!("unreadable: {e}"));
+                    records.insert(p.display().to_string(), h.into());
+                }
+            }
+        }
+        records
+    }
+
     /// The SHA-256 of the scene as [`Scene::to_json`] gives it (a `scene.json` written from
     /// it has the same: [`json_sha256`]).
     pub fn sha256(&self) -> String {
