@@ -397,4 +397,4 @@ bench-colonnades: records
 # The work-precision benchmark of the slender block (every engine, step sizes, native variants).
 bench: build .venv
 	$(BIN) bench validation/scenes/housner-slender.toml --engines native,rapier,mujoco,pybullet,housner --dt 2e-3,1e-3,5e-4,1e-4,5e-5,2e-5 --repeat 3 --reference housner --set duration=3.0 --out out/bench/housner-slender
-	$(BIN) bench validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --dt 2e-3,1e-3,5e-4 --repeat 3 --reference native --set duration=4.0 --out out/bench/two-block
+	$(BIN) bench validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet --dt 2e-3,1e-3,5e-4 --repeat 3 --reference reference-data/two-block-free-rocking/trajectory.csv --set duration=4.0 --out out/bench/two-block

@@ -173,6 +173,13 @@ pub fn converge(
     let base = load_scene_with_overrides(scene_path, &opts.overrides).map_err(|e| e.to_string())?;
     crate::bench::check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
     crate::bench::check_series_sets(&opts.engines, &opts.overrides, false)?;
+    if let ConvergeReference::Common(spec) = &opts.reference {
+        crate::bench::check_reference_outside(
+            &opts.engines,
+            spec,
+            "or `self` (each engine's finest run)",
+        )?;
+    }
     let common = match &opts.reference {
         ConvergeReference::Common(spec) => Some(reference_run(spec, &base, runner)?),
         ConvergeReference::Finest => None,

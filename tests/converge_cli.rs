@@ -119,3 +119,33 @@ fn a_benchmark_written_again_removes_an_earlier_paper() {
     assert!(!out.join("paper").exists());
     assert!(out.join("work_precision.csv").is_file());
 }
+
+/// A reference engine that is also studied, with a step: its run at the scene's step is no
+/// reference for its own steps (native against native gave order 0.99 where it is 2.0). One
+/// line, nothing written.
+#[test]
+fn a_studied_engine_is_no_reference_for_its_own_steps() {
+    let out = common::tmp("rb-converge", "self-reference");
+    let o = common::bin()
+        .args(["converge"])
+        .arg(common::root().join("validation/scenes/housner-slender.toml"))
+        .args([
+            "--engines",
+            "native",
+            "--dt",
+            "2e-3,1e-3,5e-4",
+            "--reference",
+            "native",
+        ])
+        .args(["--no-cache", "--out"])
+        .arg(out.join("c"))
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(
+        err.contains("--reference native: one of the engines studied"),
+        "{err}"
+    );
+    assert!(err.contains("or `self`"), "{err}");
+    assert!(!out.join("c").exists());
+}

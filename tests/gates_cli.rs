@@ -180,6 +180,12 @@ fn bad_gate_files_are_one_line_naming_the_field() {
             "include = [\"one.toml\", \"one.toml\"]\n".to_string(),
             "include[1]: ",
         ),
+        // An error up to an impact the gates do not compute (it was accepted, then never
+        // produced).
+        (
+            gate_toml("a", "rotation_rms_error_to_impact_2", 1e-3, ""),
+            "gate[0] (a).metric: `rotation_rms_error_to_impact_2`: gates compute the errors up to impacts 1 and 3, not 2",
+        ),
         (
             gate_toml("a", "impact_time_1", 1e-3, "") + &gate_toml("a ", "impact_time_2", 1e-3, ""),
             "gate[1] (a ).name: another gate has this name",

@@ -225,6 +225,27 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
                 ),
             ));
         }
+        // The errors up to an impact are computed up to the first and the third.
+        let up_to = metrics::MetricSettings::default().up_to_impacts;
+        if let Some(k) = g
+            .metric
+            .split_once("_to_impact_")
+            .and_then(|(_, k)| k.parse::<usize>().ok())
+            && !up_to.contains(&k)
+        {
+            return Err(err(
+                at("metric"),
+                format!(
+                    "`{}`: gates compute the errors up to impacts {}, not {k}",
+                    g.metric,
+                    up_to
+                        .iter()
+                        .map(|k| k.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" and ")
+                ),
+            ));
+        }
         if !(g.tolerance.is_finite() && g.tolerance >= 0.0) {
             return Err(err(
                 at("tolerance"),

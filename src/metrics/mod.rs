@@ -23,7 +23,8 @@
 //!   `impact_time_K` (s, K = 1, 2, ...; one side empty when unmatched),
 //!   `impact_time_max_abs_diff` (s, over the matched pairs).
 //! - `peak_amplitude_K` (rad): largest |phi| after impact K (K = 0: before the first impact).
-//!   A last stretch that is still growing when the history ends is not a peak.
+//!   A last stretch that is still growing when the history ends is not a peak, nor a first
+//!   stretch that a window starting later cuts while it falls back (its peak came before).
 //! - `restitution_K`: effective restitution of impact K from the peaks before and after it
 //!   through energy, `sqrt(E(A_K) / E(A_{K-1}))` with `E(A) = cos(alpha - A) - cos(alpha)`
 //!   (the rise of the centroid of a block rocking on a fixed base, alpha = atan(B/H)); to be
@@ -252,6 +253,16 @@ fn series_events(
             && pk.len() > 1
         {
             pk.pop();
+        }
+        // Nor is a first stretch cut by a window that starts after the history, where it is
+        // already falling back (its largest |phi| at the window's first sample, the rate
+        // inward): its peak came before the window (one taken there made a restitution > 1).
+        if k0 > 0
+            && let (Some(first), Some(&t_start)) = (pk.first(), t.first())
+            && first.t <= t_start
+            && h.phi[0] * h.omega[0] < 0.0
+        {
+            pk.remove(0);
         }
         let energy = |a: f64| (alpha - a).cos() - alpha.cos();
         let rest: Vec<Option<f64>> = (1..=impacts.len())
@@ -933,7 +944,11 @@ pub fn is_known_metric(name: &str) -> bool {
     }
     // Impacts count from 1 (`impact_time_1` is the first); `07` is not a name the rows use.
     let number = |s: &str| s.parse::<u64>().is_ok_and(|k| k >= 1 && k.to_string() == s);
-    for p in ["impact_time_", "peak_amplitude_", "restitution_"] {
+    // Peaks count from 0 (`peak_amplitude_0`: before the first impact).
+    if let Some(k) = name.strip_prefix("peak_amplitude_") {
+        return k == "0" || number(k);
+    }
+    for p in ["impact_time_", "restitution_"] {
         if let Some(k) = name.strip_prefix(p) {
             return number(k);
         }
