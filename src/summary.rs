@@ -191,7 +191,17 @@ impl Summary {
                 .get("output_interval")
                 .and_then(serde_json::Value::as_f64)
                 .filter(|dt| dt.is_finite() && *dt > 0.0)
-                .or_else(|| sample_interval(t))
+                .or_else(|| {
+                    // The samples' times carry round-off: at the interval asked for within it,
+                    // they are at that interval.
+                    sample_interval(t).map(|gap| {
+                        if (gap - scene.output_interval).abs() <= 1e-9 * scene.output_interval {
+                            scene.output_interval
+                        } else {
+                            gap
+                        }
+                    })
+                })
                 .unwrap_or(scene.output_interval),
             wall_time_s,
             steps: out.steps,
