@@ -649,12 +649,7 @@ fn animate_refuses_what_it_would_draw_wrong() {
 fn a_runs_scene_names_its_record_from_anywhere() {
     let dir = tmp("relative");
     std::fs::create_dir_all(dir.join("s")).unwrap();
-    let mut csv = String::from("time,acceleration\n");
-    for k in 0..=300 {
-        let t = k as f64 * 1e-3;
-        csv += &format!("{t},{}\n", 3.0 * (20.0 * t).sin());
-    }
-    std::fs::write(dir.join("s/rec.csv"), csv).unwrap();
+    std::fs::write(dir.join("s/rec.csv"), common::sine_record(3.0, 20.0, 301)).unwrap();
     std::fs::write(
         dir.join("s/scene.toml"),
         "name = \"r\"\nduration = 0.3\n[[blocks]]\nname = \"b\"\nwidth = 0.5\nheight = 2.0\n\

@@ -298,14 +298,7 @@ fn samples_beyond_the_checkpoint_are_dropped_and_missing_or_damaged_ones_are_one
 #[test]
 fn a_checkpoint_resumes_only_with_the_records_it_was_written_with() {
     let dir = common::tmp("rb-checkpoint", "record");
-    let record = |scale: f64| {
-        let mut csv = String::from("time,acceleration\n");
-        for k in 0..=2000 {
-            let t = k as f64 * 1e-3;
-            csv += &format!("{t},{}\n", scale * (12.0 * t).sin());
-        }
-        csv
-    };
+    let record = |scale: f64| common::sine_record(scale, 12.0, 2001);
     std::fs::write(dir.join("rec.csv"), record(4.0)).unwrap();
     let path = dir.join("scene.toml");
     std::fs::write(

@@ -525,14 +525,7 @@ fn housner_refuses_a_ground_falling_faster_than_g_and_notes_a_drag_beyond_fricti
 fn a_record_changed_while_it_is_read_is_refused() {
     use rockbench::compare::{CompareOptions, ReferenceSpec, compare_with, run_engine};
     let dir = common::tmp("rb-record-changed", "record");
-    let record = |scale: f64| {
-        let mut csv = String::from("time,acceleration\n");
-        for k in 0..=500 {
-            let t = k as f64 * 1e-3;
-            csv += &format!("{t},{}\n", scale * (12.0 * t).sin());
-        }
-        csv
-    };
+    let record = |scale: f64| common::sine_record(scale, 12.0, 501);
     let file = dir.join("rec.csv");
     std::fs::write(&file, record(4.0)).unwrap();
     let p = dir.join("scene.toml");

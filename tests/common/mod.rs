@@ -236,3 +236,14 @@ impl rockbench::native::solver::ContactSolver for AlternatingError {
         self.inner.restore(state)
     }
 }
+
+/// A two-column acceleration record, `scale * sin(omega t)` m/s^2 every millisecond over
+/// `samples` samples.
+pub fn sine_record(scale: f64, omega: f64, samples: usize) -> String {
+    let mut csv = String::from("time,acceleration\n");
+    for k in 0..samples {
+        let t = k as f64 * 1e-3;
+        csv += &format!("{t},{}\n", scale * (omega * t).sin());
+    }
+    csv
+}
