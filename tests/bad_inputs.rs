@@ -166,3 +166,34 @@ fn set_indexes_the_blocks_array() {
     assert_eq!(set.blocks[0].width, 1.5);
     assert_eq!(set.blocks[1].width, plain.blocks[1].width);
 }
+
+/// `check --engine` asks the engines named whether they can model the scene: Housner's model
+/// is one block on a rigid base, so the two-block stack is one line naming the engine and why,
+/// while the slender block passes; an unknown engine is one line.
+#[test]
+fn check_asks_the_engines_named_whether_they_can_model_the_scene() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let check = |scene: &str, engines: &str| {
+        Command::new(env!("CARGO_BIN_EXE_rockbench"))
+            .arg("check")
+            .arg(root.join(scene))
+            .args(["--engine", engines])
+            .output()
+            .unwrap()
+    };
+    let o = check(
+        "validation/scenes/two-block-free-rocking.toml",
+        "native,housner",
+    );
+    let err = common::one_error_line(&o);
+    assert!(
+        err.contains("two-block-free-rocking.toml: engine housner cannot model this scene: "),
+        "{err}"
+    );
+    assert!(err.contains("2 blocks"), "{err}");
+    let o = check("validation/scenes/housner-slender.toml", "native,housner");
+    assert!(o.status.success(), "{o:?}");
+    let o = check("validation/scenes/housner-slender.toml", "bogus");
+    let err = common::one_error_line(&o);
+    assert!(err.contains("--engine: unknown engine `bogus`"), "{err}");
+}
