@@ -22,7 +22,8 @@
 //!   at the extremum: the zero of omega inside a sample interval, where the cubic Hermite
 //!   interpolant of (phi, omega) at its two ends peaks (local error O(h^4)); a parabola through
 //!   the three samples around the largest |phi| where the rate does not change sign; the
-//!   largest sample at the ends of a stretch.
+//!   largest sample at the ends of a stretch. The other blocks' impacts are kinks of the rate
+//!   too: no interpolant spans one; each side is extrapolated from its own end up to it.
 //! - **Rest time** at epsilon: the earliest time after which |phi| stays below epsilon to the
 //!   end of the history, extrapolated from the last sample at or above epsilon (`None` if the
 //!   last sample is not below it).
@@ -143,6 +144,49 @@ impl<'a> History<'a> {
             return (w[k] - w[k - 1]) / (t[k] - t[k - 1]);
         }
         0.0
+    }
+
+    /// d omega / dt at sample `k` from samples `k..hi` only: the mirror image of
+    /// [`Self::one_sided_acceleration`], for a history read backwards from `k`.
+    fn one_sided_acceleration_ahead(&self, k: usize, hi: usize) -> f64 {
+        let (t, w) = (self.t, self.omega);
+        if k + 2 < hi {
+            let h1 = t[k + 1] - t[k];
+            let h2 = t[k + 2] - t[k + 1];
+            if h1 > 0.0 && h2 > 0.0 {
+                return -w[k] * (2.0 * h1 + h2) / (h1 * (h1 + h2))
+                    + w[k + 1] * (h1 + h2) / (h1 * h2)
+                    - w[k + 2] * h1 / (h2 * (h1 + h2));
+            }
+        }
+        if k + 1 < hi && t[k + 1] > t[k] {
+            return (w[k + 1] - w[k]) / (t[k + 1] - t[k]);
+        }
+        0.0
+    }
+
+    /// The extremum in the direction `s` (the sign of the rotation) of
+    /// `phi_k + omega_k tau + a tau^2 / 2` for tau between 0 and `span` (either sign): its
+    /// stationary point where that lies inside, otherwise the end `span`. Returns (t, phi).
+    fn quadratic_extremum(&self, k: usize, span: f64, s: f64, a: f64) -> (f64, f64) {
+        let (p, w) = (self.phi[k], self.omega[k]);
+        let at = |tau: f64| (self.t[k] + tau, p + w * tau + 0.5 * a * tau * tau);
+        let end = at(span);
+        if a == 0.0 {
+            return end;
+        }
+        let tau = -w / a;
+        let inside = if span > 0.0 {
+            tau > 0.0 && tau < span
+        } else {
+            tau < 0.0 && tau > span
+        };
+        let stationary = at(tau);
+        if inside && s * stationary.1 > s * end.1 {
+            stationary
+        } else {
+            end
+        }
     }
 
     /// The time in `(t_k, t_next]` at which phi reaches `level`, extrapolated from sample `k`
@@ -267,8 +311,10 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
     out
 }
 
-/// Peak amplitudes around the given impacts (see the module docs).
-pub fn peaks(h: &History, impacts: &[f64]) -> Vec<Peak> {
+/// Peak amplitudes around the given impacts (see the module docs). `kinks` (sorted) are the
+/// other instants where the rate may jump: the impacts of the other blocks of the scene, whose
+/// impulses reach this block through its contacts. No interpolant is taken across one.
+pub fn peaks(h: &History, impacts: &[f64], kinks: &[f64]) -> Vec<Peak> {
     let t = h.t;
     // Sample ranges of the stretches between impacts.
     let mut out: Vec<Peak> = Vec::with_capacity(impacts.len() + 1);
@@ -279,14 +325,23 @@ pub fn peaks(h: &History, impacts: &[f64]) -> Vec<Peak> {
             k += 1;
         }
         if k > start {
-            out.push(stretch_peak(h, start, k, seg));
+            out.push(stretch_peak(h, start, k, seg, kinks));
         }
     }
     out
 }
 
+/// Every impact of the blocks whose impacts are given, in order: the instants where a rate may
+/// jump in every block touching them (the `kinks` of [`peaks`]).
+pub fn all_impacts<'a>(impacts: impl IntoIterator<Item = &'a [f64]>) -> Vec<f64> {
+    let mut all: Vec<f64> = impacts.into_iter().flatten().copied().collect();
+    all.sort_by(f64::total_cmp);
+    all.dedup();
+    all
+}
+
 /// The extremum of |phi| over samples `start..end`, one stretch between impacts.
-fn stretch_peak(h: &History, start: usize, end: usize, after_impact: usize) -> Peak {
+fn stretch_peak(h: &History, start: usize, end: usize, after_impact: usize, kinks: &[f64]) -> Peak {
     let (t, phi, w) = (h.t, h.phi, h.omega);
     let k = (start..end).fold(
         start,
@@ -299,9 +354,14 @@ fn stretch_peak(h: &History, start: usize, end: usize, after_impact: usize) -> P
         amplitude: phi[k].abs(),
     };
     let s = phi[k].signum();
+    // A kink strictly inside the interval (t_i, t_{i+1}).
+    let kink_in = |i: usize| -> Option<f64> {
+        let j = kinks.partition_point(|&x| x <= t[i]);
+        kinks.get(j).copied().filter(|&x| x < t[i + 1])
+    };
     // The rate changes sign from outward (s w > 0) to inward inside an adjacent interval.
     let hermite = |i: usize| -> Option<Peak> {
-        if i < start || i + 1 >= end {
+        if i < start || i + 1 >= end || kink_in(i).is_some() {
             return None;
         }
         let (w0, w1) = (s * w[i], s * w[i + 1]);
@@ -316,9 +376,42 @@ fn stretch_peak(h: &History, start: usize, end: usize, after_impact: usize) -> P
             amplitude: p.abs(),
         })
     };
+    // An interval holding a kink: each side extrapolated from its own end up to the kink.
+    let across = |i: usize| -> Option<Peak> {
+        if i < start || i + 1 >= end {
+            return None;
+        }
+        let tk = kink_in(i)?;
+        let before = h.quadratic_extremum(i, tk - t[i], s, h.one_sided_acceleration(i, start));
+        let after = h.quadratic_extremum(
+            i + 1,
+            tk - t[i + 1],
+            s,
+            h.one_sided_acceleration_ahead(i + 1, end),
+        );
+        let (tp, p) = if s * after.1 > s * before.1 {
+            after
+        } else {
+            before
+        };
+        Some(Peak {
+            after_impact,
+            t: tp,
+            phi: p,
+            amplitude: p.abs(),
+        })
+    };
+    let parabola = || {
+        let no_kink = k > start && k + 1 < end && kink_in(k - 1).is_none() && kink_in(k).is_none();
+        no_kink
+            .then(|| parabola_extremum(h, k, start, end, after_impact))
+            .flatten()
+    };
     let refined = hermite(k)
         .or_else(|| k.checked_sub(1).and_then(hermite))
-        .or_else(|| parabola_extremum(h, k, start, end, after_impact));
+        .or_else(|| across(k))
+        .or_else(|| k.checked_sub(1).and_then(across))
+        .or_else(parabola);
     match refined {
         Some(p) if p.amplitude >= sample.amplitude && p.phi.signum() == s => p,
         _ => sample,
@@ -551,7 +644,7 @@ mod tests {
         let t = grid(800, 1e-3);
         let (phi, omega) = sample(&t, |x| SQUARE.at(x));
         let h = History::new(&t, &phi, &omega);
-        let pk = peaks(&h, &imps);
+        let pk = peaks(&h, &imps, &[]);
         for k in 1..3 {
             let p = pk.iter().find(|p| p.after_impact == k).unwrap();
             let largest = phi
@@ -574,13 +667,40 @@ mod tests {
         }
     }
 
+    /// A rotation whose rate jumps from outward to inward at `tk`, inside a sample interval
+    /// (another block's impact): its peak is at the jump, extrapolated from either side.
+    #[test]
+    fn a_peak_at_a_kink_is_extrapolated_to_it_from_both_sides() {
+        let tk = 0.0503;
+        let f = |t: f64| {
+            let u = t - tk;
+            if t < tk {
+                (0.01 + 0.5 * u - 2.0 * u * u, 0.5 - 4.0 * u)
+            } else {
+                (0.01 - 0.3 * u - 1.0 * u * u, -0.3 - 2.0 * u)
+            }
+        };
+        let t: Vec<f64> = grid(16, 1e-3).iter().map(|t| 0.045 + t).collect();
+        let (phi, omega) = sample(&t, f);
+        assert!(phi.iter().all(|p| *p > 0.0));
+        let h = History::new(&t, &phi, &omega);
+        let with = peaks(&h, &[], &[tk]);
+        assert!(
+            (with[0].amplitude - 0.01).abs() < 1e-15 && (with[0].t - tk).abs() < 1e-15,
+            "{with:?}"
+        );
+        // Without the kink, the cubic through the jump (the rate's sign changes in it) misses.
+        let without = peaks(&h, &[], &[]);
+        assert!((without[0].amplitude - 0.01).abs() > 1e-5, "{without:?}");
+    }
+
     #[test]
     fn a_parabola_refines_a_peak_without_rates() {
         // Rates zero everywhere (a file without them): the parabola through the samples.
         let t = grid(101, 1e-2);
         let phi: Vec<f64> = t.iter().map(|&x| 1.0 - (x - 0.503).powi(2)).collect();
         let omega = vec![0.0; t.len()];
-        let pk = peaks(&History::new(&t, &phi, &omega), &[]);
+        let pk = peaks(&History::new(&t, &phi, &omega), &[], &[]);
         assert!((pk[0].amplitude - 1.0).abs() < 1e-12 && (pk[0].t - 0.503).abs() < 1e-12);
     }
 
@@ -703,7 +823,7 @@ mod tests {
         });
         let h = History::new(&t, &phi, &omega);
         let imp = impacts(&h, NOISE_FLOOR);
-        let pk = peaks(&h, &imp);
+        let pk = peaks(&h, &imp, &[]);
         assert_eq!(pk.len(), 3);
         for (k, want) in [0.2, 0.1, 0.05].iter().enumerate() {
             assert_eq!(pk[k].after_impact, k);

@@ -225,8 +225,9 @@ pub fn run_events(
                 .collect()
         })
         .collect();
+    let kinks = events::all_impacts(measured_impacts.iter().map(Vec::as_slice));
     all.iter()
-        .map(|s| series_events(scene, s, tr, &measured_impacts[s.block], window))
+        .map(|s| series_events(scene, s, tr, &measured_impacts[s.block], &kinks, window))
         .collect()
 }
 
@@ -235,6 +236,7 @@ fn series_events(
     s: &Series,
     tr: &Trajectory,
     impacts: &[f64],
+    kinks: &[f64],
     window: (f64, f64),
 ) -> SeriesEvents {
     // Samples inside the window.
@@ -246,7 +248,7 @@ fn series_events(
     let b = &scene.blocks[s.block];
     let alpha = b.critical_angle();
     let (peaks, restitution) = if s.measured {
-        let mut pk = events::peaks(&h, impacts);
+        let mut pk = events::peaks(&h, impacts, kinks);
         // A last stretch still growing at the end of the history is not a peak.
         if let (Some(last), Some(&t_end)) = (pk.last(), t.last())
             && last.t >= t_end
