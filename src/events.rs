@@ -189,6 +189,18 @@ impl<'a> History<'a> {
         }
     }
 
+    /// Where the extrapolation from sample `k` (acceleration from samples `lo..=k`) reaches
+    /// zero inside `(t_k, t_next]`, heading there from sample `k`'s side.
+    fn reaches_zero_between(&self, k: usize, next: usize, lo: usize) -> Option<f64> {
+        let (p, w) = (self.phi[k], self.omega[k]);
+        if p == 0.0 || p * w >= 0.0 {
+            return None;
+        }
+        let span = self.t[next] - self.t[k];
+        let a = self.one_sided_acceleration(k, lo);
+        smallest_root_in(p, w, 0.5 * a, span).map(|tau| self.t[k] + tau)
+    }
+
     /// The time in `(t_k, t_next]` at which phi reaches `level`, extrapolated from sample `k`
     /// with the acceleration from samples `lo..=k` (see the module docs); linear interpolation
     /// between samples `k` and `next` where the extrapolation finds no crossing.
@@ -300,6 +312,16 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
         } else if s != last_sign {
             if wave_max >= floor {
                 land(&mut out, last_idx, k, stretch_start.min(last_idx));
+            }
+            wave_max = 0.0;
+            stretch_start = k;
+        } else if p.abs() < floor
+            && let Some(tc) = h.reaches_zero_between(last_idx, k, stretch_start.min(last_idx))
+        {
+            // Landed and rebounded below the floor inside the interval: the half-wave ended
+            // at its crossing, and what follows on the same side is a new one.
+            if wave_max >= floor {
+                out.push(tc);
             }
             wave_max = 0.0;
             stretch_start = k;
@@ -692,6 +714,30 @@ mod tests {
         // Without the kink, the cubic through the jump (the rate's sign changes in it) misses.
         let without = peaks(&h, &[], &[]);
         assert!((without[0].amplitude - 0.01).abs() > 1e-5, "{without:?}");
+    }
+
+    /// A landing, its rebound and the block's settling inside one sample interval, the next
+    /// sample a hair above zero on the same side (the pedestal's landing at 4.8533 s in
+    /// `two-block-free-rocking`): the impact is where the half-wave reaches zero, not where the
+    /// block is next seen flat (1.6 ms late at 1 ms output).
+    #[test]
+    fn a_landing_rebounding_below_the_floor_within_an_interval_is_located_where_it_lands() {
+        let t = grid(8, 1e-3);
+        let mut phi: Vec<f64> = t.iter().map(|t| 3.5e-5 - 0.01 * t).collect();
+        let mut omega = vec![-0.01; 8];
+        (phi[4], omega[4]) = (3e-9, -3e-4);
+        for k in 5..8 {
+            (phi[k], omega[k]) = (-1.9e-17, 4e-19);
+        }
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        assert_eq!(imp.len(), 1, "{imp:?}");
+        assert!((imp[0] - 3.5e-3).abs() < 1e-12, "{imp:?}");
+        // Seen above the floor on the same side, the block turned back before zero: it lands
+        // after that sample.
+        phi[4] = 2e-5;
+        omega[4] = 1e-3;
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        assert!(imp.len() == 1 && imp[0] > 4e-3, "{imp:?}");
     }
 
     #[test]
