@@ -331,7 +331,8 @@ pub fn bench(
                         row.us_per_step = (s.steps > 0).then(|| 1e6 * wall / s.steps as f64);
                         row.engine_version = Some(out.engine_version.clone());
                         let run = run_of(engine, &out, &s);
-                        match compare_runs(&scene, &run, &reference, &MetricSettings::default()) {
+                        let settings = MetricSettings::default().on_samples_of(&run, &reference);
+                        match compare_runs(&scene, &run, &reference, &settings) {
                             Ok(m) => errors(&scene, &m, &mut row),
                             Err(e) => {
                                 row.status = "failed".into();

@@ -256,15 +256,6 @@ pub fn compare_with_runner(
         ));
     }
     check_names("--engines", opts.engines.iter().map(|e| e.trim())).map_err(CompareError::Name)?;
-    // A name given twice would be run twice and reported twice.
-    for (k, e) in opts.engines.iter().enumerate() {
-        if opts.engines[..k].iter().any(|o| o.trim() == e.trim()) {
-            return Err(CompareError::Name(format!(
-                "--engines: {} is given twice",
-                e.trim()
-            )));
-        }
-    }
     if let ReferenceSpec::Engine(r) = &opts.reference {
         check_names("--reference", [r.as_str()]).map_err(CompareError::Name)?;
     }

@@ -269,7 +269,8 @@ pub fn converge(
                 Some(c) => (c, false),
                 None => (finest, dt == finest_dt),
             };
-            let rows = match compare_runs(&base, run, reference, &MetricSettings::default()) {
+            let settings = MetricSettings::default().on_samples_of(run, reference);
+            let rows = match compare_runs(&base, run, reference, &settings) {
                 Ok(rows) => rows,
                 Err(e) => {
                     if let Some(r) = runs.iter_mut().find(|r| &r.engine == engine && r.dt == *dt) {

@@ -23,6 +23,21 @@ use std::process::Command;
 /// The converter from SVG to PDF.
 pub const SVG_TO_PDF: &str = "rsvg-convert";
 
+/// Whether the tool the paper's figures need is here: checked before a command runs its
+/// engines, so a missing one costs nothing and leaves no report behind.
+pub fn check_tools() -> Result<(), String> {
+    match Command::new(SVG_TO_PDF).arg("--version").output() {
+        Ok(o) if o.status.success() => Ok(()),
+        Ok(o) => Err(format!(
+            "--paper: `{SVG_TO_PDF} --version` failed: {}",
+            String::from_utf8_lossy(&o.stderr).trim()
+        )),
+        Err(e) => Err(format!(
+            "--paper: {SVG_TO_PDF} (Debian package librsvg2-bin, `make paper-tools`) is needed for the PDF figures: {e}"
+        )),
+    }
+}
+
 /// Text safe in LaTeX's text mode.
 pub fn latex_escape(s: &str) -> String {
     let mut out = String::with_capacity(s.len());

@@ -49,7 +49,7 @@ use std::time::{Duration, Instant};
 pub const FACTORS: [(&str, &str); 12] = [
     (
         "dt",
-        "time step 1e-5 .. 5e-3 s; base block, 1 s (quick: 0.5 s)",
+        "time step 1e-5 .. 5e-3 s, every engine's (`native.dt`, `rapier.dt`, ...); base block, 1 s (quick: 0.5 s)",
     ),
     ("theta", "theta 0.5 .. 1; base block"),
     (
@@ -125,6 +125,8 @@ struct Spec {
     pulse: Option<f64>,
     /// The native engine with non-associative Coulomb friction (every third cell).
     coulomb: bool,
+    /// `dt` is every engine's step (each one's step setting), not only the native engine's.
+    every_step: bool,
 }
 
 impl Spec {
@@ -144,6 +146,7 @@ impl Spec {
             dt: 1e-3,
             pulse: None,
             coulomb: false,
+            every_step: false,
         }
     }
 
@@ -179,6 +182,16 @@ impl Spec {
         );
         if self.coulomb {
             let _ = writeln!(s, "friction_law = \"coulomb\"");
+        }
+        if self.every_step {
+            let steps = registry::ENGINES
+                .iter()
+                .filter_map(|e| e.settings.as_ref()?.step)
+                .filter_map(|k| k.split_once('.'))
+                .filter(|(table, _)| *table != "native");
+            for (table, key) in steps {
+                let _ = writeln!(s, "\n[{table}]\n{key} = {:e}", self.dt);
+            }
         }
         if let Some(a) = self.pulse {
             let _ = writeln!(
@@ -281,6 +294,7 @@ pub fn grid(quick: bool) -> Vec<Cell> {
             Spec {
                 dt,
                 duration,
+                every_step: true,
                 ..base.clone()
             },
         );
@@ -616,6 +630,12 @@ impl Contracts {
                 .trim()
                 .parse()
                 .map_err(|_| err(format!("`{value}` is not a number")))?;
+            registry::check_names("--contract", [engine]).map_err(|_| {
+                err(format!(
+                    "unknown engine `{engine}` (known: {})",
+                    registry::names().join(", ")
+                ))
+            })?;
             let k = match c.changed.iter().position(|x| x.engine == engine) {
                 Some(k) => k,
                 None => {
@@ -1376,6 +1396,26 @@ mod tests {
                     c.scene.err()
                 );
             }
+        }
+    }
+
+    /// The time-step factor sets every engine's step (it set the native engine's alone, and
+    /// the map showed rapier at its default 1 ms across 1e-5 .. 5e-3 s).
+    #[test]
+    fn the_time_step_factor_is_every_engines_step() {
+        for c in grid(false).iter().filter(|c| c.factor == "dt") {
+            let scene = c.scene.as_ref().unwrap();
+            let steps = registry::ENGINES
+                .iter()
+                .filter_map(|e| e.settings.as_ref()?.step)
+                .filter_map(|k| k.split_once('.'));
+            let mut n = 0;
+            for (table, key) in steps {
+                let v = scene.engines.get(table).and_then(|t| t.get(key));
+                assert_eq!(v.and_then(|v| v.as_f64()), Some(c.value), "{table}.{key}");
+                n += 1;
+            }
+            assert!(n >= 4, "{n} engines with a step");
         }
     }
 

@@ -108,16 +108,6 @@ pub fn measured_rotation(
     (phi, omega, label)
 }
 
-/// The median spacing of the sample times `t` (`None` for fewer than two samples).
-fn sample_interval(t: &[f64]) -> Option<f64> {
-    let mut gaps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    if gaps.is_empty() {
-        return None;
-    }
-    gaps.sort_by(f64::total_cmp);
-    Some(gaps[gaps.len() / 2])
-}
-
 impl Summary {
     pub fn build(scene: &Scene, engine: &str, out: &RunOutput, wall_time_s: f64) -> Summary {
         if let Some(until) = out.valid_until {
@@ -203,7 +193,7 @@ impl Summary {
                 .or_else(|| {
                     // The samples' times carry round-off: at the interval asked for within it,
                     // they are at that interval.
-                    sample_interval(t).map(|gap| {
+                    out.trajectory.sample_interval().map(|gap| {
                         if (gap - scene.output_interval).abs() <= 1e-9 * scene.output_interval {
                             scene.output_interval
                         } else {

@@ -29,6 +29,16 @@ pub struct Trajectory {
 pub const FIELDS: [&str; 6] = ["x", "z", "phi", "vx", "vz", "omega"];
 
 impl Trajectory {
+    /// The median spacing of the sample times (`None` for fewer than two samples).
+    pub fn sample_interval(&self) -> Option<f64> {
+        let mut gaps: Vec<f64> = self.t.windows(2).map(|w| w[1] - w[0]).collect();
+        if gaps.is_empty() {
+            return None;
+        }
+        gaps.sort_by(f64::total_cmp);
+        Some(gaps[gaps.len() / 2])
+    }
+
     pub fn new(names: &[String]) -> Self {
         Trajectory {
             t: Vec::new(),

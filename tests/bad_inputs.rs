@@ -196,4 +196,23 @@ fn check_asks_the_engines_named_whether_they_can_model_the_scene() {
     let o = check("validation/scenes/housner-slender.toml", "bogus");
     let err = common::one_error_line(&o);
     assert!(err.contains("--engine: unknown engine `bogus`"), "{err}");
+    // Housner's model is driven by the ground's acceleration: a displacement record (impulses
+    // at its samples) passed `check` and was refused by `run`.
+    let dir = common::tmp("rb-check", "displacement");
+    std::fs::write(dir.join("d.csv"), "0,0\n0.1,0.01\n0.2,0\n").unwrap();
+    std::fs::write(
+        dir.join("moved.toml"),
+        "name = \"moved\"\nduration = 1\n[[blocks]]\nname = \"b\"\nwidth = 1\nheight = 2.5\n\
+         [excitation.horizontal]\nkind = \"displacement\"\nfile = \"d.csv\"\n",
+    )
+    .unwrap();
+    let o = check(dir.join("moved.toml").to_str().unwrap(), "native,housner");
+    let err = common::one_error_line(&o);
+    assert!(
+        err.contains("engine housner cannot model this scene: ")
+            && err.contains("prescribes a displacement history"),
+        "{err}"
+    );
+    let o = check(dir.join("moved.toml").to_str().unwrap(), "native");
+    assert!(o.status.success(), "{o:?}");
 }

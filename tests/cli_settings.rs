@@ -162,6 +162,49 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
             vec!["run", scene, "--set", "duration=1", "--set", " duration=2"],
             "--set: `duration` is given twice".into(),
         ),
+        // An engine named twice (its runs were fitted as twice the points, with a standard
+        // error of zero), a misspelled engine in a contract (ignored), an impact count twice.
+        (
+            vec![
+                "converge",
+                scene,
+                "--engines",
+                "native,native",
+                "--dt",
+                "2e-3,1e-3",
+            ],
+            "--engines: native is given twice".into(),
+        ),
+        (
+            vec!["bench", scene, "--engines", "rapier,rapier", "--dt", "1e-3"],
+            "--engines: rapier is given twice".into(),
+        ),
+        (
+            vec!["stress", "--quick", "--engines", "housner,housner"],
+            "--engines: housner is given twice".into(),
+        ),
+        (
+            vec![
+                "stress",
+                "--quick",
+                "--engines",
+                "rapier",
+                "--contract",
+                "rapeir.standing=1e-9",
+            ],
+            "--contract rapeir.standing=1e-9: unknown engine `rapeir`".into(),
+        ),
+        (
+            vec![
+                "compare",
+                scene,
+                "--engines",
+                "native",
+                "--up-to-impacts",
+                "3,1,3",
+            ],
+            "--up-to-impacts: 3 is given twice".into(),
+        ),
     ];
     for (k, (args, message)) in cases.iter().enumerate() {
         let out = dir.join(format!("o{k}"));

@@ -347,6 +347,18 @@ fn an_output_folder_used_again_holds_one_comparison_and_no_input_is_written_over
         .unwrap();
     let err = common::one_error_line(&o);
     assert!(err.contains("would write over --reference"), "{err}");
+    // The scene read from an engine's folder of the comparison: removed as a stale folder.
+    let inside = out.join("native/scene.json");
+    assert!(inside.is_file());
+    let o = bin()
+        .args(["compare", inside.to_str().unwrap(), "--engines", "housner"])
+        .args(["--reference", "native", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = common::one_error_line(&o);
+    assert!(err.contains("would write over the scene"), "{err}");
+    assert!(inside.is_file());
     // A run into the folder of its own scene.json.
     let own = dir.join("own");
     std::fs::create_dir_all(&own).unwrap();
@@ -384,4 +396,28 @@ fn an_output_folder_used_again_holds_one_comparison_and_no_input_is_written_over
         before
     );
     assert!(!text.is_empty());
+}
+
+/// A tool the outputs asked for is missing (`--paper`'s rsvg-convert, `--video`'s ffmpeg):
+/// refused in one line before any engine runs, nothing written (the whole comparison was
+/// written, then the command failed).
+#[test]
+fn a_missing_tool_is_refused_before_any_run() {
+    let dir = tmp("tools");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let empty = dir.join("no-tools");
+    std::fs::create_dir_all(&empty).unwrap();
+    for (flag, tool) in [("--paper", "rsvg-convert"), ("--video", "ffmpeg")] {
+        let out = dir.join(flag.trim_start_matches('-'));
+        let o = bin()
+            .env("PATH", &empty)
+            .args(["compare", scene.to_str().unwrap(), "--engines", "native"])
+            .args(["--reference", "housner", flag, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = common::one_error_line(&o);
+        assert!(err.contains(flag) && err.contains(tool), "{err}");
+        assert!(!out.exists(), "{flag}: {} written", out.display());
+    }
 }

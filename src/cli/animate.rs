@@ -194,6 +194,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
             );
         }
         writable(v).map_err(|e| anyhow::anyhow!("--video: {}: {e}", v.display()))?;
+        crate::report::animate::check_ffmpeg().map_err(anyhow::Error::msg)?;
     }
     let runs: Vec<(PathBuf, Summary, Trajectory)> = a
         .runs

@@ -38,6 +38,9 @@ const MAX_REPEAT: usize = 1000;
 pub fn run(a: BenchArgs) -> Result<()> {
     super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
+    if a.paper {
+        crate::paper::check_tools().map_err(anyhow::Error::msg)?;
+    }
     if !(1..=MAX_REPEAT).contains(&a.repeat) {
         return Err(anyhow!(
             "--repeat: from 1 to {MAX_REPEAT} (got {})",

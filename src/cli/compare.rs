@@ -67,12 +67,25 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     if a.up_to_impacts.contains(&0) {
         bail!("--up-to-impacts: impacts are counted from 1");
     }
+    if let Some(k) =
+        (1..a.up_to_impacts.len()).find(|&i| a.up_to_impacts[..i].contains(&a.up_to_impacts[i]))
+    {
+        bail!("--up-to-impacts: {} is given twice", a.up_to_impacts[k]);
+    }
     if let Some(v) = &a.video
         && v != "mp4"
         && v != "gif"
     {
         bail!("--video: mp4 or gif (got `{v}`)");
     }
+    if a.paper {
+        crate::paper::check_tools().map_err(anyhow::Error::msg)?;
+    }
+    if a.video.is_some() {
+        crate::report::animate::check_ffmpeg().map_err(anyhow::Error::msg)?;
+    }
+    // The engines' folders of --out are rewritten or removed: the scene may not be in it.
+    super::check_input_outside(&a.out, "the scene", &a.scene, &[])?;
     let scene = load_scene_with_overrides(&a.scene, &a.set)?;
     let reference = ReferenceSpec::parse(&a.reference);
     if let ReferenceSpec::File(f) = &reference {

@@ -40,6 +40,9 @@ pub struct ConvergeArgs {
 pub fn run(a: ConvergeArgs) -> Result<()> {
     super::check_sets(&a.set)?;
     super::check_out_dir(&a.out)?;
+    if a.paper {
+        crate::paper::check_tools().map_err(anyhow::Error::msg)?;
+    }
     let reference = ConvergeReference::parse(&a.reference);
     if matches!(reference, ConvergeReference::Finest) && a.dt.len() < 3 {
         return Err(anyhow!(

@@ -51,6 +51,9 @@ fn shown(path: &Path) -> String {
 
 pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
     super::check_out_dir(&a.out)?;
+    if a.paper {
+        crate::paper::check_tools().map_err(anyhow::Error::msg)?;
+    }
     crate::engines::registry::check_names("--engines", a.engines.iter().map(String::as_str))
         .map_err(anyhow::Error::msg)?;
     let mut cases = load_suite(&a.suite)?;

@@ -514,7 +514,16 @@ impl Engine for HousnerEngine {
         }
         // Where the ground falls faster than g the block leaves it: no pivot, no rocking
         // equation (a record that cannot be read is the run's error, not this check's).
-        if let Ok(gm) = GroundMotion::from_scene(scene)
+        let gm = GroundMotion::from_scene(scene);
+        if gm
+            .as_ref()
+            .is_ok_and(GroundMotion::any_displacement_defined)
+        {
+            return Some(
+                "the Housner model needs the ground acceleration; this scene prescribes a displacement history".into(),
+            );
+        }
+        if let Ok(gm) = &gm
             && let Some(v) = &gm.vertical
         {
             let (t, a) = v.lowest_acceleration();
@@ -539,11 +548,6 @@ impl Engine for HousnerEngine {
             return Err(refuse(reason));
         }
         let gm = GroundMotion::from_scene(scene)?;
-        if gm.any_displacement_defined() {
-            return Err(refuse(
-                "the Housner model needs the ground acceleration; this scene prescribes a displacement history".into(),
-            ));
-        }
         let b = &scene.blocks[0];
         let st = scene.layout().blocks[0];
         let hs = &HousnerSettings::of(scene)?;

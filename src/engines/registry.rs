@@ -255,6 +255,7 @@ pub fn find(name: &str) -> Option<&'static EngineInfo> {
 /// build leaves out is known (its runs are reported as skipped), a misspelt one is an error
 /// naming `what` (the option or field that gave it).
 pub fn check_names<'a>(what: &str, names: impl IntoIterator<Item = &'a str>) -> Result<(), String> {
+    let mut seen: Vec<&str> = Vec::new();
     for name in names {
         if find(name).is_none() {
             return Err(format!(
@@ -262,6 +263,12 @@ pub fn check_names<'a>(what: &str, names: impl IntoIterator<Item = &'a str>) -> 
                 EngineError::Unknown(name.to_string())
             ));
         }
+        // A name given twice would be run twice and reported twice (a fit over the copies
+        // claims a standard error of zero).
+        if seen.contains(&name) {
+            return Err(format!("{what}: {name} is given twice"));
+        }
+        seen.push(name);
     }
     Ok(())
 }

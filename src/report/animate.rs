@@ -27,6 +27,20 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 
+/// The program that encodes the videos.
+const FFMPEG: &str = "ffmpeg";
+
+/// Whether ffmpeg is here: checked before a command runs its engines or reads its runs.
+pub fn check_ffmpeg() -> Result<(), String> {
+    match std::process::Command::new(FFMPEG).arg("-version").output() {
+        Ok(o) if o.status.success() => Ok(()),
+        Ok(_) => Err(format!("--video: `{FFMPEG} -version` failed")),
+        Err(e) => Err(format!(
+            "--video: cannot start ffmpeg ({e}); `make ffmpeg` installs Debian's package"
+        )),
+    }
+}
+
 /// Width of the player's drawing, px (its height follows the scene's proportions).
 pub const WIDTH: f64 = 800.0;
 const MAX_HEIGHT: f64 = 320.0;
@@ -654,7 +668,7 @@ impl Animation {
                     .then_some(duration),
             )
             .collect();
-        let mut child = std::process::Command::new("ffmpeg")
+        let mut child = std::process::Command::new(FFMPEG)
             .args([
                 "-y",
                 "-loglevel",
