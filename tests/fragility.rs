@@ -102,6 +102,20 @@ fn bad_studies_stop_before_running_with_one_line() {
         &out,
         &["limit_state[0].kind", "unknown variant `toppling`"],
     );
+    // A limit state named as another column of outcomes.csv: two columns of one name, and the
+    // Python tables kept the limit state's values under it.
+    for name in ["overturned", "level", "t_end"] {
+        std::fs::write(
+            &study,
+            text.clone() + &format!("\n[[limit_state]]\nname = \"{name}\"\nkind = \"overturn\"\n"),
+        )
+        .unwrap();
+        fails_with(
+            &study,
+            &out,
+            &["limit_state[0].name", "names a column of outcomes.csv"],
+        );
+    }
 
     std::fs::write(
         &study,
@@ -497,11 +511,18 @@ fn a_study_writes_its_outputs_and_a_second_run_costs_nothing() {
 }
 
 /// The early stops change no outcome: the same study with `early_stop = false` gives the same
-/// exceedances (rotations to 1e-6 of alpha) on the native engine.
+/// exceedances (rotations to 1e-6 of alpha, residual sliding to 1e-9 m) on the native engine
+/// and Housner's, whose block cannot slide: its residual sliding is nil (a run stopped while
+/// the block was tilted counted its centroid's offset as sliding).
 #[test]
 fn early_stops_change_no_outcome() {
     let d = tmp("rb-fragility", "early");
-    let study = fixture(&d, "\"native\"", "");
+    let study = fixture(
+        &d,
+        "\"native\", \"housner\"",
+        "[[limit_state]]\nname = \"slide-1mm\"\nkind = \"sliding\"\nthreshold = 0.001\n\n\
+         [[limit_state]]\nname = \"rotation-0.3\"\nkind = \"rotation\"\nthreshold = 0.3\n",
+    );
     let text = std::fs::read_to_string(&study).unwrap();
     let out1 = d.join("out1");
     let out2 = d.join("out2");
@@ -544,6 +565,14 @@ fn early_stops_change_no_outcome() {
                 y["outcome"]["rotation"][0].as_f64().unwrap(),
             );
             assert!((p - q).abs() <= 1e-6 + 0.02 * q, "{p} vs {q}");
+            let (s, u) = (
+                x["outcome"]["sliding"][0].as_f64().unwrap(),
+                y["outcome"]["sliding"][0].as_f64().unwrap(),
+            );
+            assert!((s - u).abs() <= 1e-9, "sliding {s} vs {u}: {x}");
+            if x["engine"] == "housner" {
+                assert!(s <= 1e-12 && u <= 1e-12, "Housner's block slid {s}, {u}");
+            }
         }
     }
     assert!(
@@ -862,4 +891,65 @@ fn a_worker_engines_spec_keys_its_interpreter() {
     let mut elsewhere = mujoco.clone();
     elsewhere.python = Some("/another/venv/bin/python".into());
     assert_ne!(elsewhere.key(), mujoco.key());
+}
+
+/// An IDA started above some records' capacities steps down to them (a record exceeding at
+/// the start had the start for its capacity, counted as exact): every capacity lies below the
+/// start, with a level that does not exceed within the bisection's tolerance below it.
+#[test]
+fn an_ida_started_above_a_capacity_steps_down_to_it() {
+    let d = tmp("rb-fragility", "ida-down");
+    let study = fixture(
+        &d,
+        "\"housner\"",
+        "[[limit_state]]\nname = \"rotation-0.3\"\nkind = \"rotation\"\nthreshold = 0.3\n",
+    );
+    let text = std::fs::read_to_string(&study).unwrap();
+    let (start, tolerance) = (6.0, 0.002);
+    std::fs::write(
+        &study,
+        format!("{text}\n[ida]\nstart = {start}\ntolerance = {tolerance}\nmax = 40.0\n"),
+    )
+    .unwrap();
+    let out = d.join("out");
+    run_ok(
+        bin()
+            .args(["fragility", "--quiet"])
+            .arg(&study)
+            .arg("--out")
+            .arg(&out),
+    );
+    let table = |f: &str| {
+        let mut r = csv::Reader::from_path(out.join(f)).unwrap();
+        let h = r.headers().unwrap().clone();
+        let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+        (h, rows)
+    };
+    let (hc, caps) = table("capacities.csv");
+    let (ho, runs) = table("outcomes.csv");
+    let col = |h: &csv::StringRecord, n: &str| h.iter().position(|x| x == n).unwrap();
+    let mut below = 0;
+    for c in caps
+        .iter()
+        .filter(|c| &c[col(&hc, "limit_state")] == "rotation-0.3")
+    {
+        let record = &c[col(&hc, "record")];
+        let cap: f64 = c[col(&hc, "capacity")].parse().unwrap();
+        assert_eq!(&c[col(&hc, "censored")], "false", "{c:?}");
+        assert!(cap < start, "record {record}: capacity {cap}, the start");
+        let safe_below = runs.iter().any(|o| {
+            let level: f64 = o[col(&ho, "level")].parse().unwrap();
+            &o[col(&ho, "record")] == record
+                && &o[col(&ho, "method")] == "ida"
+                && &o[col(&ho, "rotation-0.3")] == "0"
+                && level < cap
+                && level * (1.0 + tolerance) >= cap * (1.0 - 1e-12)
+        });
+        assert!(
+            safe_below,
+            "record {record}: no safe level within {tolerance} below {cap}"
+        );
+        below += 1;
+    }
+    assert_eq!(below, 6);
 }

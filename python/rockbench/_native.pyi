@@ -20,6 +20,7 @@ __all__ = [
     "load_scene",
     "run",
     "check_engine_names",
+    "check_study_out",
     "engine_names",
     "compare_rows",
     "fragility_study",
@@ -83,6 +84,7 @@ def run(
 ) -> Run: ...
 def engine_names() -> list[str]: ...
 def check_engine_names(what: str, names: Sequence[str]) -> None: ...
+def check_study_out(out: str | os.PathLike[str], cache: str | os.PathLike[str]) -> str: ...
 def compare_rows(
     scene: Scene | str | os.PathLike[str] | dict[str, Any],
     engines: Sequence[str],

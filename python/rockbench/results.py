@@ -8,7 +8,6 @@ import os
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for 3.x
 
 OUTCOME_COLUMNS = [
@@ -43,9 +42,59 @@ def trajectory(run: Any) -> pd.DataFrame:
     return df
 
 
-def _sliding(values: list[float | None]) -> float:
-    """Largest residual sliding of a run (infinite when a block overturned: no residual)."""
-    return max((np.inf if v is None else float(v)) for v in values) if values else 0.0
+#: fits.csv's columns (src/fragility/report.rs fits_csv), the columns of ``FragilityResult.fits``.
+FIT_COLUMNS = [
+    "scene",
+    "engine",
+    "limit_state",
+    "method",
+    "theta",
+    "beta",
+    "theta_lo95",
+    "theta_hi95",
+    "beta_lo95",
+    "beta_hi95",
+    "resamples",
+    "problem",
+]
+
+#: capacities.csv's columns (capacities_csv), the columns of ``FragilityResult.capacities``.
+CAPACITY_COLUMNS = [
+    "scene",
+    "engine",
+    "record",
+    "pair",
+    "limit_state",
+    "capacity",
+    "censored",
+    "resurrection",
+    "runs",
+]
+
+#: differences.csv's columns (differences_csv), the columns of ``FragilityResult.differences``.
+DIFFERENCE_COLUMNS = [
+    "scene",
+    "limit_state",
+    "method",
+    "engine",
+    "reference",
+    "theta_difference",
+    "difference_lo95",
+    "difference_hi95",
+    "theta_ratio",
+    "ratio_lo95",
+    "ratio_hi95",
+    "resamples",
+]
+
+
+def _sliding(overturned: list[bool], values: list[float | None]) -> float:
+    """Largest residual sliding of a run, m, as outcomes.csv has it: none (NaN, a blank cell
+    in the CSV) when a block overturned (it has no residual position), else the largest of the
+    blocks' values (0 without any)."""
+    if any(overturned):
+        return float("nan")
+    return max((float(v) for v in values if v is not None), default=0.0)
 
 
 def outcome_row(o: dict[str, Any]) -> dict[str, Any]:
@@ -57,8 +106,12 @@ def outcome_row(o: dict[str, Any]) -> dict[str, Any]:
         "wall_s": o["wall_s"],
         "max_rotation_over_alpha": max(o["rotation"]),
         "overturned": any(o["overturned"]),
-        "max_residual_sliding_m": _sliding(o["sliding"]),
+        "max_residual_sliding_m": _sliding(o["overturned"], o["sliding"]),
     }
+
+
+def _interval(ci: Any) -> tuple[Any, Any]:
+    return (ci[0], ci[1]) if ci else (None, None)
 
 
 class Comparison(pd.DataFrame):  # type: ignore[misc]  # pandas is untyped here
@@ -98,8 +151,12 @@ class FragilityResult:
     """A fragility study's results (the content of fragility.json) as tables.
 
     - ``outcomes``: one row per run of the outcome matrix (stripes and IDA; the columns of
-      outcomes.csv, one boolean column per limit state);
-    - ``fits``, ``capacities``, ``differences``: fits.csv, capacities.csv, differences.csv;
+      outcomes.csv, one boolean column per limit state; ``max_residual_sliding_m`` is NaN for
+      a run with an overturned block, where the CSV's cell is blank);
+    - ``fits``, ``capacities``, ``differences``: fits.csv, capacities.csv, differences.csv
+      (the same columns in the same order, e.g. ``theta_lo95``; a missing value is None or
+      NaN where the CSV's cell is blank; values not rounded); a table without rows still has
+      its columns;
     - ``to_xarray()``: the stripes as a Dataset with dimensions scene x record x level x engine;
     - ``to_parquet(folder)``: the four tables as Parquet files;
     - ``counts``: runs, runs from the cache, runs made, wall time;
@@ -168,8 +225,8 @@ class FragilityResult:
         rows = []
         for f in self.json["fits"]:
             fit = f["fit"] or {}
-            tci = f["theta_ci"] or (None, None)
-            bci = f["beta_ci"] or (None, None)
+            tci = _interval(f["theta_ci"])
+            bci = _interval(f["beta_ci"])
             rows.append(
                 {
                     "scene": f["scene"],
@@ -178,23 +235,46 @@ class FragilityResult:
                     "method": f["method"],
                     "theta": fit.get("theta"),
                     "beta": fit.get("beta"),
-                    "theta_lo": tci[0],
-                    "theta_hi": tci[1],
-                    "beta_lo": bci[0],
-                    "beta_hi": bci[1],
+                    "theta_lo95": tci[0],
+                    "theta_hi95": tci[1],
+                    "beta_lo95": bci[0],
+                    "beta_hi95": bci[1],
                     "resamples": f["resamples"],
                     "problem": f["problem"],
                 }
             )
-        return pd.DataFrame(rows)
+        return pd.DataFrame(rows, columns=FIT_COLUMNS)
 
     @property
     def capacities(self) -> pd.DataFrame:
-        return pd.DataFrame(self.json["capacities"])
+        return pd.DataFrame(
+            [{k: c[k] for k in CAPACITY_COLUMNS} for c in self.json["capacities"]],
+            columns=CAPACITY_COLUMNS,
+        )
 
     @property
     def differences(self) -> pd.DataFrame:
-        return pd.DataFrame(self.json["differences"])
+        rows = []
+        for d in self.json["differences"]:
+            dci = _interval(d["difference_ci"])
+            rci = _interval(d["ratio_ci"])
+            rows.append(
+                {
+                    "scene": d["scene"],
+                    "limit_state": d["limit_state"],
+                    "method": d["method"],
+                    "engine": d["engine"],
+                    "reference": d["reference"],
+                    "theta_difference": d["difference"],
+                    "difference_lo95": dci[0],
+                    "difference_hi95": dci[1],
+                    "theta_ratio": d["ratio"],
+                    "ratio_lo95": rci[0],
+                    "ratio_hi95": rci[1],
+                    "resamples": d["resamples"],
+                }
+            )
+        return pd.DataFrame(rows, columns=DIFFERENCE_COLUMNS)
 
     def to_xarray(self) -> Any:
         """The stripes' outcome matrix as an ``xarray.Dataset`` with dimensions scene x
@@ -240,7 +320,7 @@ class FragilityResult:
             head += (
                 f"; on Dask: {d['tasks']} tasks, {d['made']} runs made by the workers"
             )
-        fits = self.fits[["scene", "engine", "limit_state", "method", "theta", "theta_lo", "theta_hi", "beta"]]
+        fits = self.fits[["scene", "engine", "limit_state", "method", "theta", "theta_lo95", "theta_hi95", "beta"]]
         table: str = fits.to_html(index=False, float_format=lambda x: f"{x:.4g}", na_rep="-")
         return head + "</div>" + table
 

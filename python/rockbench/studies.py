@@ -32,8 +32,10 @@ task skip runs another finished; see docs/cluster.md.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
+import numbers
 import os
 import sys
 import tempfile
@@ -48,6 +50,7 @@ import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for
 from rockbench._native import (
     Scene,
     check_engine_names,
+    check_study_out,
     fragility_cache_dir,
     fragility_cache_has,
     fragility_ida_batch,
@@ -60,6 +63,7 @@ from rockbench._native import (
     fragility_worker_early_stop,
     fragility_worker_outcome,
     fragility_worker_scene,
+    load_scene,
     run,
 )
 from rockbench.results import FragilityResult, outcome_row
@@ -318,6 +322,88 @@ def distribute(
 MAX_TIMEOUT = 3600.0
 
 
+def _check_task_size(function: str, task_seconds: Any, runs_per_task: Any) -> None:
+    """Refuse a task size that is not one (the command's --task-seconds / --runs-per-task
+    checks), before anything runs: `task_seconds` a finite number of seconds above 0,
+    `runs_per_task` None or a whole number (not a bool) of at least 1."""
+    if (
+        isinstance(task_seconds, bool)
+        or not isinstance(task_seconds, numbers.Real)
+        or not (math.isfinite(task_seconds) and float(task_seconds) > 0)
+    ):
+        raise ValueError(
+            f"{function}: task_seconds: the target wall time of a task, a finite number of "
+            f"seconds above 0 (got {task_seconds!r})"
+        )
+    if runs_per_task is not None and (
+        isinstance(runs_per_task, bool)
+        or not isinstance(runs_per_task, numbers.Integral)
+        or int(runs_per_task) < 1
+    ):
+        raise ValueError(
+            f"{function}: runs_per_task: a whole number of runs (IDA: records) per task, at "
+            f"least 1, or None (got {runs_per_task!r})"
+        )
+
+
+def _check_client(function: str, client: Any) -> None:
+    """Refuse a `client` that is not a running ``distributed.Client`` (None: run here), before
+    anything runs."""
+    if client is None:
+        return
+    try:
+        from distributed import Client
+    except ImportError:
+        raise TypeError(
+            f"{function}: client: a distributed.Client that is running, or None (got "
+            f"{type(client).__name__}); Dask is not installed: pip install 'rockbench[dask]'"
+        ) from None
+    if not isinstance(client, Client):
+        hint = (
+            "; to use a scheduler at that address, pass distributed.Client(ADDRESS)"
+            if isinstance(client, str)
+            else ""
+        )
+        shown = repr(client)
+        shown = shown if len(shown) <= 80 else shown[:77] + "..."
+        raise TypeError(
+            f"{function}: client: a distributed.Client that is running, or None (got "
+            f"{type(client).__name__} {shown}){hint}"
+        )
+    status = getattr(client, "status", None)
+    if status != "running":
+        raise ValueError(
+            f"{function}: client: the client is {status}, not running (a distributed.Client "
+            "that is running, or None)"
+        )
+
+
+def check_out(out: PathLike, cache_dir: PathLike, what: str = "out") -> Path:
+    """Check, before a study runs, that `out` can take its outputs, as the command line does
+    (``check_study_out`` of the Rust core, which checks again when it writes them): they replace
+    the folder whole, so it must be new, empty or a study's output (it holds fragility.json),
+    neither the working directory nor one that holds it, and not hold the run cache
+    `cache_dir`; the folder it is in must be one this process can write in (the outputs are
+    written next to it, then renamed). `what` names the argument in the message (``out``,
+    ``--out``). Gives `out` made absolute (symbolic links kept)."""
+    if str(out) == "":
+        raise ValueError(f"{what}: an empty path (it would be the working directory)")
+    try:
+        abs_ = Path(check_study_out(Path(out), Path(cache_dir)))
+    except ValueError as e:
+        msg = str(e)
+        raise ValueError(what + msg[len("--out") :] if msg.startswith("--out") else msg) from None
+    # The outputs are written to a folder beside `out`, made with its missing parents.
+    parent = abs_.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ValueError(f"{what}: {os.fspath(out)}: {parent} is a file, not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{what}: {os.fspath(out)}: cannot write in {parent}")
+    return abs_
+
+
 def _paths(study: PathLike, cache: PathLike | None) -> tuple[Path, Path]:
     if str(study) == "":
         raise ValueError("study: an empty path")
@@ -345,8 +431,21 @@ def fragility(
     (default: the study's). `worker_cache`: the cache path the workers use (default `cache`;
     another path when workers do not share the client's filesystem: their runs come back with
     the tasks and are stored in `cache` as each task ends). `task_seconds` / `runs_per_task`
-    size the tasks (``runs_per_task`` also sizes IDA tasks, in records)."""
+    size the tasks (``runs_per_task`` also sizes IDA tasks, in records).
+
+    Bad input is refused before anything runs: a `client` that is not a running
+    ``distributed.Client`` (TypeError / ValueError), an empty `cache` or `worker_cache`, a
+    `task_seconds` that is not a finite number above 0, a `runs_per_task` that is not a whole
+    number of at least 1, an `out` that cannot take the outputs (see :func:`check_out`), and
+    the study's own problems (ValueError)."""
+    _check_task_size("fragility", task_seconds, runs_per_task)
+    _check_client("fragility", client)
+    if worker_cache is not None and str(worker_cache) == "":
+        raise ValueError("worker_cache: an empty path (it would be the workers' working directory)")
     path, cache_dir = _paths(study, cache)
+    if out is not None:
+        # Before anything runs (the Rust core checks again when it writes the outputs).
+        check_out(out, cache_dir, "out")
     if client is None:
         return FragilityResult(fragility_study(path, out, quiet, cache_dir))
     wcache = str(Path(worker_cache).resolve()) if worker_cache is not None else str(cache_dir)
@@ -384,15 +483,29 @@ def fragility(
 
 
 def _is_study(x: Any) -> bool:
-    if not isinstance(x, (str, os.PathLike)) or not str(x).endswith(".toml"):
+    """A study file: a TOML file whose ``suite`` names the suite's file (no scene has a
+    ``suite``; a suite's manifest has a ``[suite]`` table), whatever its name ends in (the
+    Rust core reads it as a study all the same)."""
+    if not isinstance(x, (str, os.PathLike)) or not os.path.isfile(x):
         return False
     import tomllib
 
     try:
         with open(x, "rb") as f:
-            return "suite" in tomllib.load(f)
+            return isinstance(tomllib.load(f).get("suite"), str)
     except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
         return False
+
+
+def _check_exists(function: str, path: PathLike) -> str:
+    """`path` made absolute (``Path.absolute``: symbolic links and ``..`` kept); a path that
+    names nothing is a FileNotFoundError naming it."""
+    if str(path) == "":
+        raise ValueError(f"{function}: an empty path")
+    absolute = str(Path(path).absolute())
+    if not os.path.exists(absolute):
+        raise FileNotFoundError(errno.ENOENT, f"{function}: no such scene or study file", absolute)
+    return absolute
 
 
 def run_many(
@@ -410,9 +523,21 @@ def run_many(
       one row per run (scene, engine, record, scale, key, made, then the outcome's columns).
       `engines` is ignored: the study names them.
     - Scenes (paths, dicts or Scenes): one run per scene and engine; one row per block.
-      `engines` is one engine's name or a sequence of names (a name is not read as its letters)."""
+      `engines` is one engine's name or a sequence of names (a name is not read as its letters).
+
+    Paths (scenes and studies) are made absolute here, on the client, before any run is
+    sent out: a Dask worker reads the same file as a local run, whatever its working
+    directory. Bad input raises before any run: a path that does not exist
+    (FileNotFoundError), a file that is neither a scene nor a study, an engine named twice,
+    a bad `client`, `task_seconds` or `runs_per_task` (ValueError / TypeError). A run that
+    fails is a row with status ``failed: why``."""
     if isinstance(engines, str):
         engines = [engines]
+    engines = list(engines)
+    _check_task_size("run_many", task_seconds, runs_per_task)
+    _check_client("run_many", client)
+    if isinstance(scenes_or_study, (str, os.PathLike)):
+        _check_exists("run_many", scenes_or_study)
     if _is_study(scenes_or_study):
         assert isinstance(scenes_or_study, (str, os.PathLike))
         path, cache_dir = _paths(scenes_or_study, cache)
@@ -447,17 +572,39 @@ def run_many(
         scenes: list[Any] = [scenes_or_study]
     else:
         scenes = list(scenes_or_study)
-    check_engine_names("run_many: engines", list(engines))
+    check_engine_names("run_many: engines", engines)
+    for e in engines:
+        if engines.count(e) > 1:
+            raise ValueError(f"run_many: engines: {e} is given twice")
+    shipped: list[Any] = []
     for k, s in enumerate(scenes):
-        if not isinstance(s, (str, os.PathLike, dict, Scene)):
+        if isinstance(s, Scene):
+            shipped.append(s.to_dict())
+        elif isinstance(s, (str, os.PathLike)):
+            # Absolute (symbolic links kept: the scene's records are read beside the path as
+            # given), so a worker with another working directory reads this very file.
+            absolute = _check_exists("run_many", s)
+            try:
+                load_scene(absolute)  # a scene? (ValueError naming the file, before any run)
+            except ValueError:
+                if _is_study(absolute):
+                    raise ValueError(
+                        f"run_many: scenes[{k}]: {absolute} is a study; give it alone "
+                        "(run_many(study)), not in a list of scenes"
+                    ) from None
+                raise
+            shipped.append(absolute)
+        elif isinstance(s, dict):
+            # Checked here, and sent with its record paths made absolute (as a Scene's).
+            try:
+                shipped.append(load_scene(s).to_dict())
+            except ValueError as e:
+                raise ValueError(f"run_many: scenes[{k}]: {e}") from None
+        else:
             raise TypeError(
                 f"run_many: scenes[{k}] is a {type(s).__name__}; a scene is a path, a dict or a Scene"
             )
-    items = [
-        (s.to_dict() if isinstance(s, Scene) else (os.fspath(s) if isinstance(s, os.PathLike) else s), e)
-        for s in scenes
-        for e in engines
-    ]
+    items = [(s, e) for s in shipped for e in engines]
     if client is None:
         per_item = scenes_task(items)["results"]
     else:
@@ -497,8 +644,12 @@ def main(argv: list[str] | None = None) -> int:
     if not (math.isfinite(a.timeout) and 0 < a.timeout <= MAX_TIMEOUT):
         print(f"--timeout: seconds to wait for the scheduler, above 0 and at most {MAX_TIMEOUT:g} (got {a.timeout:g})", file=sys.stderr)
         return 2
+    if a.worker_cache == "":
+        print("--worker-cache: an empty path (it would be the workers' working directory)", file=sys.stderr)
+        return 2
     try:
         fragility_run_specs(a.study)  # read and check everything before connecting or running
+        check_out(a.out, _paths(a.study, a.cache)[1], "--out")
     except ValueError as e:
         print(str(e).replace("\n", " "), file=sys.stderr)
         return 2

@@ -28,6 +28,9 @@ pub struct FragilityArgs {
 
 pub fn run(a: FragilityArgs) -> Result<()> {
     super::check_out_dir(&a.out)?;
+    if a.paper {
+        crate::paper::check_tools().map_err(anyhow::Error::msg)?;
+    }
     let st = study::load_study(&a.study).map_err(|e| anyhow!("{e}"))?;
     if a.check {
         println!(
@@ -42,7 +45,7 @@ pub fn run(a: FragilityArgs) -> Result<()> {
         );
         return Ok(());
     }
-    report::replaceable_out(&a.out).map_err(|e| anyhow!(e))?;
+    report::check_study_out(&a.out, &st.cache_dir).map_err(|e| anyhow!(e))?;
     super::check_jobs(a.jobs)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let pool = rayon::ThreadPoolBuilder::new()

@@ -211,8 +211,9 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
     };
     if let (Some((other, ratio, _)), Some(first)) = (&similar, a.engines.first()) {
         let eng = spectrum::engine(first).map_err(|e| anyhow!(e))?;
-        spectrum::Spectrum::new(other, eng.as_ref(), pulses[0], &req.settings)
-            .check_longest_run([*ratio].iter())
+        let sp = spectrum::Spectrum::new(other, eng.as_ref(), pulses[0], &req.settings);
+        sp.check_step()
+            .and_then(|()| sp.check_longest_run([*ratio].iter()))
             .map_err(|e| anyhow!("--similarity: {e}"))?;
     }
     let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}")).map_err(|e| anyhow!(e))?;
@@ -321,7 +322,7 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
             "duration_times_omega_p": p.duration(1.0),
         })).collect::<Vec<_>>(),
         "settings": req.settings,
-        "search": "upward scan from scan_from by factors (1 + scan_step) to the first overturning amplitude (down first if that one overturns), then bisection to a relative width `tolerance`; the minimum is the bracket's upper end",
+        "search": "upward scan from scan_from by factors (1 + scan_step) to the first overturning amplitude (down first if that one overturns, through safe amplitudes to 1 when it starts above 1), then bisection to a relative width `tolerance`; the minimum is the bracket's upper end",
         "early_stop": if req.settings.early_stop {
             format!("native runs stop after the pulse when a block lies on its side (overturned), when every block is still for {} s (at rest), or when a single block inside its critical angle has less than {} of its tipping energy m g (R - H/2); each map cell's `stop` says which", crate::engines::native::REST_WINDOW, spectrum::SAFE_ENERGY_FRACTION)
         } else {

@@ -111,10 +111,26 @@ pub fn probit(stripes: &[(f64, f64, f64)]) -> Result<Lognormal, String> {
             b.1
         ));
     }
-    Ok(Lognormal {
+    // The same fraction at every level fits a slope of round-off, of either sign (a median of
+    // infinity and a dispersion of 1e15 were reported as a fit).
+    let span = sorted.last().map_or(0.0, |s| s.0) - sorted.first().map_or(0.0, |s| s.0);
+    if b.1 * span <= 1e-9 {
+        return Err(format!(
+            "the fitted probability does not change with the intensity (slope {:e} over the levels' span of {span:e} in ln IM)",
+            b.1
+        ));
+    }
+    let fit = Lognormal {
         theta: (-b.0 / b.1).exp(),
         beta: 1.0 / b.1,
-    })
+    };
+    if !(fit.theta.is_finite() && fit.theta > 0.0 && fit.beta.is_finite()) {
+        return Err(format!(
+            "the fitted median exp({:e}) lies beyond any intensity",
+            -b.0 / b.1
+        ));
+    }
+    Ok(fit)
 }
 
 /// Inverse standard normal CDF (Newton on [`ncdf`] from Acklam-free start; |error| < 1e-14).
@@ -293,6 +309,26 @@ mod tests {
         let f = probit(&stripes).unwrap();
         assert!((f.theta / 0.4 - 1.0).abs() < 1e-9, "{f:?}");
         assert!((f.beta / 0.35 - 1.0).abs() < 1e-9, "{f:?}");
+    }
+
+    /// The same fraction exceeding at every level: no slope to fit, whatever round-off's sign.
+    #[test]
+    fn probit_refuses_a_flat_fraction() {
+        let ln = f64::ln;
+        for s in [
+            // 2 of 6 at 1.5 and at 2.5: a slope of +5e-16 was a fit (median inf, beta 1.9e15).
+            vec![(ln(1.5), 6.0, 2.0), (ln(2.5), 6.0, 2.0)],
+            vec![(ln(1.5), 6.0, 2.0), (ln(2.0), 6.0, 2.0)],
+            vec![(0.0, 6.0, 2.0), (0.5, 6.0, 2.0)],
+            vec![(0.3, 6.0, 2.0), (0.4, 3.0, 1.0), (0.9, 6.0, 2.0)],
+            vec![(-1.0, 10.0, 3.0), (0.0, 10.0, 3.0), (1.0, 10.0, 3.0)],
+        ] {
+            let e = probit(&s).unwrap_err();
+            assert!(
+                e.contains("does not change") || e.contains("decreases"),
+                "{s:?}: {e}"
+            );
+        }
     }
 
     #[test]

@@ -529,6 +529,10 @@ pub fn run_ida_jobs(
         .collect()
 }
 
+/// The most levels an IDA hunt steps down from its start, each `factor` below the last, when
+/// the start already exceeds (2^-30 of the start at the default factor 2).
+const MAX_STEPS_DOWN: usize = 30;
+
 /// The hunt and fill of one record (scene `si`, engine `e`) for every limit state.
 fn ida_record(
     study: &Study,
@@ -584,6 +588,27 @@ fn ida_record(
             hunts.push(runs);
             continue;
         };
+        // Exceeded at the start: step down until a level is safe (the start's exceedance was
+        // the capacity, 13 % above a record's closed-form threshold, and counted as exact).
+        let mut steps_down = 0;
+        while safe.is_none() {
+            if steps_down == MAX_STEPS_DOWN {
+                return Err(format!(
+                    "record {}: limit state `{}` is exceeded at every level from the IDA's start {} down to {} (the scene exceeds it without its record?): no capacity",
+                    r.id,
+                    study.limit_states[k].name,
+                    crate::scene::num(start_l),
+                    crate::scene::num(hi_l)
+                ));
+            }
+            steps_down += 1;
+            let down = hi_l / ida.factor;
+            if at(down, &mut memo)? {
+                hi_l = down;
+            } else {
+                safe = Some(down);
+            }
+        }
         // Bisect the bracket (geometric mid-points).
         if let Some(mut lo_l) = safe {
             while hi_l / lo_l - 1.0 > ida.tolerance {

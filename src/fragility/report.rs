@@ -37,10 +37,28 @@ fn method(m: Method) -> &'static str {
     }
 }
 
+/// The columns of outcomes.csv before one column per limit state (named after it).
+pub const OUTCOME_COLUMNS: [&str; 15] = [
+    "scene",
+    "engine",
+    "record",
+    "pair",
+    "method",
+    "level",
+    "scale",
+    "ran",
+    "stop",
+    "t_end",
+    "wall_s",
+    "cached",
+    "max_rotation_over_alpha",
+    "overturned",
+    "max_residual_sliding_m",
+];
+
+/// outcomes.csv: one row per run, a column per limit state (1 where exceeded).
 pub fn outcomes_csv(study: &Study, res: &Results) -> String {
-    let mut s = String::from(
-        "scene,engine,record,pair,method,level,scale,ran,stop,t_end,wall_s,cached,max_rotation_over_alpha,overturned,max_residual_sliding_m",
-    );
+    let mut s = OUTCOME_COLUMNS.join(",");
     for ls in &study.limit_states {
         let _ = write!(s, ",{}", csv_field(&ls.name));
     }
@@ -476,6 +494,39 @@ pub fn replaceable_out(out: &Path) -> Result<PathBuf, String> {
     if !empty && !real.join(MARKER).is_file() {
         return Err(format!(
             "--out: {shown} holds files and no {MARKER}: not a study's output, which would replace it whole; give a new or empty folder"
+        ));
+    }
+    Ok(abs)
+}
+
+/// [`replaceable_out`], and the study's run cache (`cache`) outside `out`: the outputs replace
+/// the folder whole, and a cache inside it was deleted with it (every run made again on the
+/// next study). Gives `out` made absolute.
+pub fn check_study_out(out: &Path, cache: &Path) -> Result<PathBuf, String> {
+    let abs = replaceable_out(out)?;
+    let cache_abs = std::path::absolute(cache).unwrap_or_else(|_| cache.to_path_buf());
+    // Compared through the folders that exist (symbolic links resolved), then lexically.
+    let real = |p: &Path| {
+        let mut head = p.to_path_buf();
+        let mut tail = Vec::new();
+        while !head.exists() {
+            match (head.file_name().map(|n| n.to_os_string()), head.parent()) {
+                (Some(n), Some(parent)) => {
+                    tail.push(n);
+                    head = parent.to_path_buf();
+                }
+                _ => break,
+            }
+        }
+        let mut r = head.canonicalize().unwrap_or(head);
+        r.extend(tail.iter().rev());
+        r
+    };
+    if real(&cache_abs).starts_with(real(&abs)) {
+        return Err(format!(
+            "--out: {} holds the run cache {}, which the outputs would replace: give another folder or another cache",
+            out.display(),
+            cache.display()
         ));
     }
     Ok(abs)

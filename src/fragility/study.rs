@@ -466,6 +466,17 @@ pub fn load_study(path: &Path) -> Result<Study, SceneError> {
         if ls.name.trim().is_empty() {
             return Err(err(&field("name"), "must not be empty".into()));
         }
+        // A limit state is a column of outcomes.csv (and of the Python tables): a name of
+        // another column made two columns of one name, and the tables kept the limit state's.
+        if super::report::OUTCOME_COLUMNS.contains(&ls.name.trim()) {
+            return Err(err(
+                &field("name"),
+                format!(
+                    "`{}` names a column of outcomes.csv; give the limit state another name",
+                    ls.name
+                ),
+            ));
+        }
         if limit_states[..k]
             .iter()
             .any(|o| o.name.trim() == ls.name.trim())

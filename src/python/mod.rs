@@ -734,6 +734,16 @@ fn check_engine_names(what: &str, names: Vec<String>) -> PyResult<()> {
     registry::check_names(what, names.iter().map(String::as_str)).map_err(PyValueError::new_err)
 }
 
+/// The folder a study writes its outputs to, checked before the study runs as the command line
+/// checks it (`fragility::report::check_study_out`): `ValueError` naming it, else it made
+/// absolute.
+#[pyfunction]
+fn check_study_out(out: PathBuf, cache: PathBuf) -> PyResult<String> {
+    crate::fragility::report::check_study_out(&out, &cache)
+        .map(|p| p.display().to_string())
+        .map_err(PyValueError::new_err)
+}
+
 #[pymodule]
 #[pyo3(name = "_native")]
 fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -749,6 +759,7 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(engine_names, m)?)?;
     m.add_function(wrap_pyfunction!(check_engine_names, m)?)?;
+    m.add_function(wrap_pyfunction!(check_study_out, m)?)?;
     m.add_function(wrap_pyfunction!(compare_rows, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_study, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_run_specs, m)?)?;

@@ -400,11 +400,11 @@ def test_run_many_refuses_no_engine_and_unknown_engines_before_any_run() -> None
             rockbench.run_many([_block_dict(), bad])
 
 
-def test_run_many_reports_a_binary_file_as_a_failed_run(tmp_path: Path) -> None:
-    """A `.toml` that is not text is a scene that cannot be read (a failed row), not a study
-    and not a UnicodeDecodeError."""
+def test_run_many_refuses_a_binary_file_before_any_run(tmp_path: Path) -> None:
+    """A `.toml` that is not text is bad input: a ValueError naming the file (it was a failed
+    row), not a study and not a UnicodeDecodeError."""
     path = tmp_path / "binary.toml"
     path.write_bytes(b"\x9f\x00\xff garbage")
-    rows = rockbench.run_many(str(path))
-    assert len(rows) == 1 and rows["status"][0].startswith("failed:"), rows
-    assert "cannot read" in rows["status"][0]
+    for given in (str(path), [str(path)]):
+        with pytest.raises(ValueError, match=f"^{path}: .*cannot read"):
+            rockbench.run_many(given)

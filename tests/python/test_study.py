@@ -344,3 +344,213 @@ def test_results_read_back_from_fragility_json_and_other_json_is_refused(
     for part, value in (("limit_states", ["overturn"]), ("rows", {}), ("counts", [])):
         with pytest.raises(ValueError, match=f"not a fragility study's results .*wrong type of {part}"):
             rockbench.FragilityResult(dict(again.json, **{part: value}))
+
+
+def test_run_many_sends_absolute_scene_paths_to_the_workers(
+    client: Client, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A relative scene path is the client's file: the workers, started elsewhere, hold
+    another `scene.toml` in their own working directory (a wider block) and must not read it."""
+    text = (ROOT / "validation/scenes/housner-slender.toml").read_text()
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    (here / "scene.toml").write_text(text)
+    wide = "\n".join("width = 0.8" if line.startswith("width =") else line for line in text.splitlines())
+    assert wide != text
+    (there / "scene.toml").write_text(wide + "\n")
+    monkeypatch.chdir(here)
+    before = client.run(os.getcwd)
+    client.run(os.chdir, str(there))
+    try:
+        dist = rockbench.run_many(["scene.toml", Path("scene.toml")], client=client)
+    finally:
+        for worker, cwd in before.items():
+            client.run(os.chdir, cwd, workers=[worker])
+    loc = rockbench.run_many(["scene.toml", Path("scene.toml")])
+    other = rockbench.run_many([str(there / "scene.toml")])
+    cols = ["scene", "engine", "status", "max_abs_phi", "rest_time", "impacts"]
+    assert (dist["status"] == "ok").all() and len(dist) == 2
+    assert dist[cols].equals(loc[cols])
+    assert loc["impacts"].iloc[0] != other["impacts"].iloc[0]
+
+
+def test_a_bad_task_size_is_refused_before_any_run(
+    study: Path, client: Client, tmp_path: Path
+) -> None:
+    """task_seconds / runs_per_task are checked by the API as by the command's options: NaN
+    ran the probe tasks, then failed in math.ceil; -5 made one task of every run."""
+    cache = tmp_path / "cache"
+    scene = str(ROOT / "validation/scenes/housner-slender.toml")
+    bad: list[tuple[dict[str, Any], str]] = [
+        ({"task_seconds": float("nan")}, r"task_seconds: .*\(got nan\)"),
+        ({"task_seconds": float("inf")}, r"task_seconds: .*\(got inf\)"),
+        ({"task_seconds": 0}, r"task_seconds: .*\(got 0\)"),
+        ({"task_seconds": -1.0}, r"task_seconds: .*\(got -1.0\)"),
+        ({"task_seconds": "2"}, r"task_seconds: .*\(got '2'\)"),
+        ({"runs_per_task": 0}, r"runs_per_task: .*\(got 0\)"),
+        ({"runs_per_task": -5}, r"runs_per_task: .*\(got -5\)"),
+        ({"runs_per_task": 2.5}, r"runs_per_task: .*\(got 2.5\)"),
+        ({"runs_per_task": True}, r"runs_per_task: .*\(got True\)"),
+        ({"runs_per_task": float("nan")}, r"runs_per_task: .*\(got nan\)"),
+    ]
+    for kwargs, match in bad:
+        for c in (client, None):
+            with pytest.raises(ValueError, match="^fragility: " + match):
+                rockbench.fragility(study, c, cache=cache, **kwargs)
+            with pytest.raises(ValueError, match="^run_many: " + match):
+                rockbench.run_many(study, client=c, cache=cache, **kwargs)
+            with pytest.raises(ValueError, match="^run_many: " + match):
+                rockbench.run_many([scene], client=c, **kwargs)
+    assert not cache.exists()
+
+
+def test_an_empty_worker_cache_is_refused(
+    study: Path, client: Client, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """worker_cache='' (like cache='') would be the working directory: the workers wrote their
+    run files there."""
+    monkeypatch.chdir(tmp_path)
+    cache = tmp_path / "cache"
+    with pytest.raises(ValueError, match=r"^worker_cache: an empty path"):
+        rockbench.fragility(study, client, cache=cache, worker_cache="")
+    r = subprocess.run(
+        [sys.executable, "-m", "rockbench.study", str(study), "--scheduler", client.scheduler.address,
+         "--cache", str(cache), "--out", str(tmp_path / "o"), "--quiet", "--worker-cache", ""],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path,
+    )
+    assert r.returncode == 2 and r.stderr.startswith("--worker-cache: an empty path"), r.stderr
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bad_out_is_refused_before_the_cluster_runs_anything(
+    study: Path, client: Client, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`out` is checked as a local study checks it (replaceable_out), before anything is sent
+    to the cluster: it had run every run there, then refused the folder."""
+    cache = tmp_path / "cache"
+    monkeypatch.chdir(tmp_path)
+    notout = tmp_path / "notout"
+    notout.mkdir()
+    (notout / "precious.txt").write_text("keep")
+    afile = tmp_path / "a-file"
+    afile.write_text("keep")
+    outs: list[tuple[str | Path, str]] = [
+        (notout, r"^out: .*notout holds files and no fragility.json"),
+        (afile, r"^out: .*a-file is a file, not a directory"),
+        (afile / "below", r"^out: .*below: .*a-file is a file, not a directory"),
+        (".", r"^out: \. is the working directory or holds it"),
+        ("", r"^out: an empty path"),
+    ]
+    for out, match in outs:
+        with pytest.raises(ValueError, match=match):
+            rockbench.fragility(study, client, cache=cache, out=out)
+        with pytest.raises(ValueError, match=match):
+            rockbench.fragility(study, cache=cache, out=out)
+    assert not cache.exists()
+    for bad in [notout, notout / "precious.txt"]:
+        r = subprocess.run(
+            [sys.executable, "-m", "rockbench.study", str(study), "--scheduler", client.scheduler.address,
+             "--cache", str(cache), "--quiet", "--out", str(bad)],
+            capture_output=True, text=True, timeout=120,
+        )
+        assert r.returncode == 2 and r.stderr.startswith(f"--out: {bad} "), r.stderr
+        assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+        assert not cache.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file", "notout"]
+    assert [p.name for p in notout.iterdir()] == ["precious.txt"]
+
+
+def test_a_wrong_client_is_refused_up_front(study: Path, tmp_path: Path) -> None:
+    """A scheduler's address, another object or a closed client: a TypeError / ValueError
+    naming `client`, not an AttributeError from inside the distribution."""
+    cache = tmp_path / "cache"
+    scene = str(ROOT / "validation/scenes/housner-slender.toml")
+    for wrong in ["tcp://127.0.0.1:8786", object(), 3]:
+        with pytest.raises(TypeError, match=r"^fragility: client: a distributed.Client that is running, or None \(got "):
+            rockbench.fragility(study, wrong, cache=cache)
+        with pytest.raises(TypeError, match=r"^run_many: client: a distributed.Client that is running, or None \(got "):
+            rockbench.run_many(study, client=wrong, cache=cache)
+        with pytest.raises(TypeError, match=r"^run_many: client: a distributed.Client that is running"):
+            rockbench.run_many([scene], client=wrong)
+    with pytest.raises(TypeError, match=r"\(got str 'tcp://127.0.0.1:8786'\); .*pass distributed.Client\(ADDRESS\)"):
+        rockbench.fragility(study, "tcp://127.0.0.1:8786", cache=cache)
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1, dashboard_address=":0") as cl:
+        closed = Client(cl)
+        closed.close()
+    with pytest.raises(ValueError, match=r"^fragility: client: the client is closed, not running"):
+        rockbench.fragility(study, closed, cache=cache)
+    with pytest.raises(ValueError, match=r"^run_many: client: the client is closed, not running"):
+        rockbench.run_many(study, client=closed, cache=cache)
+    with pytest.raises(ValueError, match=r"^run_many: client: the client is closed, not running"):
+        rockbench.run_many([scene], client=closed)
+    assert not cache.exists()
+
+
+def test_run_many_refuses_bad_input_before_any_run(
+    study: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scene = str(ROOT / "validation/scenes/housner-slender.toml")
+    cache = tmp_path / "cache"
+    monkeypatch.chdir(tmp_path)
+    typo = study.parent / "stduy.toml"
+    with pytest.raises(FileNotFoundError, match="run_many: no such scene or study file: '.*stduy.toml'"):
+        rockbench.run_many(typo, cache=cache)
+    with pytest.raises(FileNotFoundError, match=f"run_many: no such scene or study file: '{tmp_path}/nope/missing.toml'"):
+        rockbench.run_many([scene, "nope/missing.toml"])
+    with pytest.raises(ValueError, match=r"^run_many: scenes\[1\]: .*study.toml is a study; give it alone"):
+        rockbench.run_many([scene, study])
+    with pytest.raises(ValueError, match=r"^/.*suite.toml: .*unknown field"):
+        rockbench.run_many([study.parent / "suite.toml"])
+    with pytest.raises(ValueError, match=r"^run_many: scenes\[0\]: .*missing field `duration`"):
+        rockbench.run_many([{"name": "x"}])
+    with pytest.raises(ValueError, match=r"^run_many: engines: native is given twice$"):
+        rockbench.run_many([scene], engines=["native", "housner", "native"])
+    assert not cache.exists()
+    # A study whose name does not end in .toml is still a study (it was run as a scene).
+    upper = study.parent / "study-copy.TOML"
+    upper.write_text(study.read_text())
+    try:
+        rows = rockbench.run_many(upper, cache=cache)
+    finally:
+        upper.unlink()
+    assert len(rows) == N_RECORDS * 5 and set(rows["record"]) == {f"r{k}" for k in range(N_RECORDS)}
+    # A run that fails is a row, as before.
+    two = str(ROOT / "validation/scenes/two-block-free-rocking.toml")
+    failed = rockbench.run_many([two], engines="housner")
+    assert len(failed) == 1 and failed["status"].iloc[0].startswith("failed: engine `housner` cannot run")
+
+
+def test_the_tables_are_the_csvs(local: tuple[rockbench.FragilityResult, Path]) -> None:
+    """outcomes, fits, capacities and differences have the columns of the CSVs the study
+    writes, in their order (also without rows), and NaN where a CSV's cell is blank."""
+    import numpy as np
+    import pandas as pd
+
+    res, out = local
+    for name in ["outcomes", "fits", "capacities", "differences"]:
+        csv = pd.read_csv(out / "out" / f"{name}.csv")
+        table = getattr(res, name)
+        assert list(table.columns) == list(csv.columns), name
+        assert len(table) == len(csv), name
+    assert list(res.fits.columns[6:10]) == ["theta_lo95", "theta_hi95", "beta_lo95", "beta_hi95"]
+    # One engine: no differences, but the table keeps its columns; so does an empty capacities.
+    assert res.differences.shape == (0, 12)
+    empty = rockbench.FragilityResult(dict(res.json, capacities=[], fits=[]))
+    assert empty.capacities.shape == (0, 9) and empty.fits.shape == (0, 12)
+    assert list(empty.capacities.columns) == list(pd.read_csv(out / "out" / "capacities.csv").columns)
+    # A run with an overturned block has no residual sliding: NaN, the CSV's blank, not inf.
+    csv = pd.read_csv(out / "out" / "outcomes.csv")
+    sliding = res.outcomes["max_residual_sliding_m"]
+    assert res.outcomes["overturned"].any() and not np.isinf(sliding).any()
+    assert (sliding.isna() == res.outcomes["overturned"]).all()
+    assert (sliding.isna() == csv["max_residual_sliding_m"].isna()).all()
+    assert np.allclose(sliding.dropna(), csv["max_residual_sliding_m"].dropna(), rtol=1e-5, atol=0)
+    assert np.isfinite(sliding.mean())
+    fits = pd.read_csv(out / "out" / "fits.csv")
+    for c in ["theta", "theta_lo95", "theta_hi95", "beta_lo95", "beta_hi95"]:
+        assert np.allclose(res.fits[c].astype(float), fits[c], atol=1e-6, equal_nan=True), c
+    caps = pd.read_csv(out / "out" / "capacities.csv")
+    assert res.capacities[["record", "limit_state"]].equals(caps[["record", "limit_state"]])
+    assert np.allclose(res.capacities["capacity"], caps["capacity"])
