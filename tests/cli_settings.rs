@@ -368,3 +368,33 @@ fn a_command_line_that_does_not_parse_is_one_line() {
         "{se}"
     );
 }
+
+/// A stability map written where an earlier one was: the earlier map's pages of engines this
+/// one does not run are removed (they stood beside an index that no longer named them); other
+/// files stay.
+#[test]
+fn a_stability_map_written_again_removes_other_engines_pages() {
+    let dir = common::tmp("rb-settings", "stress-again");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    for f in ["rapier.csv", "rapier.html", "notes.txt"] {
+        std::fs::write(out.join(f), "earlier").unwrap();
+    }
+    let o = bin()
+        .current_dir(root())
+        .args([
+            "stress",
+            "--quick",
+            "--engines",
+            "housner",
+            "--factors",
+            "dt",
+        ])
+        .args(["--no-cache", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{o:?}");
+    assert!(out.join("housner.csv").is_file() && out.join("housner.html").is_file());
+    assert!(!out.join("rapier.csv").exists() && !out.join("rapier.html").exists());
+    assert!(out.join("notes.txt").is_file());
+}

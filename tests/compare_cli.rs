@@ -421,3 +421,33 @@ fn a_missing_tool_is_refused_before_any_run() {
         assert!(!out.exists(), "{flag}: {} written", out.display());
     }
 }
+
+/// A window starting after a block came to rest: its rest times are when it came to rest (the
+/// whole run's), not the window's start (both engines "at rest from 3.3 s", agreeing to 0 %).
+#[test]
+fn a_window_after_the_rest_reports_the_rest_times_of_the_run() {
+    let dir = tmp("window-rest");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let rest = |window: Option<&str>, out: &str| -> Vec<(String, String, String)> {
+        let mut cmd = bin();
+        cmd.args(["compare", scene.to_str().unwrap(), "--engines", "native"])
+            .args(["--reference", "housner", "--quiet", "--out"])
+            .arg(dir.join(out));
+        if let Some(w) = window {
+            cmd.args(["--window", w]);
+        }
+        run_ok(&mut cmd);
+        csv_rows(&dir.join(out).join("metrics.csv"))
+            .into_iter()
+            .filter(|r| r[3].starts_with("rest_time_"))
+            .map(|r| (r[3].clone(), r[4].clone(), r[5].clone()))
+            .collect()
+    };
+    let (whole, late) = (rest(None, "whole"), rest(Some("3.3,4"), "late"));
+    assert_eq!(whole.len(), 4);
+    assert_eq!(whole, late);
+    for (m, v, r) in &late {
+        let (v, r): (f64, f64) = (v.parse().unwrap(), r.parse().unwrap());
+        assert!(v < 3.3 && r < 3.3, "{m}: {v} {r}");
+    }
+}

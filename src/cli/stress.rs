@@ -192,6 +192,16 @@ pub fn stress(a: StressArgs) -> Result<()> {
         )?;
         all.extend(results);
     }
+    // An earlier map's pages of engines this one did not run.
+    let stale: Vec<String> = registry::ENGINES
+        .iter()
+        .filter(|e| !engines.iter().any(|x| x == e.name))
+        .flat_map(|e| [format!("{}.csv", e.name), format!("{}.html", e.name)])
+        .collect();
+    super::remove_stale(
+        &a.out,
+        &stale.iter().map(String::as_str).collect::<Vec<_>>(),
+    )?;
     std::fs::write(a.out.join("stress.csv"), csv(&all))?;
     let per_engine: serde_json::Map<String, serde_json::Value> = engines
         .iter()

@@ -31,7 +31,9 @@
 //!   compared with Housner's `housner_restitution = 1 - 1.5 sin^2 alpha`. Exact for a single
 //!   block in free rocking; for a block on a moving block an indicator.
 //! - `rest_time_1e-4`, `rest_time_1e-3`, `rest_time_1e-2`, `rest_time_3e-2` (s): the earliest
-//!   time after which |phi| stays below the threshold (empty: not at rest by the end).
+//!   time after which |phi| stays below the threshold to the window's end (empty: not at rest
+//!   by then); a block at rest from before the window came to rest when the history before
+//!   it says.
 //! - `overturned` (1 or 0), `overturn_time` (s), `overturning_agrees` (1 when engine and
 //!   reference agree on whether the block overturned).
 //! - `max_abs_rotation` (rad).
@@ -59,8 +61,8 @@ use crate::scene::Scene;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 
-/// The block column of the cost rows.
-pub const RUN_ROW: &str = "(run)";
+/// The block column of the cost rows (no block may take the name).
+pub use crate::scene::RUN_ROW;
 
 /// What a run of an engine (or a trajectory file) brings to a comparison.
 #[derive(Debug, Clone)]
@@ -298,9 +300,22 @@ fn series_events(
     } else {
         (Vec::new(), Vec::new())
     };
+    // A block at rest from before the window came to rest then, not at the window's start
+    // (both engines "at rest from 3.3 s", the window's start, agreed to 0 %): its rest time is
+    // read from the history up to the window's end.
+    let to_window_end = History::new(&tr.t, &rot_all, &rate_all).slice(0..k1);
     let rest_times = events::REST_THRESHOLDS
         .iter()
-        .map(|(k, eps)| (k.to_string(), events::rest_time(&h, *eps)))
+        .map(|(k, eps)| {
+            let within = events::rest_time(&h, *eps);
+            let at_start = within.is_some() && within == h.t.first().copied() && k0 > 0;
+            let t = if at_start {
+                events::rest_time(&to_window_end, *eps)
+            } else {
+                within
+            };
+            (k.to_string(), t)
+        })
         .collect();
     let (overturned, overturn_time) = events::overturning(&h, alpha);
     SeriesEvents {

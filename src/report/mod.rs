@@ -1166,7 +1166,8 @@ pub fn render(c: &Comparison, prov: &Provenance) -> (String, String, Vec<(String
     d.h(2, "Impact times");
     d.p(
         "An impact is a zero crossing of the block's rocking rotation (relative to the block \
-         below for a block on a block), located by linear interpolation; crossings while the \
+         below for a block on a block), extrapolated from the samples before it (never \
+         interpolated across the velocity jump; docs/quantities.md); crossings while the \
          amplitude is below the noise floor are not counted. Impacts are matched in order; the \
          difference to the reference is given in milliseconds.",
     );

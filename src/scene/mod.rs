@@ -89,6 +89,9 @@ pub type TableCheck = fn(&Scene) -> Result<(), SceneError>;
 /// Engine settings tables keyed by engine name, each kept as written (a JSON object).
 pub type EngineTables = BTreeMap<String, serde_json::Value>;
 
+/// The label of the outputs' run-level rows (metrics.csv's cost rows), which no block may take.
+pub const RUN_ROW: &str = "(run)";
+
 /// The scene's own top-level fields; any other top-level table is an engine's settings table.
 pub const SCENE_FIELDS: [&str; 8] = [
     "name",

@@ -36,7 +36,18 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
     }
     positive("duration", scene.duration)?;
     positive("gravity", scene.gravity)?;
-    positive("output_interval", scene.output_interval)?;
+    // Named as documented (`[output] interval`; the older top-level spelling is still read).
+    positive("output.interval", scene.output_interval)?;
+    if scene.output_interval > scene.duration {
+        return err(
+            "output.interval".into(),
+            format!(
+                "{} s is longer than the run, {} s: its events would be located from its first and last samples alone",
+                num(scene.output_interval),
+                num(scene.duration)
+            ),
+        );
+    }
     if scene.blocks.is_empty() {
         return err(
             "blocks".into(),
@@ -59,6 +70,18 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
                 format!(
                     "`{}` contains {:?}; block names become trajectory.csv column names",
                     b.name, c
+                ),
+            );
+        }
+        // `lower/upper` names an interface series of the outputs, `(run)` their run-level rows:
+        // a block of either name made two rows of one key in metrics.csv.
+        if b.name.contains('/') || b.name == super::RUN_ROW {
+            return err(
+                f("name"),
+                format!(
+                    "`{}` is a label of the outputs (`lower/upper` names an interface, `{}` the run's rows); give the block another name",
+                    b.name,
+                    super::RUN_ROW
                 ),
             );
         }
@@ -536,9 +559,9 @@ pub fn check_samples(scene: &Scene) -> Result<(), SceneError> {
     if samples > MAX_SAMPLES {
         return Err(SceneError::new(
             &scene.source,
-            "output_interval",
+            "output.interval",
             format!(
-                "duration / output_interval = {samples:e} samples; at most {MAX_SAMPLES:e} are allowed"
+                "duration / output.interval = {samples:e} samples; at most {MAX_SAMPLES:e} are allowed"
             ),
         ));
     }

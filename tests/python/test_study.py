@@ -7,12 +7,14 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -554,3 +556,278 @@ def test_the_tables_are_the_csvs(local: tuple[rockbench.FragilityResult, Path]) 
     caps = pd.read_csv(out / "out" / "capacities.csv")
     assert res.capacities[["record", "limit_state"]].equals(caps[["record", "limit_state"]])
     assert np.allclose(res.capacities["capacity"], caps["capacity"])
+
+
+# ---------------------------------------------------------------------------------------------
+# A scheduler that is not one, has no workers, or fails during the study.
+
+
+class FakeServer:
+    """A TCP server in a thread of the test that is not a Dask scheduler: ``silent`` accepts
+    connections and never answers (a firewall or proxy that holds them, a hung service);
+    ``http`` answers any connection with an HTTP 400 (a web server, the dashboard's port)."""
+
+    def __init__(self, mode: str) -> None:
+        import socket
+
+        self.mode = mode
+        self.sock = socket.create_server(("127.0.0.1", 0))
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.conns: list[Any] = []
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self) -> None:
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(conn)
+            threading.Thread(target=self._serve, args=(conn,), daemon=True).start()
+
+    def _serve(self, conn: Any) -> None:
+        try:
+            if self.mode == "http":
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+            while conn.recv(65536):
+                pass
+        except OSError:
+            pass
+
+    def close(self) -> None:
+        self.sock.close()
+        for c in self.conns:
+            c.close()
+
+
+def run_command(study: Path, *args: str, timeout: float = 60) -> tuple[subprocess.CompletedProcess[str], float]:
+    start = time.monotonic()
+    r = subprocess.run(
+        [sys.executable, "-m", "rockbench.study", str(study), *args],
+        capture_output=True, text=True, timeout=timeout,
+    )
+    return r, time.monotonic() - start
+
+
+def test_a_scheduler_that_never_answers_is_given_up_after_the_timeout(study: Path, tmp_path: Path) -> None:
+    """A server that accepts the connection and never answers: `--timeout` bounded only the
+    TCP connection, and Dask's handshake waited for ever."""
+    server = FakeServer("silent")
+    try:
+        r, wall = run_command(
+            study, "--scheduler", server.address, "--timeout", "2", "--quiet",
+            "--out", str(tmp_path / "o"), "--cache", str(tmp_path / "cache"), timeout=40,
+        )
+    finally:
+        server.close()
+    assert r.returncode == 1, r.stderr
+    assert r.stderr == (
+        f"--scheduler {server.address}: cannot connect: no answer from a Dask scheduler "
+        "within 2 s (--timeout)\n"
+    )
+    assert wall < 20, wall  # 2 s, and Python's start
+    assert r.stdout == "" and list(tmp_path.iterdir()) == []
+
+
+def test_a_server_that_is_not_a_dask_scheduler_is_one_line(
+    study: Path, client: Client, tmp_path: Path
+) -> None:
+    """An HTTP server (the dashboard's port, say) was a 39-line traceback ending in numpy's
+    MemoryError (Dask reads "HTTP/1.1" as a frame's length); a Dask worker's address is not a
+    scheduler either."""
+    server = FakeServer("http")
+    try:
+        r, _ = run_command(
+            study, "--scheduler", server.address, "--timeout", "10", "--quiet",
+            "--out", str(tmp_path / "o"), "--cache", str(tmp_path / "cache"),
+        )
+    finally:
+        server.close()
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.startswith(f"--scheduler {server.address}: cannot connect: not a Dask scheduler ("), r.stderr
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    worker = next(iter(client.scheduler_info()["workers"]))
+    r, _ = run_command(
+        study, "--scheduler", worker, "--timeout", "10", "--quiet",
+        "--out", str(tmp_path / "o"), "--cache", str(tmp_path / "cache"),
+    )
+    assert r.returncode == 1, r.stderr
+    assert r.stderr == f"--scheduler {worker}: cannot connect: not a Dask scheduler (a Dask worker)\n"
+    assert list(tmp_path.iterdir()) == []
+    assert rockbench.studies.check_scheduler(client.scheduler.address, 10) is None
+
+
+def test_a_scheduler_without_workers_is_given_up_after_the_timeout(study: Path, tmp_path: Path) -> None:
+    """No worker ever joins (workers in another environment, batch jobs stuck in the queue):
+    the command waited for ever, silently; the API too."""
+    cache = tmp_path / "cache"
+    with LocalCluster(n_workers=0, dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        r, wall = run_command(
+            study, "--scheduler", address, "--timeout", "2", "--quiet",
+            "--out", str(tmp_path / "o"), "--cache", str(cache), timeout=40,
+        )
+        assert r.returncode == 1, r.stderr
+        assert r.stderr == f"--scheduler {address}: no workers joined within 2 s\n"
+        assert wall < 20, wall
+        # Without --quiet it says that it waits, then the same.
+        r, _ = run_command(
+            study, "--scheduler", address, "--timeout", "1",
+            "--out", str(tmp_path / "o"), "--cache", str(cache), timeout=40,
+        )
+        assert r.returncode == 1 and r.stderr == (
+            f"study: the scheduler {address} has no workers; waiting up to 1 s for one to join\n"
+            f"--scheduler {address}: no workers joined within 1 s\n"
+        ), r.stderr
+        with Client(cluster) as c:
+            start = time.monotonic()
+            with pytest.raises(rockbench.studies.NoWorkersError) as e:
+                rockbench.fragility(study, c, cache=cache, worker_timeout=1)
+            assert time.monotonic() - start < 15
+            assert isinstance(e.value, TimeoutError)
+            assert str(e.value) == (
+                f"fragility: client: the scheduler {address} has no workers; none joined "
+                "within 1 s (worker_timeout)"
+            )
+            with pytest.raises(TimeoutError, match=r"^run_many: client: the scheduler .* has no workers"):
+                rockbench.run_many(study, client=c, cache=cache, worker_timeout=0.5)
+            # The tasks submitted were cancelled: nothing waits on the scheduler.
+            assert c.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)) == 0
+            for bad in [0, -1.0, float("nan"), float("inf"), "5", True]:
+                with pytest.raises(ValueError, match=r"^fragility: worker_timeout: .*\(got "):
+                    rockbench.fragility(study, c, cache=cache, worker_timeout=bad)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def fragile() -> Iterator[Client]:
+    """A cluster of one worker process whose scheduler gives up on a task as soon as a worker
+    dies running it (allowed-failures 0: KilledWorker, deterministically)."""
+    import dask
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = LocalCluster(n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None)
+    with cluster, Client(cluster) as c:
+        yield c
+
+
+@contextmanager
+def kill_once(client: Client, tmp_path: Path, cache: Path) -> Iterator[Path]:
+    """The KillOnce plugin on `client`'s workers while in the block; on leaving it, wait for
+    the killed worker's replacement."""
+    import test_study
+
+    marker = tmp_path / "killed.json"
+    cloudpickle.register_pickle_by_value(test_study)
+    client.register_plugin(KillOnce(str(marker), str(cache)), name="kill-once")
+    try:
+        yield marker
+    finally:
+        client.unregister_worker_plugin("kill-once")
+        cloudpickle.unregister_pickle_by_value(test_study)
+        client.wait_for_workers(1, timeout=60)
+
+
+def test_a_worker_lost_mid_study_is_a_runtime_error_and_the_rerun_resumes(
+    study: Path, local: tuple[rockbench.FragilityResult, Path], fragile: Client, tmp_path: Path
+) -> None:
+    """KilledWorker (and FutureCancelledError, CommClosedError: the scheduler lost) came out of
+    rockbench.fragility as Dask's own exception; now a RuntimeError saying what happened and
+    that the finished runs are cached, raised from it."""
+    from distributed.scheduler import KilledWorker
+
+    loc, _ = local
+    cache = tmp_path / "cache"
+    with kill_once(fragile, tmp_path, cache) as marker:
+        with pytest.raises(RuntimeError) as e:
+            rockbench.fragility(study, fragile, cache=cache, runs_per_task=4)
+        assert json.loads(marker.read_text())["running"]
+        done = len(cache_entries(cache))
+        # The study's other tasks were cancelled (only the failed one is left, erred).
+        states = fragile.run_on_scheduler(lambda dask_scheduler: [t.state for t in dask_scheduler.tasks.values()])
+        assert set(states) <= {"erred"}, states
+    assert isinstance(e.value, rockbench.studies.ClusterError)
+    assert isinstance(e.value.__cause__, KilledWorker)
+    assert re.fullmatch(
+        r"fragility: the Dask cluster failed: a worker died running task rockbench-stripes-\S+ "
+        r"\(KilledWorker: it was tried on 1 worker\(s\), all died; the last: tcp://\S+\); "
+        rf"the runs finished so far are in the run cache {re.escape(str(cache))}: rerunning "
+        r"the study resumes from them",
+        str(e.value),
+    ), str(e.value)
+    assert 1 <= done < loc.counts["made"]
+    # No run is made behind the caller's back once the worker is back.
+    time.sleep(1.0)
+    assert len(cache_entries(cache)) == done
+    del e
+    res = rockbench.fragility(study, fragile, cache=cache)
+    assert res.distributed is not None and res.distributed["made"] == loc.counts["made"] - done
+    assert_same_study(loc.json, res.json)
+
+
+def test_the_command_says_in_one_line_that_a_worker_was_lost_and_the_rerun_resumes(
+    study: Path, local: tuple[rockbench.FragilityResult, Path], fragile: Client, tmp_path: Path
+) -> None:
+    loc, _ = local
+    cache = tmp_path / "cache"
+    address = fragile.scheduler.address
+    args = ["--scheduler", address, "--cache", str(cache), "--out", str(tmp_path / "o"), "--quiet"]
+    with kill_once(fragile, tmp_path, cache):
+        r, _ = run_command(study, *args, "--runs-per-task", "4")
+    assert r.returncode == 1, r.stderr
+    assert re.fullmatch(
+        rf"--scheduler {re.escape(address)}: the Dask cluster failed: a worker died running task "
+        r"rockbench-stripes-\S+ \(KilledWorker: it was tried on 1 worker\(s\), all died; the "
+        rf"last: tcp://\S+\); the runs finished so far are in the run cache {re.escape(str(cache))}: "
+        r"rerunning the command resumes from them\n",
+        r.stderr,
+    ), r.stderr
+    assert not (tmp_path / "o").exists()
+    done = len(cache_entries(cache))
+    assert 1 <= done < loc.counts["made"]
+    r, _ = run_command(study, *args)
+    assert r.returncode == 0, r.stderr
+    assert f"; {loc.counts['made'] - done} runs made in " in r.stdout, r.stdout
+
+
+def test_a_lost_scheduler_is_a_runtime_error_from_dasks(
+    study: Path, client: Client, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The scheduler lost in the middle (its process killed): Dask cancels the futures
+    (FutureCancelledError, scheduler-connection-lost), or a comm closes (CommClosedError).
+    Simulated on the first result the client reads."""
+    import distributed
+    from distributed.client import FutureCancelledError
+    from distributed.comm.core import CommClosedError
+
+    cache = tmp_path / "cache"
+    real = distributed.Future.result
+    for error, what in [
+        (FutureCancelledError("k", "scheduler-connection-lost"),
+         "the connection to the scheduler was lost (FutureCancelledError: scheduler-connection-lost)"),
+        (CommClosedError("in <TCP (closed) Client->Scheduler>: Stream is closed"),
+         "the connection to the scheduler was lost (CommClosedError: in <TCP (closed) Client->Scheduler>: Stream is closed)"),
+    ]:
+        calls = [0]
+
+        def result(self: Any, *a: Any, _error: BaseException = error, **k: Any) -> Any:
+            calls[0] += 1
+            if calls[0] == 2:  # after a task whose runs were stored
+                raise _error
+            return real(self, *a, **k)
+
+        monkeypatch.setattr(distributed.Future, "result", result)
+        with pytest.raises(RuntimeError) as e:
+            rockbench.fragility(study, client, cache=cache, runs_per_task=4)
+        monkeypatch.setattr(distributed.Future, "result", real)
+        assert e.value.__cause__ is error
+        assert str(e.value) == (
+            f"fragility: the Dask cluster failed: {what}; the runs finished so far are in the "
+            f"run cache {cache}: rerunning the study resumes from them"
+        )
+        with pytest.raises(RuntimeError, match=r"^run_many: the Dask cluster failed: .*; no result of it was kept: rerun it$"):
+            calls[0] = 0
+            monkeypatch.setattr(distributed.Future, "result", result)
+            rockbench.run_many([str(ROOT / "validation/scenes/housner-slender.toml")] * 2, client=client, runs_per_task=1)
+        monkeypatch.setattr(distributed.Future, "result", real)
+    assert len(cache_entries(cache)) >= 4
