@@ -549,6 +549,11 @@ fn early_stops_change_no_outcome() {
         serde_json::from_str(&std::fs::read_to_string(p.join("fragility.json")).unwrap()).unwrap()
     };
     let (a, b) = (read(&out1), read(&out2));
+    // The settings each engine ran with, defaults filled in.
+    let native = &a["engine_settings"]["block"]["native"];
+    assert_eq!(native["dt"], 1e-3, "{}", a["engine_settings"]);
+    assert_eq!(native["stepper"], "impact");
+    assert!(a["engine_settings"]["block"]["housner"].is_object());
     let (ra, rb) = (a["rows"].as_array().unwrap(), b["rows"].as_array().unwrap());
     assert_eq!(ra.len(), rb.len());
     let mut early = 0;
@@ -952,4 +957,21 @@ fn an_ida_started_above_a_capacity_steps_down_to_it() {
         below += 1;
     }
     assert_eq!(below, 6);
+}
+
+/// A study without stripes (IDA only) hands out no stripe runs to a distributed runner (a
+/// cluster ran every one of them for nothing).
+#[test]
+fn a_study_without_stripes_has_no_stripe_runs() {
+    let d = tmp("rb-fragility", "no-stripes");
+    let study = fixture(&d, "\"housner\"", "");
+    let text = std::fs::read_to_string(&study).unwrap();
+    let load = || rockbench::fragility::study::load_study(&study).unwrap();
+    assert_eq!(rockbench::fragility::stripe_specs(&load()).len(), 6 * 6);
+    std::fs::write(
+        &study,
+        text.replace("tail = 3.0", "tail = 3.0\nstripes = false\n[ida]\n"),
+    )
+    .unwrap();
+    assert!(rockbench::fragility::stripe_specs(&load()).is_empty());
 }

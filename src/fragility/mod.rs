@@ -92,6 +92,10 @@ pub fn spec_for(
 /// level): the units of work a distributed runner hands out.
 pub fn stripe_specs(study: &Study) -> Vec<RunSpec> {
     let mut out = Vec::new();
+    // A study without stripes (IDA only) has no stripe runs (a cluster ran them for nothing).
+    if !study.file.stripes {
+        return out;
+    }
     for scene in &study.scenes {
         for e in &study.file.engines {
             for r in &study.suite.records {

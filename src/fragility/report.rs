@@ -168,6 +168,29 @@ pub fn differences_csv(res: &Results) -> String {
     s
 }
 
+/// Each scene's settings of each engine of the study as the engine uses them (defaults filled
+/// in), keyed by scene name and engine: `[native] dt`, its stepper, theta, Housner's
+/// restitution, ... (the outputs named the engines' versions, not the settings that made them).
+pub fn engine_settings(study: &Study) -> serde_json::Value {
+    let per_scene = study.scenes.iter().map(|scene| {
+        let tables = crate::engines::registry::settings(scene).unwrap_or_default();
+        let engines = study.file.engines.iter().map(|e| {
+            let table = crate::engines::registry::ENGINES
+                .iter()
+                .find(|x| x.name == e)
+                .and_then(|x| x.settings)
+                .and_then(|t| tables.get(t.table).cloned())
+                .unwrap_or(serde_json::Value::Null);
+            (e.clone(), table)
+        });
+        (
+            scene.name.clone(),
+            serde_json::Value::Object(engines.collect()),
+        )
+    });
+    serde_json::Value::Object(per_scene.collect())
+}
+
 /// fragility.json: the study as read, the suite, the settings, versions, counts, every row,
 /// capacity, fit and difference.
 pub fn json(study: &Study, res: &Results, command: &str) -> serde_json::Value {
@@ -178,6 +201,10 @@ pub fn json(study: &Study, res: &Results, command: &str) -> serde_json::Value {
         "rockbench_source_hash": crate::build_info::SOURCE_HASH,
         "study": study.file,
         "study_file": study.path.display().to_string(),
+        "cache_dir": std::path::absolute(&study.cache_dir)
+            .unwrap_or_else(|_| study.cache_dir.clone())
+            .display()
+            .to_string(),
         "limit_states": study.limit_states,
         "suite": {
             "name": study.suite.header.name,
@@ -186,6 +213,7 @@ pub fn json(study: &Study, res: &Results, command: &str) -> serde_json::Value {
         },
         "scenes": study.scenes,
         "engine_versions": res.engine_versions,
+        "engine_settings": engine_settings(study),
         "counts": res.counts,
         "grid": res.grid,
         "fits": res.fits,

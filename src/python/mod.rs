@@ -501,15 +501,18 @@ fn cache_path(function: &str, cache: PathBuf) -> PyResult<PathBuf> {
 
 /// A fragility study (`rockbench fragility`): read and check STUDY.toml, run it (GIL
 /// released; cached runs reused) and return fragility.json as a dict; with `out`, also write
-/// the outputs there; with `cache`, use that run cache instead of the study's.
+/// the outputs there; with `cache`, use that run cache instead of the study's. `command`: how
+/// the study was run, as its outputs record it (the Python call or command line, a cluster
+/// and the runs its workers made); default this call.
 #[pyfunction]
-#[pyo3(signature = (study, out = None, quiet = true, cache = None))]
+#[pyo3(signature = (study, out = None, quiet = true, cache = None, command = None))]
 fn fragility_study(
     py: Python<'_>,
     study: PathBuf,
     out: Option<PathBuf>,
     quiet: bool,
     cache: Option<PathBuf>,
+    command: Option<String>,
 ) -> PyResult<Py<PyAny>> {
     let mut st = load_study(&study)?;
     if let Some(c) = cache {
@@ -522,7 +525,8 @@ fn fragility_study(
         crate::fragility::run_study_stopped_by(&st, quiet, stop.clone())
     })?
     .map_err(PyRuntimeError::new_err)?;
-    let command = format!("rockbench._native.fragility_study({})", study.display());
+    let command = command
+        .unwrap_or_else(|| format!("rockbench._native.fragility_study({})", study.display()));
     if let Some(dir) = out {
         crate::fragility::report::write_all(&dir, &st, &res, &command, false)
             .map_err(PyRuntimeError::new_err)?;
