@@ -370,6 +370,21 @@ struct StoredRun {
     engine_settings: Option<EngineReport>,
 }
 
+impl StoredRun {
+    /// Whether a stored run can be the run at `amplitude`: that amplitude, finite times in
+    /// order, no overturn time without an overturn (an entry edited or damaged on disk, read
+    /// as it was, put an amplitude of -7 and negative times in map.csv).
+    fn plausible(&self, amplitude: f64) -> bool {
+        let o = &self.outcome;
+        o.amplitude.to_bits() == amplitude.to_bits()
+            && o.p_t_end.is_finite()
+            && o.p_t_end >= 0.0
+            && o.p_t_overturn
+                .is_none_or(|t| t.is_finite() && (0.0..=o.p_t_end).contains(&t) && o.overturned)
+            && (o.overturned || !o.without_impact)
+    }
+}
+
 /// An engine's settings and version, as a run reports them.
 pub type EngineReport = (serde_json::Value, String);
 
@@ -489,7 +504,8 @@ impl<'a> Spectrum<'a> {
         });
         let stored = key
             .as_ref()
-            .and_then(|(dir, key)| crate::run_store::load::<StoredRun>(dir, key));
+            .and_then(|(dir, key)| crate::run_store::load::<StoredRun>(dir, key))
+            .filter(|s| s.plausible(amplitude));
         let run = match stored {
             Some(stored) => {
                 self.from_store.set(self.from_store.get() + 1);

@@ -661,7 +661,7 @@ def test_a_scheduler_without_workers_is_given_up_after_the_timeout(study: Path, 
     """No worker ever joins (workers in another environment, batch jobs stuck in the queue):
     the command waited for ever, silently; the API too."""
     cache = tmp_path / "cache"
-    with LocalCluster(n_workers=0, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=0, dashboard_address=":0") as cluster:
         address = cluster.scheduler_address
         r, wall = run_command(
             study, "--scheduler", address, "--timeout", "2", "--quiet",
@@ -706,7 +706,7 @@ def fragile() -> Iterator[Client]:
     import dask
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        cluster = LocalCluster(n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None)
+        cluster = LocalCluster(n_workers=1, processes=True, threads_per_worker=1, dashboard_address=":0")
     with cluster, Client(cluster) as c:
         yield c
 
