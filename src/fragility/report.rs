@@ -573,24 +573,41 @@ pub fn write_all(
     let name = out
         .file_name()
         .ok_or_else(|| format!("--out: {}: no folder name", out.display()))?;
-    let tmp = out.with_file_name(format!("{}.partial", name.to_string_lossy()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    // A folder of this write's own beside `out` (`DIR.partial`, fixed, removed whatever a
+    // folder of that name held).
+    let parent = out.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let tmp = out.with_file_name(format!(
+        ".{}.partial-{}-{nanos}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    std::fs::create_dir(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
     let w = |name: &str, text: String| {
         std::fs::write(tmp.join(name), text)
             .map_err(|e| format!("{}: {e}", tmp.join(name).display()))
     };
-    w("outcomes.csv", outcomes_csv(study, res))?;
-    w("capacities.csv", capacities_csv(res))?;
-    w("fits.csv", fits_csv(res))?;
-    w("differences.csv", differences_csv(res))?;
-    w(
-        MARKER,
-        serde_json::to_string_pretty(&json(study, res, command)).expect("serialises") + "\n",
-    )?;
-    w("report.html", html(study, res, command))?;
-    if paper {
-        write_paper(&tmp.join("paper"), study, res, command)?;
+    let written = (|| {
+        w("outcomes.csv", outcomes_csv(study, res))?;
+        w("capacities.csv", capacities_csv(res))?;
+        w("fits.csv", fits_csv(res))?;
+        w("differences.csv", differences_csv(res))?;
+        w(
+            MARKER,
+            serde_json::to_string_pretty(&json(study, res, command)).expect("serialises") + "\n",
+        )?;
+        w("report.html", html(study, res, command))?;
+        if paper {
+            write_paper(&tmp.join("paper"), study, res, command)?;
+        }
+        Ok(())
+    })();
+    if let Err(e) = written {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
     }
     let _ = std::fs::remove_dir_all(out);
     std::fs::rename(&tmp, out).map_err(|e| {
