@@ -7,6 +7,8 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+#: outcomes.csv's columns before one column per limit state.
+OUTCOME_COLUMNS: list[str]
 #: The commit the extension was built from (`` (modified)`` when its build inputs differed).
 __git_commit__: str
 #: The hash of the extension's Rust sources (``src/``), as ``rockbench --version`` prints it.
@@ -21,6 +23,7 @@ __all__ = [
     "run",
     "check_engine_names",
     "check_study_out",
+    "OUTCOME_COLUMNS",
     "engine_names",
     "compare_rows",
     "fragility_study",
@@ -96,6 +99,7 @@ def fragility_study(
     out: str | os.PathLike[str] | None = None,
     quiet: bool = True,
     cache: str | os.PathLike[str] | None = None,
+    command: str | None = None,
 ) -> dict[str, Any]: ...
 def fragility_run_specs(study: str | os.PathLike[str]) -> list[tuple[str, str]]: ...
 def fragility_run(spec: str) -> str: ...

@@ -10,23 +10,7 @@ from typing import Any
 
 import pandas as pd  # type: ignore[import-untyped]  # pandas ships no stubs for 3.x
 
-OUTCOME_COLUMNS = [
-    "scene",
-    "engine",
-    "record",
-    "pair",
-    "method",
-    "level",
-    "scale",
-    "ran",
-    "stop",
-    "t_end",
-    "wall_s",
-    "cached",
-    "max_rotation_over_alpha",
-    "overturned",
-    "max_residual_sliding_m",
-]
+from rockbench._native import OUTCOME_COLUMNS  # outcomes.csv's columns before the limit states
 
 
 def trajectory(run: Any) -> pd.DataFrame:

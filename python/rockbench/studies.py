@@ -32,6 +32,7 @@ task skip runs another finished; see docs/cluster.md.
 from __future__ import annotations
 
 import argparse
+import asyncio
 import errno
 import json
 import math
@@ -221,6 +222,81 @@ def spread(n: int, parts: int) -> list[list[int]]:
     return [list(range(j, n, parts)) for j in range(parts)]
 
 
+class NoWorkersError(TimeoutError):
+    """The Dask scheduler has no workers and none joined within the wait allowed
+    (`worker_timeout` of :func:`fragility` / :func:`run_many`, ``--timeout`` of the command).
+    Nothing of the study ran; its tasks were cancelled."""
+
+    def __init__(self, message: str, address: str, timeout: float) -> None:
+        super().__init__(message)
+        self.address = address
+        self.timeout = timeout
+
+
+class ClusterError(RuntimeError):
+    """The Dask cluster failed during a study: a task's worker died (``KilledWorker``), the
+    connection to the scheduler was lost (``FutureCancelledError``, ``CommClosedError``), ...
+    Raised from the Dask exception (``__cause__``). `what` says what happened; the runs that
+    finished before are in the run cache `cache` (None: there is none, for ``run_many`` of
+    scenes), and rerunning the study resumes from them."""
+
+    def __init__(self, message: str, what: str, cache: str | None) -> None:
+        super().__init__(message)
+        self.what = what
+        self.cache = cache
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _cluster_failure(e: BaseException) -> str | None:
+    """What a Dask exception raised while a study's tasks ran says happened to the cluster,
+    in a few words; None: not a failure of the cluster (a task's own error, a bug)."""
+    from concurrent.futures import CancelledError
+
+    from distributed.comm.core import CommClosedError
+    from distributed.scheduler import KilledWorker
+
+    if isinstance(e, KilledWorker):
+        last = getattr(e.last_worker, "address", e.last_worker)
+        return (
+            f"a worker died running task {e.task} (KilledWorker: it was tried on "
+            f"{e.allowed_failures + 1} worker(s), all died; the last: {last})"
+        )
+    if isinstance(e, CancelledError):
+        reason = getattr(e, "reason", None)
+        if reason == "scheduler-connection-lost":
+            return f"the connection to the scheduler was lost ({type(e).__name__}: {reason})"
+        return _one_line(f"a task was cancelled ({type(e).__name__}: {reason or e})")
+    if isinstance(e, CommClosedError):
+        return _one_line(f"the connection to the scheduler was lost ({type(e).__name__}: {e})")
+    return None
+
+
+def _await_workers(
+    client: Any, futures: list[Any], timeout: float | None, function: str,
+    progress: Callable[[str], None] | None,
+) -> None:
+    """The scheduler has no worker: wait (after the first tasks were submitted, so that an
+    adaptive cluster scales up) until one joins, at most `timeout` s (None: for ever); else
+    cancel `futures` and raise :class:`NoWorkersError`."""
+    address = str(getattr(client.scheduler, "address", client))
+    if progress:
+        wait = "for ever" if timeout is None else f"up to {timeout:g} s"
+        progress(f"the scheduler {address} has no workers; waiting {wait} for one to join")
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except TimeoutError:
+        client.cancel(futures)
+        raise NoWorkersError(
+            f"{function}: client: the scheduler {address} has no workers; none joined within "
+            f"{timeout:g} s (worker_timeout)",
+            address,
+            float(timeout or 0),
+        ) from None
+
+
 def distribute(
     client: Any,
     fn: Callable[..., dict[str, Any]],
@@ -234,6 +310,8 @@ def distribute(
     label: str = "runs",
     progress: Callable[[str], None] | None = None,
     on_result: Callable[[dict[str, Any]], None] | None = None,
+    worker_timeout: float | None = None,
+    function: str = "distribute",
 ) -> tuple[list[Any], dict[str, Any]]:
     """Run `fn(batch, *args)` over `items` on a Dask client; `fn` returns a dict with
     ``results`` (one per item of its batch), ``made`` and ``work_s``. Tasks take items dealt
@@ -242,15 +320,23 @@ def distribute(
     item's cost, then the rest is cut into tasks of :func:`task_size`. At most `window` tasks per worker thread are submitted at a time (the
     scheduler holds a bounded amount of work; a new task goes out as one ends). `on_result` is
     called with each task's result as it arrives. Returns the results in item order and
-    statistics."""
+    statistics.
+
+    A scheduler with no workers: once the first tasks are submitted (an adaptive cluster
+    scales up for them), wait for one to join, at most `worker_timeout` s (None: for ever),
+    else cancel them and raise :class:`NoWorkersError` (its message starts with
+    `function`)."""
     from distributed import as_completed
 
     start = time.perf_counter()
-    slots = max(1, sum(client.nthreads().values()))
+    nthreads = client.nthreads()
+    slots = max(1, sum(nthreads.values()))
+    no_workers = [not nthreads]  # none yet: wait for one after the first submissions
     items = list(items)
     batches: list[list[int]] = []
     results: dict[int, dict[str, Any]] = {}
     index: dict[Any, int] = {}
+    inflight: dict[Any, Any] = {}  # key -> future submitted and not yet ended
     done_items = 0
     last = [0.0]  # when the last progress line was printed (at most one a second)
 
@@ -259,27 +345,48 @@ def distribute(
         key = f"rockbench-{label}-{os.getpid()}-{time.time_ns()}-{len(batches)}"
         f = client.submit(fn, [items[i] for i in batch], *args, pure=False, key=key)
         index[f.key] = len(batches) - 1
+        inflight[f.key] = f
         return f
 
     def run_all(todo: list[list[int]]) -> None:
-        nonlocal done_items
+        nonlocal done_items, slots
         pending = iter(todo)
         first = [submit(b) for _, b in zip(range(window * slots), pending)]
+        if no_workers[0] and first:
+            _await_workers(client, first, worker_timeout, function, progress)
+            no_workers[0] = False
+            slots = max(1, sum(client.nthreads().values()))
         queue = as_completed(first)  # type: ignore[no-untyped-call]
-        for fut in queue:
-            r = fut.result()
-            if on_result:
-                on_result(r)
-            i = index[fut.key]
-            results[i] = r
-            done_items += len(batches[i])
-            fut.release()
-            nxt = next(pending, None)
-            if nxt is not None:
-                queue.add(submit(nxt))  # type: ignore[no-untyped-call]
-            if progress and (time.perf_counter() - last[0] >= 1.0 or done_items == len(items)):
-                last[0] = time.perf_counter()
-                progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
+        try:
+            for fut in queue:
+                del inflight[fut.key]
+                r = fut.result()
+                if on_result:
+                    on_result(r)
+                i = index[fut.key]
+                results[i] = r
+                done_items += len(batches[i])
+                fut.release()
+                nxt = next(pending, None)
+                if nxt is not None:
+                    queue.add(submit(nxt))  # type: ignore[no-untyped-call]
+                if progress and (time.perf_counter() - last[0] >= 1.0 or done_items == len(items)):
+                    last[0] = time.perf_counter()
+                    progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
+        except BaseException as e:
+            # A task failed (its worker died, its own error, ...): the study's other tasks
+            # must not go on running on the cluster once this call has raised. (Not when the
+            # scheduler is lost: the client has cancelled them, and asking it would wait.)
+            from concurrent.futures import CancelledError
+
+            lost = isinstance(e, (CancelledError, OSError))
+            if inflight and not lost and client.status == "running":
+                try:
+                    client.cancel(list(inflight.values()))
+                except Exception:  # noqa: BLE001  the failure being raised says more
+                    pass
+            inflight.clear()
+            raise
 
     left = list(range(len(items)))
     size = per_task
@@ -322,15 +429,21 @@ def distribute(
 MAX_TIMEOUT = 3600.0
 
 
+def _positive_seconds(value: Any) -> bool:
+    """Whether `value` is a number of seconds: a real number (not a bool), finite, above 0."""
+    return (
+        not isinstance(value, bool)
+        and isinstance(value, numbers.Real)
+        and math.isfinite(value)
+        and float(value) > 0
+    )
+
+
 def _check_task_size(function: str, task_seconds: Any, runs_per_task: Any) -> None:
     """Refuse a task size that is not one (the command's --task-seconds / --runs-per-task
     checks), before anything runs: `task_seconds` a finite number of seconds above 0,
     `runs_per_task` None or a whole number (not a bool) of at least 1."""
-    if (
-        isinstance(task_seconds, bool)
-        or not isinstance(task_seconds, numbers.Real)
-        or not (math.isfinite(task_seconds) and float(task_seconds) > 0)
-    ):
+    if not _positive_seconds(task_seconds):
         raise ValueError(
             f"{function}: task_seconds: the target wall time of a task, a finite number of "
             f"seconds above 0 (got {task_seconds!r})"
@@ -344,6 +457,49 @@ def _check_task_size(function: str, task_seconds: Any, runs_per_task: Any) -> No
             f"{function}: runs_per_task: a whole number of runs (IDA: records) per task, at "
             f"least 1, or None (got {runs_per_task!r})"
         )
+
+
+#: The default wait for a first worker when the scheduler has none, s (`worker_timeout`).
+WORKER_TIMEOUT = 120.0
+
+
+def _check_worker_timeout(function: str, worker_timeout: Any) -> None:
+    """`worker_timeout`: None (wait for ever) or a finite number of seconds above 0."""
+    if worker_timeout is not None and not _positive_seconds(worker_timeout):
+        raise ValueError(
+            f"{function}: worker_timeout: seconds to wait for a first worker when the scheduler "
+            f"has none, a finite number above 0, or None (for ever) (got {worker_timeout!r})"
+        )
+
+
+def _distributed(function: str, cache: str | None, call: Callable[[], T]) -> T:
+    """`call()`, which runs tasks on the cluster; a failure of the cluster (a worker died, the
+    scheduler was lost) is raised as a :class:`ClusterError` saying so, from the Dask
+    exception."""
+    try:
+        return call()
+    except NoWorkersError:
+        raise
+    except Exception as e:
+        what = _cluster_failure(e)
+        if what is None:
+            raise
+        if cache is None:
+            kept = "no result of it was kept: rerun it"
+        else:
+            kept = (
+                f"the runs finished so far are in the run cache {cache}: rerunning the study "
+                "resumes from them"
+            )
+        raise ClusterError(f"{function}: the Dask cluster failed: {what}; {kept}", what, cache) from e
+
+
+def _scheduler_address(client: Any) -> str:
+    """The address of `client`'s scheduler, as its outputs record it."""
+    try:
+        return str(client.scheduler.address)
+    except AttributeError:
+        return "?"
 
 
 def _check_client(function: str, client: Any) -> None:
@@ -424,6 +580,8 @@ def fragility(
     task_seconds: float = TASK_SECONDS,
     runs_per_task: int | None = None,
     quiet: bool = True,
+    worker_timeout: float | None = WORKER_TIMEOUT,
+    command: str | None = None,
 ) -> FragilityResult:
     """Run the fragility study `study` (a study TOML file) and return its results; with `out`,
     also write outcomes.csv, fits.csv, ..., report.html there. `client`: a
@@ -431,7 +589,14 @@ def fragility(
     (default: the study's). `worker_cache`: the cache path the workers use (default `cache`;
     another path when workers do not share the client's filesystem: their runs come back with
     the tasks and are stored in `cache` as each task ends). `task_seconds` / `runs_per_task`
-    size the tasks (``runs_per_task`` also sizes IDA tasks, in records).
+    size the tasks (``runs_per_task`` also sizes IDA tasks, in records). `worker_timeout`: how
+    long to wait for a first worker when the scheduler has none (s; None: for ever), else
+    :class:`NoWorkersError` (a TimeoutError naming the scheduler).
+
+    A failure of the cluster while the study runs (a task's worker died: ``KilledWorker``; the
+    connection to the scheduler lost: ``FutureCancelledError``, ``CommClosedError``) raises a
+    :class:`ClusterError` (a RuntimeError, from the Dask exception) saying what happened; the
+    runs that finished are in the run cache and rerunning the study resumes from them.
 
     Bad input is refused before anything runs: a `client` that is not a running
     ``distributed.Client`` (TypeError / ValueError), an empty `cache` or `worker_cache`, a
@@ -439,6 +604,7 @@ def fragility(
     number of at least 1, an `out` that cannot take the outputs (see :func:`check_out`), and
     the study's own problems (ValueError)."""
     _check_task_size("fragility", task_seconds, runs_per_task)
+    _check_worker_timeout("fragility", worker_timeout)
     _check_client("fragility", client)
     if worker_cache is not None and str(worker_cache) == "":
         raise ValueError("worker_cache: an empty path (it would be the workers' working directory)")
@@ -446,8 +612,15 @@ def fragility(
     if out is not None:
         # Before anything runs (the Rust core checks again when it writes the outputs).
         check_out(out, cache_dir, "out")
+    if command is None:
+        command = (
+            f"rockbench.fragility({os.fspath(study)!r}, out={None if out is None else os.fspath(out)!r}, "
+            f"cache={os.fspath(cache_dir)!r}"
+            + ("" if client is None else f", client=Client({_scheduler_address(client)!r}), task_seconds={task_seconds!r}, runs_per_task={runs_per_task!r}")
+            + ")"
+        )
     if client is None:
-        return FragilityResult(fragility_study(path, out, quiet, cache_dir))
+        return FragilityResult(fragility_study(path, out, quiet, cache_dir, command))
     wcache = str(Path(worker_cache).resolve()) if worker_cache is not None else str(cache_dir)
     say = None if quiet else (lambda m: print(f"study: {m}", file=sys.stderr))
     stored = [0]
@@ -459,18 +632,17 @@ def fragility(
     specs = fragility_run_specs(path)
     have = fragility_cache_has(cache_dir, [k for k, _ in specs])
     missing = [(k, s) for (k, s), h in zip(specs, have) if not h]
-    _, stripes = distribute(
+    _, stripes = _distributed("fragility", str(cache_dir), lambda: distribute(
         client, run_specs_task, missing, (wcache,),
         task_seconds=task_seconds, per_task=runs_per_task, label="stripes", progress=say,
-        on_result=store,
-    )
+        on_result=store, worker_timeout=worker_timeout, function="fragility",
+    ))
     jobs = fragility_ida_jobs(path)
-    _, ida = distribute(
+    _, ida = _distributed("fragility", str(cache_dir), lambda: distribute(
         client, ida_task, jobs, (str(path), wcache), probe=1,
         task_seconds=task_seconds, per_task=runs_per_task, label="ida", progress=say,
-        on_result=store,
-    )
-    data = fragility_study(path, out, quiet, cache_dir)
+        on_result=store, worker_timeout=worker_timeout, function="fragility",
+    ))
     info = {
         "stripes": stripes,
         "ida": ida,
@@ -479,6 +651,13 @@ def fragility(
         "stored_by_client": stored[0],
         "already_cached": len(specs) - len(missing),
     }
+    # The outputs' counts are those of the assembly, which reads every run from the cache:
+    # the command says which of them the cluster made.
+    command += (
+        f" [on the Dask cluster at {_scheduler_address(client)}: {info['made']} runs made by its "
+        f"workers in {info['tasks']} tasks, {info['already_cached']} stripe runs already in the cache]"
+    )
+    data = fragility_study(path, out, quiet, cache_dir, command)
     return FragilityResult(data, distributed=info)
 
 
@@ -516,6 +695,7 @@ def run_many(
     cache: PathLike | None = None,
     task_seconds: float = TASK_SECONDS,
     runs_per_task: int | None = None,
+    worker_timeout: float | None = WORKER_TIMEOUT,
 ) -> pd.DataFrame:
     """Many runs, locally or on a Dask client, as a DataFrame.
 
@@ -529,12 +709,15 @@ def run_many(
     sent out: a Dask worker reads the same file as a local run, whatever its working
     directory. Bad input raises before any run: a path that does not exist
     (FileNotFoundError), a file that is neither a scene nor a study, an engine named twice,
-    a bad `client`, `task_seconds` or `runs_per_task` (ValueError / TypeError). A run that
-    fails is a row with status ``failed: why``."""
+    a bad `client`, `task_seconds`, `runs_per_task` or `worker_timeout` (ValueError /
+    TypeError). A run that fails is a row with status ``failed: why``. With a client, a
+    scheduler with no workers and a failure of the cluster are raised as by :func:`fragility`
+    (:class:`NoWorkersError`, :class:`ClusterError`)."""
     if isinstance(engines, str):
         engines = [engines]
     engines = list(engines)
     _check_task_size("run_many", task_seconds, runs_per_task)
+    _check_worker_timeout("run_many", worker_timeout)
     _check_client("run_many", client)
     if isinstance(scenes_or_study, (str, os.PathLike)):
         _check_exists("run_many", scenes_or_study)
@@ -549,10 +732,11 @@ def run_many(
                 parts = list(pool.map(lambda c: run_specs_task(c, str(cache_dir)), chunks))
             per_item = [r for p in parts for r in p["results"]]
         else:
-            per_item, _ = distribute(
+            per_item, _ = _distributed("run_many", str(cache_dir), lambda: distribute(
                 client, run_specs_task, specs, (str(cache_dir),),
                 task_seconds=task_seconds, per_task=runs_per_task,
-            )
+                worker_timeout=worker_timeout, function="run_many",
+            ))
         rows = []
         for (key, spec), (k2, made, text) in zip(specs, per_item):
             assert k2 == key, "a run came back under another key"
@@ -608,14 +792,57 @@ def run_many(
     if client is None:
         per_item = scenes_task(items)["results"]
     else:
-        per_item, _ = distribute(
-            client, scenes_task, items, probe=1, task_seconds=task_seconds, per_task=runs_per_task
-        )
+        per_item, _ = _distributed("run_many", None, lambda: distribute(
+            client, scenes_task, items, probe=1, task_seconds=task_seconds,
+            per_task=runs_per_task, worker_timeout=worker_timeout, function="run_many",
+        ))
     return pd.DataFrame([row for rows in per_item for row in rows])
 
 
 # ---------------------------------------------------------------------------------------------
 # The command.
+
+
+def check_scheduler(address: str, timeout: float) -> str | None:
+    """Whether a Dask scheduler answers at `address` within `timeout` s: connect, Dask's
+    handshake and one request (``identity``), all within the one deadline (``Client``'s
+    timeout bounds only the TCP connection: a server that accepts and never answers held it
+    for ever). None if it does, else why not, in a few words (a timeout, a refused
+    connection, a server that is not a Dask scheduler: a web server, the dashboard's port, a
+    Dask worker)."""
+    from distributed.comm.core import connect
+
+    async def ask() -> Any:
+        comm = await connect(address, timeout=timeout)  # type: ignore[no-untyped-call]
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        answer = asyncio.run(asyncio.wait_for(ask(), timeout))
+    except TimeoutError:  # asyncio's too (Python 3.11)
+        return f"cannot connect: no answer from a Dask scheduler within {timeout:g} s (--timeout)"
+    except (OSError, ValueError) as e:
+        from distributed.comm.core import CommClosedError
+
+        if isinstance(e, CommClosedError):
+            return _one_line(
+                f"cannot connect: not a Dask scheduler (it closed the connection without "
+                f"Dask's handshake: {e})"
+            )
+        return _one_line(f"cannot connect: {e}")
+    except Exception as e:  # noqa: BLE001  what Dask's protocol makes of other bytes
+        return _one_line(
+            f"cannot connect: not a Dask scheduler (its answer is not Dask's protocol: "
+            f"{type(e).__name__})"
+        )
+    kind = answer.get("type") if isinstance(answer, dict) else None
+    if kind != "Scheduler":
+        what = f"a Dask {kind.lower()}" if isinstance(kind, str) else "an unknown Dask server"
+        return f"cannot connect: not a Dask scheduler ({what})"
+    return None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -630,7 +857,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--worker-cache", help="the workers' cache folder when they do not share --cache")
     ap.add_argument("--task-seconds", type=float, default=TASK_SECONDS, help="target wall time of a task, s")
     ap.add_argument("--runs-per-task", type=int, help="fixed task size (runs; IDA: records)")
-    ap.add_argument("--timeout", type=float, default=20.0, help="seconds to wait for the scheduler (default 20)")
+    ap.add_argument(
+        "--timeout", type=float, default=20.0,
+        help="seconds to wait for the scheduler, and for a first worker if it has none (default 20)",
+    )
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
     a = ap.parse_args(argv)
     if not os.path.isfile(a.study):
@@ -661,16 +891,39 @@ def main(argv: list[str] | None = None) -> int:
             except ImportError:
                 print("--scheduler needs Dask: pip install 'rockbench[dask]'", file=sys.stderr)
                 return 2
+            why = check_scheduler(a.scheduler, a.timeout)
+            if why is not None:
+                print(f"--scheduler {a.scheduler}: {why}", file=sys.stderr)
+                return 1
             try:
                 client = Client(a.scheduler, timeout=f"{a.timeout}s")  # type: ignore[no-untyped-call]
-            except (OSError, TimeoutError, ValueError) as e:
-                print(f"--scheduler {a.scheduler}: cannot connect: {e}".replace("\n", " "), file=sys.stderr)
+            except Exception as e:  # noqa: BLE001  one line, as for the checks above
+                print(_one_line(f"--scheduler {a.scheduler}: cannot connect: {type(e).__name__}: {e}"), file=sys.stderr)
                 return 1
         res = fragility(
             a.study, client, out=a.out, cache=a.cache, worker_cache=a.worker_cache,
             task_seconds=a.task_seconds,
-            runs_per_task=a.runs_per_task, quiet=a.quiet,
+            runs_per_task=a.runs_per_task, quiet=a.quiet, worker_timeout=a.timeout,
+            command=" ".join(["python", "-m", "rockbench.study", *(sys.argv[1:] if argv is None else argv)]),
         )
+    except NoWorkersError as e:
+        print(f"--scheduler {a.scheduler}: no workers joined within {e.timeout:g} s", file=sys.stderr)
+        return 1
+    except ClusterError as e:
+        print(
+            _one_line(
+                f"--scheduler {a.scheduler}: the Dask cluster failed: {e.what}; the runs "
+                f"finished so far are in the run cache {e.cache}: rerunning the command "
+                "resumes from them"
+            ),
+            file=sys.stderr,
+        )
+        # That line says it all: not Dask's own error logs as the client closes (its
+        # reconnection to a lost scheduler, cancelled).
+        import logging
+
+        logging.disable(logging.CRITICAL)
+        return 1
     except (RuntimeError, ValueError, OSError) as e:
         print(f"{a.study}: {e}".replace("\n", " "), file=sys.stderr)
         return 1

@@ -764,6 +764,10 @@ fn native_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(engine_names, m)?)?;
     m.add_function(wrap_pyfunction!(check_engine_names, m)?)?;
     m.add_function(wrap_pyfunction!(check_study_out, m)?)?;
+    m.add(
+        "OUTCOME_COLUMNS",
+        crate::fragility::report::OUTCOME_COLUMNS.to_vec(),
+    )?;
     m.add_function(wrap_pyfunction!(compare_rows, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_study, m)?)?;
     m.add_function(wrap_pyfunction!(fragility_run_specs, m)?)?;

@@ -131,6 +131,19 @@ def test_a_study_on_a_local_cluster_equals_the_local_run(
     assert r.returncode == 0, r.stderr
     assert "0 runs made" in r.stdout, r.stdout
     assert (tmp_path / "cli" / "fits.csv").read_bytes() == (loc_dir / "out" / "fits.csv").read_bytes()
+    # Each output says how it was made: the call or command, the cache it used, the cluster's
+    # runs (they named a call nobody made, the study file's cache, and no cluster).
+    written = {k: json.loads((tmp_path / k / "fragility.json").read_text()) for k in ["out", "cli"]}
+    assert written["out"]["command"].startswith("rockbench.fragility(")
+    assert f"Client({client.scheduler.address!r})" in written["out"]["command"]
+    assert f"{d['made']} runs made by its workers" in written["out"]["command"]
+    assert written["cli"]["command"].startswith(f"python -m rockbench.study {study}")
+    assert "--scheduler" in written["cli"]["command"] and "0 runs made by its workers" in written["cli"]["command"]
+    for k in written:
+        assert Path(written[k]["cache_dir"]).resolve() == (tmp_path / "cache").resolve()
+    assert json.loads((loc_dir / "out" / "fragility.json").read_text())["command"].startswith(
+        f"rockbench.fragility({str(study)!r}, out="
+    )
 
 
 class KillOnce(WorkerPlugin):  # type: ignore[misc]
@@ -614,9 +627,11 @@ def test_a_scheduler_that_never_answers_is_given_up_after_the_timeout(study: Pat
     TCP connection, and Dask's handshake waited for ever."""
     server = FakeServer("silent")
     try:
+        # It waited for ever: the subprocess's own timeout tells (Python's start and imports
+        # take a few seconds, more on a loaded machine).
         r, wall = run_command(
             study, "--scheduler", server.address, "--timeout", "2", "--quiet",
-            "--out", str(tmp_path / "o"), "--cache", str(tmp_path / "cache"), timeout=40,
+            "--out", str(tmp_path / "o"), "--cache", str(tmp_path / "cache"), timeout=90,
         )
     finally:
         server.close()
@@ -625,7 +640,7 @@ def test_a_scheduler_that_never_answers_is_given_up_after_the_timeout(study: Pat
         f"--scheduler {server.address}: cannot connect: no answer from a Dask scheduler "
         "within 2 s (--timeout)\n"
     )
-    assert wall < 20, wall  # 2 s, and Python's start
+    assert wall >= 2, wall
     assert r.stdout == "" and list(tmp_path.iterdir()) == []
 
 
@@ -665,15 +680,15 @@ def test_a_scheduler_without_workers_is_given_up_after_the_timeout(study: Path, 
         address = cluster.scheduler_address
         r, wall = run_command(
             study, "--scheduler", address, "--timeout", "2", "--quiet",
-            "--out", str(tmp_path / "o"), "--cache", str(cache), timeout=40,
+            "--out", str(tmp_path / "o"), "--cache", str(cache), timeout=90,
         )
         assert r.returncode == 1, r.stderr
         assert r.stderr == f"--scheduler {address}: no workers joined within 2 s\n"
-        assert wall < 20, wall
+        assert wall >= 2, wall
         # Without --quiet it says that it waits, then the same.
         r, _ = run_command(
             study, "--scheduler", address, "--timeout", "1",
-            "--out", str(tmp_path / "o"), "--cache", str(cache), timeout=40,
+            "--out", str(tmp_path / "o"), "--cache", str(cache), timeout=90,
         )
         assert r.returncode == 1 and r.stderr == (
             f"study: the scheduler {address} has no workers; waiting up to 1 s for one to join\n"
@@ -683,7 +698,7 @@ def test_a_scheduler_without_workers_is_given_up_after_the_timeout(study: Path, 
             start = time.monotonic()
             with pytest.raises(rockbench.studies.NoWorkersError) as e:
                 rockbench.fragility(study, c, cache=cache, worker_timeout=1)
-            assert time.monotonic() - start < 15
+            assert 1 <= time.monotonic() - start < 30
             assert isinstance(e.value, TimeoutError)
             assert str(e.value) == (
                 f"fragility: client: the scheduler {address} has no workers; none joined "
