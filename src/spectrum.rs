@@ -443,6 +443,15 @@ impl<'a> Spectrum<'a> {
     /// 2 mm block at 1 ms, put a half-sine minimum 1.9 % above Housner's and a one-cosine one,
     /// which has no closed form to flag it, 0.7 %). At most [`MAX_P_DT`], some 0.1 %.
     pub fn check_step(&self) -> Result<(), String> {
+        // An engine that cannot model the block at all says so before any engine runs (the
+        // native engine's slenderness bound came after Housner's whole search).
+        if let Some(reason) = self.engine.cannot_model(self.base) {
+            return Err(format!(
+                "engine {} cannot model `{}`: {reason}",
+                self.engine.name(),
+                self.base.name
+            ));
+        }
         if self.engine.name() != "native" {
             return Ok(());
         }

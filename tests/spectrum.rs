@@ -345,6 +345,11 @@ fn spectrum_bad_input_one_line_errors() {
             vec!["0.00006x0.002", "--engines", "housner,native"],
             "native.dt 0.001: p dt = 0.086 (p = 85.7566 1/s) is above 0.02",
         ),
+        // A block the native engine refuses: before Housner's whole search, not after it.
+        (
+            vec!["1e-5x1", "--engines", "housner,native"],
+            "engine native cannot model `block 0.00001x1`: blocks[0]: `block` is 0.00001 m wide",
+        ),
         (
             vec![
                 "0.2x4",

@@ -19,6 +19,13 @@ impl Engine for NativeEngine {
         "native"
     }
 
+    /// A block slenderer than the engine is measured for (`native::MIN_SLENDERNESS`).
+    fn cannot_model(&self, scene: &Scene) -> Option<String> {
+        crate::native::check_slenderness(scene)
+            .err()
+            .map(|e| format!("{}: {}", e.field, e.message))
+    }
+
     fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError> {
         self.run_checkpointed(scene, progress, None)
     }

@@ -37,7 +37,7 @@ pub fn settings_of(scene: &Scene) -> Result<NativeSettings, SceneError> {
 pub const MIN_SLENDERNESS: f64 = 1e-4;
 
 /// One line naming the first block slenderer than [`MIN_SLENDERNESS`].
-fn check_slenderness(scene: &Scene) -> Result<(), SceneError> {
+pub fn check_slenderness(scene: &Scene) -> Result<(), SceneError> {
     match scene
         .blocks
         .iter()
