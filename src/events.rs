@@ -167,7 +167,7 @@ impl<'a> History<'a> {
 
     /// `phi_k + omega_k tau + a tau^2 / 2` for tau between 0 and `span` (either sign): its
     /// value at the end `span`, and its stationary point where that lies inside, as (t, phi).
-    fn quadratic_extremum(&self, k: usize, span: f64, a: f64) -> QuadraticEnds {
+    fn quadratic_ends(&self, k: usize, span: f64, a: f64) -> QuadraticEnds {
         let (p, w) = (self.phi[k], self.omega[k]);
         let at = |tau: f64| (self.t[k] + tau, p + w * tau + 0.5 * a * tau * tau);
         let tau = -w / a;
@@ -222,7 +222,7 @@ impl<'a> History<'a> {
     }
 }
 
-/// A quadratic extrapolation over a span ([`History::quadratic_extremum`]).
+/// A quadratic extrapolation over a span ([`History::quadratic_ends`]).
 struct QuadraticEnds {
     end: (f64, f64),
     stationary: Option<(f64, f64)>,
@@ -340,10 +340,10 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
 /// landings where none happened, and made a soft-contact engine's count depend on its
 /// sampling.)
 fn landed_within(h: &History, k: usize, next: usize) -> bool {
-    let (w, travel) = (h.omega[k].abs(), h.omega[k].abs() * (h.t[next] - h.t[k]));
+    let rate = h.omega[k].abs();
     h.phi[k] * h.omega[k] < 0.0
-        && h.phi[next].abs() <= LANDED * travel
-        && h.omega[next].abs() <= 0.1 * w
+        && h.phi[next].abs() <= LANDED * rate * (h.t[next] - h.t[k])
+        && h.omega[next].abs() <= 0.1 * rate
 }
 
 /// See [`landed_within`].
@@ -414,15 +414,15 @@ fn stretch_peak(h: &History, start: usize, end: usize, after_impact: usize, kink
             amplitude: p.abs(),
         })
     };
-    // An interval holding a kink: each side extrapolated from its own end up to the kink.
+    // An interval holding a kink: the value at the kink, and each side's turning point.
     let across = |i: usize| -> Option<Peak> {
         if i < start || i + 1 >= end {
             return None;
         }
         let tk = kink_in(i)?;
         let (before_span, after_span) = (tk - t[i], tk - t[i + 1]);
-        let before = h.quadratic_extremum(i, before_span, h.one_sided_acceleration(i, start));
-        let after = h.quadratic_extremum(
+        let before = h.quadratic_ends(i, before_span, h.one_sided_acceleration(i, start));
+        let after = h.quadratic_ends(
             i + 1,
             after_span,
             h.one_sided_acceleration_ahead(i + 1, end),
@@ -435,7 +435,7 @@ fn stretch_peak(h: &History, start: usize, end: usize, after_impact: usize, kink
         } else {
             after.end
         };
-        let (tp, p) = [Some(at_kink), before.stationary, after.stationary]
+        let (tp, p) = [before.stationary, after.stationary]
             .into_iter()
             .flatten()
             .fold(at_kink, |m, c| if s * c.1 > s * m.1 { c } else { m });
