@@ -124,53 +124,52 @@ impl Summary {
         }
         let layout = scene.layout();
         let t = &out.trajectory.t;
-        let measured: Vec<(Vec<f64>, Vec<f64>, String)> = (0..scene.blocks.len())
-            .map(|i| measured_rotation(scene, &layout.supports, out, i))
-            .collect();
-        let impacts: Vec<(Vec<f64>, ImpactSource)> = measured
-            .iter()
-            .enumerate()
-            .map(|(i, (rot, rate, _))| match &out.exact_impacts {
+        // Every block's impacts first: they are the kinks of the others' peaks. (The measured
+        // rotations are made again below rather than kept: a wall's would all be in memory.)
+        let impacts: Vec<(Vec<f64>, ImpactSource)> = (0..scene.blocks.len())
+            .map(|i| match &out.exact_impacts {
                 Some(ex) => (ex[i].clone(), ImpactSource::Engine),
-                None => (
-                    events::impacts(&History::new(t, rot, rate), events::NOISE_FLOOR),
-                    ImpactSource::Samples,
-                ),
+                None => {
+                    let (rot, rate, _) = measured_rotation(scene, &layout.supports, out, i);
+                    (
+                        events::impacts(&History::new(t, &rot, &rate), events::NOISE_FLOOR),
+                        ImpactSource::Samples,
+                    )
+                }
             })
             .collect();
         let kinks = events::all_impacts(impacts.iter().map(|(imp, _)| imp.as_slice()));
         let blocks = scene
             .blocks
             .iter()
-            .zip(measured.into_iter().zip(impacts))
+            .zip(impacts)
             .enumerate()
-            .map(
-                |(i, (b, ((rot, rate, label), (impacts, impacts_source))))| {
-                    let peaks = events::peaks(&History::new(t, &rot, &rate), &impacts, &kinks);
-                    let b_tr = &out.trajectory.blocks[i];
-                    let phi = &b_tr.phi;
-                    let absolute = History::new(t, phi, &b_tr.omega);
-                    let rest_times: BTreeMap<String, Option<f64>> = events::REST_THRESHOLDS
-                        .iter()
-                        .map(|(k, eps)| (k.to_string(), events::rest_time(&absolute, *eps)))
-                        .collect();
-                    let (overturned, overturn_time) =
-                        events::overturning(&absolute, b.critical_angle());
-                    BlockSummary {
-                        name: b.name.clone(),
-                        support: layout.supports[i].map(|s| scene.blocks[s].name.clone()),
-                        rotation: label,
-                        impacts,
-                        impacts_source,
-                        peaks,
-                        rest_time: events::rest_time(&absolute, events::DEFAULT_REST),
-                        rest_times,
-                        overturned,
-                        overturn_time,
-                        max_abs_phi: phi.iter().fold(0.0, |m, p| m.max(p.abs())),
-                    }
-                },
-            )
+            .map(|(i, (b, (impacts, impacts_source)))| {
+                let (rot, rate, label) = measured_rotation(scene, &layout.supports, out, i);
+                let peaks = events::peaks(&History::new(t, &rot, &rate), &impacts, &kinks);
+                let b_tr = &out.trajectory.blocks[i];
+                let phi = &b_tr.phi;
+                let absolute = History::new(t, phi, &b_tr.omega);
+                let rest_times: BTreeMap<String, Option<f64>> = events::REST_THRESHOLDS
+                    .iter()
+                    .map(|(k, eps)| (k.to_string(), events::rest_time(&absolute, *eps)))
+                    .collect();
+                let (overturned, overturn_time) =
+                    events::overturning(&absolute, b.critical_angle());
+                BlockSummary {
+                    name: b.name.clone(),
+                    support: layout.supports[i].map(|s| scene.blocks[s].name.clone()),
+                    rotation: label,
+                    impacts,
+                    impacts_source,
+                    peaks,
+                    rest_time: events::rest_time(&absolute, events::DEFAULT_REST),
+                    rest_times,
+                    overturned,
+                    overturn_time,
+                    max_abs_phi: phi.iter().fold(0.0, |m, p| m.max(p.abs())),
+                }
+            })
             .collect();
         Summary {
             rockbench_version: crate::build_info::VERSION.to_string(),
