@@ -222,6 +222,55 @@ impl<'a> History<'a> {
     }
 }
 
+impl History<'_> {
+    /// The zero crossing between sample `k` and the next sample `next`, on the other side of
+    /// zero, where the interval may hold `kinks` (other blocks' impacts, sorted). Extrapolated
+    /// from `k` (acceleration from `lo..=k`) when it crosses before the first kink; else from
+    /// `next` backwards (the motion after this block's own impact, acceleration from the
+    /// samples after `next` on its side) when that crosses after the last kink and `next` is
+    /// not flat; else, with no smooth side to read, as [`Self::crossing_from`].
+    fn crossing_between_kinks(&self, k: usize, next: usize, lo: usize, kinks: &[f64]) -> f64 {
+        let (t0, t1) = (self.t[k], self.t[next]);
+        let first = kinks.partition_point(|&x| x <= t0);
+        let inside = &kinks[first..first + kinks[first..].partition_point(|&x| x < t1)];
+        let (Some(&first_kink), Some(&last_kink)) = (inside.first(), inside.last()) else {
+            return self.crossing_from(k, next, lo, 0.0);
+        };
+        let span = t1 - t0;
+        let ahead = smallest_root_in(
+            self.phi[k],
+            self.omega[k],
+            0.5 * self.one_sided_acceleration(k, lo),
+            span,
+        )
+        .map(|tau| t0 + tau);
+        if let Some(tc) = ahead.filter(|&tc| tc <= first_kink) {
+            return tc;
+        }
+        // Read backwards from `next`: phi(t1 - tau) = phi - omega tau + a tau^2 / 2. (A flat
+        // `next`, lying on its face, tells nothing of when it landed.)
+        if self.phi[next].abs() <= FLAT {
+            return self.crossing_from(k, next, lo, 0.0);
+        }
+        let s = self.phi[next].signum();
+        let hi = (next..self.len().min(next + 3))
+            .take_while(|&j| self.phi[j].signum() == s && self.phi[j].abs() > FLAT)
+            .last()
+            .map_or(next + 1, |j| j + 1);
+        let back = smallest_root_in(
+            self.phi[next],
+            -self.omega[next],
+            0.5 * self.one_sided_acceleration_ahead(next, hi),
+            span,
+        )
+        .map(|tau| t1 - tau);
+        match back.filter(|&tc| tc >= last_kink) {
+            Some(tc) => tc,
+            None => self.crossing_from(k, next, lo, 0.0),
+        }
+    }
+}
+
 /// A quadratic extrapolation over a span ([`History::quadratic_ends`]).
 struct QuadraticEnds {
     end: (f64, f64),
@@ -271,8 +320,10 @@ pub struct Peak {
 /// A rotation at most this is flat (rad): round-off of a block lying on its face.
 pub const FLAT: f64 = 1e-12;
 
-/// Zero crossings that count as impacts (see the module docs).
-pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
+/// Zero crossings that count as impacts (see the module docs). `kinks` (sorted) are the other
+/// blocks' impacts, where this block's rate may jump too: a crossing is never extrapolated
+/// across one ([`History::crossing_between_kinks`]).
+pub fn impacts(h: &History, floor: f64, kinks: &[f64]) -> Vec<f64> {
     let (t, phi) = (h.t, h.phi);
     let n = phi.len();
     let mut out = Vec::new();
@@ -281,8 +332,16 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
     let mut stretch_start = 0usize; // first sample of the current half-wave
     let mut wave_max = 0.0f64;
     let land = |out: &mut Vec<f64>, from: usize, k: usize, lo: usize| {
-        let tc = h.crossing_from(from, k, lo, 0.0);
+        let tc = h.crossing_between_kinks(from, k, lo, kinks);
         out.push(tc.clamp(t[from], t[k]));
+    };
+    // Whether the half-wave on samples `start..=end` reaches the floor: its largest sample, or
+    // below that its extremum between the samples (a half-wave whose samples peak just under
+    // the floor can peak above it between them).
+    let reaches_floor = |start: usize, end: usize, wave_max: f64| {
+        wave_max >= floor
+            || (wave_max >= 0.5 * floor
+                && stretch_peak(h, start, end + 1, 0, kinks).amplitude >= floor)
     };
     for k in 0..n {
         let p = phi[k];
@@ -290,7 +349,8 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
             // The half-wave ends flat: the block landed on its face, and the sign of its
             // round-off while it lies there is no rotation. An impact where it reaches zero,
             // unless the history ends on this one flat sample (it may end on a crossing).
-            if last_sign != 0.0 && wave_max >= floor && k + 1 < n {
+            if last_sign != 0.0 && k + 1 < n && reaches_floor(stretch_start, last_idx, wave_max)
+            {
                 // Passing through zero at the rate it arrived with, the sample is the crossing
                 // (to FLAT / |omega|); stopped or turned there, the crossing is extrapolated
                 // from the last sample of the half-wave.
@@ -310,7 +370,7 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
         if last_sign == 0.0 {
             stretch_start = k;
         } else if s != last_sign {
-            if wave_max >= floor {
+            if reaches_floor(stretch_start, last_idx, wave_max) {
                 land(&mut out, last_idx, k, stretch_start.min(last_idx));
             }
             wave_max = 0.0;
@@ -320,7 +380,7 @@ pub fn impacts(h: &History, floor: f64) -> Vec<f64> {
         {
             // Landed and rebounded inside the interval: the half-wave ended at its crossing,
             // and what follows on the same side is a new one.
-            if wave_max >= floor {
+            if reaches_floor(stretch_start, last_idx, wave_max) {
                 out.push(tc);
             }
             wave_max = 0.0;
@@ -351,7 +411,9 @@ const LANDED: f64 = 0.05;
 
 /// Peak amplitudes around the given impacts (see the module docs). `kinks` (sorted) are the
 /// other instants where the rate may jump: the impacts of the other blocks of the scene, whose
-/// impulses reach this block through its contacts. No interpolant is taken across one.
+/// impulses reach this block through its contacts. No interpolant is taken across one. A last
+/// stretch still growing where the history ends has no peak (its largest |phi| is where the
+/// history stops), unless it is the only one.
 pub fn peaks(h: &History, impacts: &[f64], kinks: &[f64]) -> Vec<Peak> {
     let t = h.t;
     // Sample ranges of the stretches between impacts.
@@ -366,7 +428,42 @@ pub fn peaks(h: &History, impacts: &[f64], kinks: &[f64]) -> Vec<Peak> {
             out.push(stretch_peak(h, start, k, seg, kinks));
         }
     }
+    if let (Some(last), Some(&end)) = (out.last(), t.last())
+        && last.t >= end
+        && out.len() > 1
+    {
+        out.pop();
+    }
     out
+}
+
+/// Every block's impacts in a scene of `n` blocks whose rotation histories (measured rotation
+/// and rate on the times `t`) `history` makes: each block's crossings read with the others'
+/// impacts as kinks ([`impacts`]), those found first without kinks.
+pub fn scene_impacts(
+    n: usize,
+    t: &[f64],
+    history: impl Fn(usize) -> (Vec<f64>, Vec<f64>),
+    floor: f64,
+) -> Vec<Vec<f64>> {
+    let of = |i: usize, kinks: &[f64]| {
+        let (phi, omega) = history(i);
+        impacts(&History::new(t, &phi, &omega), floor, kinks)
+    };
+    let first: Vec<Vec<f64>> = (0..n).map(|i| of(i, &[])).collect();
+    if n < 2 {
+        return first;
+    }
+    (0..n)
+        .map(|i| {
+            let others = first
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, imp)| imp.as_slice());
+            of(i, &all_impacts(others))
+        })
+        .collect()
 }
 
 /// Every impact of the blocks whose impacts are given, in order: the instants where a rate may
@@ -681,7 +778,7 @@ mod tests {
         let (exact, _) = SQUARE.exact(3);
         let t = grid(800, 1e-3);
         let (phi, omega) = sample(&t, |x| SQUARE.at(x));
-        let found = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        let found = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert!(found.len() >= 3, "{found:?}");
         for (k, (f, e)) in found.iter().zip(&exact).enumerate() {
             // Linear interpolation across the jump is ~0.3 ms late here; the extrapolation's
@@ -783,20 +880,20 @@ mod tests {
         for k in 5..8 {
             (phi[k], omega[k]) = (-1.9e-17, 4e-19);
         }
-        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert_eq!(imp.len(), 1, "{imp:?}");
         assert!((imp[0] - 3.5e-3).abs() < 1e-12, "{imp:?}");
         // Seen still heading in, not stopped (a rate reversal before the interval bent the
         // extrapolation to zero: an impact 570 us early in a three-block stack), it lands after
         // that sample.
         (phi[4], omega[4]) = (3e-6, -7e-3);
-        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert!(imp.len() == 1 && imp[0] > 4e-3, "{imp:?}");
         // Seen above the floor on the same side, the block turned back before zero: it lands
         // after that sample.
         phi[4] = 2e-5;
         omega[4] = 1e-3;
-        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert!(imp.len() == 1 && imp[0] > 4e-3, "{imp:?}");
     }
 
@@ -823,12 +920,12 @@ mod tests {
                 (1e-17, 0.0)
             }
         });
-        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert_eq!(imp.len(), 1, "{imp:?}");
         // Extrapolated from the sample before: local error O(h^3), h = 1e-3.
         assert!((imp[0] - 0.5).abs() < 1e-8, "{imp:?}");
         let n = 501;
-        let ended = impacts(&History::new(&t[..n], &phi[..n], &omega[..n]), NOISE_FLOOR);
+        let ended = impacts(&History::new(&t[..n], &phi[..n], &omega[..n]), NOISE_FLOOR, &[]);
         assert!(ended.is_empty(), "{ended:?}");
     }
 
@@ -837,7 +934,7 @@ mod tests {
         let t = grid(4001, 1e-3);
         let pi = std::f64::consts::PI;
         let (phi, omega) = sample(&t, |x| (0.1 * (pi * x).sin(), 0.1 * pi * (pi * x).cos()));
-        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR);
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert_eq!(imp.len(), 3, "{imp:?}"); // crossings at 1, 2, 3 (4 is the last sample)
         for (k, ti) in imp.iter().enumerate() {
             assert!((ti - (k + 1) as f64).abs() < 1e-9, "{ti}");
@@ -875,7 +972,7 @@ mod tests {
             omega.iter().map(|w| -w).collect(),
         );
         for (phi, omega) in [(&phi, &omega), (&mirrored.0, &mirrored.1)] {
-            let imp = impacts(&History::new(&t, phi, omega), NOISE_FLOOR);
+            let imp = impacts(&History::new(&t, phi, omega), NOISE_FLOOR, &[]);
             assert_eq!(imp.len(), 2, "{imp:?}");
             assert!((imp[0] - 0.5).abs() < 1e-6, "{imp:?}");
             assert!((imp[1] - 2.0).abs() < 1e-6, "{imp:?}");
@@ -889,7 +986,79 @@ mod tests {
             .map(|k| if k % 2 == 0 { 1e-7 } else { -1e-7 })
             .collect();
         let omega = vec![0.0; 100];
-        assert!(impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR).is_empty());
+        assert!(impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]).is_empty());
+    }
+
+    /// A half-wave whose samples all lie below the floor while it peaks above it between them
+    /// ends in an impact: its refined extremum is what reaches the floor.
+    #[test]
+    fn a_half_wave_peaking_above_the_floor_between_its_samples_counts() {
+        // Sine half-waves of 4 ms, -1e-3 / +1.02e-5 / -1e-3 rad, sampled at 0.5 + k ms: the
+        // small one's samples peak at 1.02e-5 sin(3 pi / 8) = 9.42e-6.
+        let amp = [-1e-3, 1.02e-5, -1e-3];
+        let wave = |t: f64| {
+            let i = ((t / 4e-3) as usize).min(2);
+            let x = std::f64::consts::PI * (t - 4e-3 * i as f64) / 4e-3;
+            (amp[i] * x.sin(), amp[i] * std::f64::consts::PI / 4e-3 * x.cos())
+        };
+        let t: Vec<f64> = (0..12).map(|k| 0.5e-3 + k as f64 * 1e-3).collect();
+        let (phi, omega) = sample(&t, wave);
+        assert!(phi[4..8].iter().all(|p| p.abs() < NOISE_FLOOR));
+        let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
+        assert_eq!(imp.len(), 2, "{imp:?}");
+        assert!((imp[0] - 4e-3).abs() < 5e-5 && (imp[1] - 8e-3).abs() < 5e-5, "{imp:?}");
+    }
+
+    /// Another block's impact inside the interval of this block's crossing changed its rate
+    /// before it crossed: the crossing is read backwards from the sample after it, not
+    /// extrapolated across the kink from the sample before (300 us early here).
+    #[test]
+    fn a_crossing_after_another_blocks_impact_is_read_from_after_it() {
+        // Rate -1 rad/s to the kink at 1.2 ms, -0.5 after it: zero at 1.8 ms; then -0.4 rad/s.
+        let motion = |t: f64| {
+            if t <= 1.2e-3 {
+                (5e-4 - (t - 1e-3), -1.0)
+            } else if t <= 1.8e-3 {
+                (3e-4 - 0.5 * (t - 1.2e-3), -0.5)
+            } else {
+                (-0.4 * (t - 1.8e-3), -0.4)
+            }
+        };
+        let t = grid(6, 1e-3);
+        let (phi, omega) = sample(&t, motion);
+        let h = History::new(&t, &phi, &omega);
+        let across = impacts(&h, NOISE_FLOOR, &[]);
+        assert!((across[0] - 1.5e-3).abs() < 1e-9, "{across:?}");
+        let read = impacts(&h, NOISE_FLOOR, &[0.5e-3, 1.2e-3, 3.0e-3]);
+        assert_eq!(read.len(), 1);
+        assert!((read[0] - 1.8e-3).abs() < 1e-9, "{read:?}");
+        // A kink after the crossing leaves the extrapolation from before it.
+        let kept = impacts(&h, NOISE_FLOOR, &[1.9e-3]);
+        assert!((kept[0] - 1.5e-3).abs() < 1e-9, "{kept:?}");
+    }
+
+    /// A last stretch still growing where the history ends has no peak (its largest sample is
+    /// where the history stops), unless it is the only stretch.
+    #[test]
+    fn a_stretch_still_growing_at_the_end_has_no_peak() {
+        let t = grid(40, 1e-3);
+        let (phi, omega) = sample(&t, |x| {
+            if x < 10e-3 {
+                let y = x - 5e-3;
+                (1e-3 - 10.0 * y * y, -20.0 * y)
+            } else {
+                (-0.05 * (x - 10e-3), -0.05)
+            }
+        });
+        let h = History::new(&t, &phi, &omega);
+        let imp = impacts(&h, NOISE_FLOOR, &[]);
+        assert_eq!(imp.len(), 1, "{imp:?}");
+        let pk = peaks(&h, &imp, &[]);
+        assert_eq!(pk.len(), 1, "{pk:?}");
+        assert!((pk[0].amplitude - 1e-3).abs() < 1e-12 && pk[0].after_impact == 0);
+        // Alone, it is the history's peak.
+        let before = h.slice(12..40);
+        assert_eq!(peaks(&before, &[], &[]).len(), 1);
     }
 
     #[test]
@@ -928,7 +1097,7 @@ mod tests {
             (a * (pi * x).sin(), a * pi * (pi * x).cos())
         });
         let h = History::new(&t, &phi, &omega);
-        let imp = impacts(&h, NOISE_FLOOR);
+        let imp = impacts(&h, NOISE_FLOOR, &[]);
         let pk = peaks(&h, &imp, &[]);
         assert_eq!(pk.len(), 3);
         for (k, want) in [0.2, 0.1, 0.05].iter().enumerate() {

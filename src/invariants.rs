@@ -569,7 +569,7 @@ fn first_impact(scene: &Scene, tr: &Trajectory) -> f64 {
     for i in 0..scene.blocks.len() {
         let (rel, rate) = tr.rotation(i, layout.supports[i]);
         let h = crate::events::History::new(&tr.t, &rel, &rate);
-        if let Some(&t) = crate::events::impacts(&h, crate::events::NOISE_FLOOR).first() {
+        if let Some(&t) = crate::events::impacts(&h, crate::events::NOISE_FLOOR, &[]).first() {
             first = first.min(t);
         }
     }

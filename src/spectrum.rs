@@ -594,7 +594,7 @@ impl<'a> Spectrum<'a> {
             let t_over = t_over.unwrap_or(f64::INFINITY);
             let impacts = match &exact {
                 Some(e) => e[i].clone(),
-                None => events::impacts(&h, events::NOISE_FLOOR),
+                None => events::impacts(&h, events::NOISE_FLOOR, &[]),
             };
             let clean = impacts.iter().all(|&t| t >= t_over);
             if first.is_none_or(|(t, _)| t_over < t) {

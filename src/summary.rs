@@ -124,20 +124,24 @@ impl Summary {
         }
         let layout = scene.layout();
         let t = &out.trajectory.t;
-        // Every block's impacts first: they are the kinks of the others' peaks. (The measured
-        // rotations are made again below rather than kept: a wall's would all be in memory.)
-        let impacts: Vec<(Vec<f64>, ImpactSource)> = (0..scene.blocks.len())
-            .map(|i| match &out.exact_impacts {
-                Some(ex) => (ex[i].clone(), ImpactSource::Engine),
-                None => {
+        // Every block's impacts first: they are the kinks of the others' crossings and peaks.
+        // (The measured rotations are made again rather than kept: a wall's would all be in
+        // memory.)
+        let impacts: Vec<(Vec<f64>, ImpactSource)> = match &out.exact_impacts {
+            Some(ex) => ex.iter().map(|e| (e.clone(), ImpactSource::Engine)).collect(),
+            None => events::scene_impacts(
+                scene.blocks.len(),
+                t,
+                |i| {
                     let (rot, rate, _) = measured_rotation(scene, &layout.supports, out, i);
-                    (
-                        events::impacts(&History::new(t, &rot, &rate), events::NOISE_FLOOR),
-                        ImpactSource::Samples,
-                    )
-                }
-            })
-            .collect();
+                    (rot, rate)
+                },
+                events::NOISE_FLOOR,
+            )
+            .into_iter()
+            .map(|imp| (imp, ImpactSource::Samples))
+            .collect(),
+        };
         let kinks = events::all_impacts(impacts.iter().map(|(imp, _)| imp.as_slice()));
         let blocks = scene
             .blocks

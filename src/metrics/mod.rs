@@ -228,19 +228,21 @@ pub fn run_events(
     let all = series_of(scene);
     let tr = &run.trajectory;
     // Impacts of each block's measured rotation.
-    let measured_impacts: Vec<Vec<f64>> = (0..scene.blocks.len())
-        .map(|i| {
-            let s = all
-                .iter()
-                .find(|s| s.block == i && s.measured)
-                .expect("every block has a measured series");
-            let imp = match &run.exact_impacts {
-                Some(ex) => ex.get(i).cloned().unwrap_or_default(),
-                None => {
-                    let (phi, omega) = s.rotation_and_rate(tr);
-                    events::impacts(&History::new(&tr.t, &phi, &omega), settings.noise_floor)
-                }
-            };
+    let measured = |i: usize| {
+        all.iter()
+            .find(|s| s.block == i && s.measured)
+            .expect("every block has a measured series")
+            .rotation_and_rate(tr)
+    };
+    let found = match &run.exact_impacts {
+        Some(ex) => (0..scene.blocks.len())
+            .map(|i| ex.get(i).cloned().unwrap_or_default())
+            .collect(),
+        None => events::scene_impacts(scene.blocks.len(), &tr.t, measured, settings.noise_floor),
+    };
+    let measured_impacts: Vec<Vec<f64>> = found
+        .into_iter()
+        .map(|imp| {
             imp.into_iter()
                 .filter(|t| *t >= window.0 && *t <= window.1)
                 .collect()
@@ -270,13 +272,6 @@ fn series_events(
     let alpha = b.critical_angle();
     let (peaks, restitution) = if s.measured {
         let mut pk = events::peaks(&h, impacts, kinks);
-        // A last stretch still growing at the end of the history is not a peak.
-        if let (Some(last), Some(&t_end)) = (pk.last(), t.last())
-            && last.t >= t_end
-            && pk.len() > 1
-        {
-            pk.pop();
-        }
         // Nor is a first stretch cut by a window that starts after the history, where it is
         // already falling back (its largest |phi| at the window's first sample, the rate
         // inward): its peak came before the window (one taken there made a restitution > 1).
