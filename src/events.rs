@@ -349,8 +349,7 @@ pub fn impacts(h: &History, floor: f64, kinks: &[f64]) -> Vec<f64> {
             // The half-wave ends flat: the block landed on its face, and the sign of its
             // round-off while it lies there is no rotation. An impact where it reaches zero,
             // unless the history ends on this one flat sample (it may end on a crossing).
-            if last_sign != 0.0 && k + 1 < n && reaches_floor(stretch_start, last_idx, wave_max)
-            {
+            if last_sign != 0.0 && k + 1 < n && reaches_floor(stretch_start, last_idx, wave_max) {
                 // Passing through zero at the rate it arrived with, the sample is the crossing
                 // (to FLAT / |omega|); stopped or turned there, the crossing is extrapolated
                 // from the last sample of the half-wave.
@@ -925,7 +924,11 @@ mod tests {
         // Extrapolated from the sample before: local error O(h^3), h = 1e-3.
         assert!((imp[0] - 0.5).abs() < 1e-8, "{imp:?}");
         let n = 501;
-        let ended = impacts(&History::new(&t[..n], &phi[..n], &omega[..n]), NOISE_FLOOR, &[]);
+        let ended = impacts(
+            &History::new(&t[..n], &phi[..n], &omega[..n]),
+            NOISE_FLOOR,
+            &[],
+        );
         assert!(ended.is_empty(), "{ended:?}");
     }
 
@@ -999,14 +1002,20 @@ mod tests {
         let wave = |t: f64| {
             let i = ((t / 4e-3) as usize).min(2);
             let x = std::f64::consts::PI * (t - 4e-3 * i as f64) / 4e-3;
-            (amp[i] * x.sin(), amp[i] * std::f64::consts::PI / 4e-3 * x.cos())
+            (
+                amp[i] * x.sin(),
+                amp[i] * std::f64::consts::PI / 4e-3 * x.cos(),
+            )
         };
         let t: Vec<f64> = (0..12).map(|k| 0.5e-3 + k as f64 * 1e-3).collect();
         let (phi, omega) = sample(&t, wave);
         assert!(phi[4..8].iter().all(|p| p.abs() < NOISE_FLOOR));
         let imp = impacts(&History::new(&t, &phi, &omega), NOISE_FLOOR, &[]);
         assert_eq!(imp.len(), 2, "{imp:?}");
-        assert!((imp[0] - 4e-3).abs() < 5e-5 && (imp[1] - 8e-3).abs() < 5e-5, "{imp:?}");
+        assert!(
+            (imp[0] - 4e-3).abs() < 5e-5 && (imp[1] - 8e-3).abs() < 5e-5,
+            "{imp:?}"
+        );
     }
 
     /// Another block's impact inside the interval of this block's crossing changed its rate

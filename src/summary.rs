@@ -128,7 +128,10 @@ impl Summary {
         // (The measured rotations are made again rather than kept: a wall's would all be in
         // memory.)
         let impacts: Vec<(Vec<f64>, ImpactSource)> = match &out.exact_impacts {
-            Some(ex) => ex.iter().map(|e| (e.clone(), ImpactSource::Engine)).collect(),
+            Some(ex) => ex
+                .iter()
+                .map(|e| (e.clone(), ImpactSource::Engine))
+                .collect(),
             None => events::scene_impacts(
                 scene.blocks.len(),
                 t,

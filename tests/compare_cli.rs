@@ -451,3 +451,104 @@ fn a_window_after_the_rest_reports_the_rest_times_of_the_run() {
         assert!(v < 3.3 && r < 3.3, "{m}: {v} {r}");
     }
 }
+
+/// No output lands on an input: `animate`'s page or video on a run's files or its scene,
+/// `gate --junit` on the gate file or a gate's scene, a run's outputs on the record its scene
+/// reads. Each is refused in one line and the input is left as it was (each was written over,
+/// exit 0).
+#[test]
+fn no_output_file_lands_on_an_input() {
+    let dir = tmp("inputs");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let run_dir = dir.join("run");
+    run_ok(
+        bin()
+            .args(["run", scene.to_str().unwrap(), "--engine", "housner"])
+            .args(["--set", "duration=0.1", "--quiet", "--out"])
+            .arg(&run_dir),
+    );
+    let unchanged = |p: &Path, before: &str| {
+        assert_eq!(
+            std::fs::read_to_string(p).unwrap(),
+            before,
+            "{}",
+            p.display()
+        );
+    };
+    for f in ["summary.json", "trajectory.csv", "scene.json"] {
+        let target = run_dir.join(f);
+        let before = std::fs::read_to_string(&target).unwrap();
+        let o = bin()
+            .arg("animate")
+            .arg(&run_dir)
+            .args(["--out", target.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = common::one_error_line(&o);
+        assert!(err.contains(&format!("the run's {f}, an input")), "{err}");
+        unchanged(&target, &before);
+    }
+    let own_scene = dir.join("scene.toml");
+    std::fs::copy(&scene, &own_scene).unwrap();
+    let before = std::fs::read_to_string(&own_scene).unwrap();
+    let o = bin()
+        .arg("animate")
+        .arg(&run_dir)
+        .arg("--scene")
+        .arg(&own_scene)
+        .arg("--out")
+        .arg(&own_scene)
+        .output()
+        .unwrap();
+    assert!(common::one_error_line(&o).contains("the scene (--scene)"));
+    unchanged(&own_scene, &before);
+
+    // A gate's JUnit file on the gate file, or on its scene.
+    let gates = dir.join("gates.toml");
+    let text = format!(
+        "[[gate]]\nname = \"g\"\nscene = \"{}\"\nset = [\"duration=0.1\"]\nengine = \"housner\"\n\
+         reference = \"native\"\nmetric = \"max_abs_rotation\"\ntolerance = 1.0\n",
+        own_scene.display()
+    );
+    std::fs::write(&gates, &text).unwrap();
+    for (target, what) in [(&gates, "the gate file"), (&own_scene, "gate g's scene")] {
+        let before = std::fs::read_to_string(target).unwrap();
+        let o = bin()
+            .arg("gate")
+            .arg(&gates)
+            .arg("--junit")
+            .arg(target)
+            .arg("--no-cache")
+            .output()
+            .unwrap();
+        let err = common::one_error_line(&o);
+        assert!(err.contains(what), "{err}");
+        unchanged(target, &before);
+    }
+
+    // A run's outputs on the record its scene reads.
+    let rec_dir = dir.join("rr");
+    std::fs::create_dir_all(&rec_dir).unwrap();
+    let record = rec_dir.join("trajectory.csv");
+    std::fs::write(&record, "0,0\n0.1,0.5\n0.2,0\n").unwrap();
+    let rec_scene = dir.join("record.toml");
+    std::fs::write(
+        &rec_scene,
+        "name = \"r\"\nduration = 0.2\n[[blocks]]\nname = \"b\"\nwidth = 0.4\nheight = 1.0\n\
+         [excitation.horizontal]\nkind = \"record\"\nfile = \"rr/trajectory.csv\"\n",
+    )
+    .unwrap();
+    for command in ["run", "compare"] {
+        let o = bin()
+            .args([command, rec_scene.to_str().unwrap(), "--quiet", "--out"])
+            .arg(&rec_dir)
+            .output()
+            .unwrap();
+        let err = common::one_error_line(&o);
+        assert!(
+            err.contains("would write over the record"),
+            "{command}: {err}"
+        );
+        unchanged(&record, "0,0\n0.1,0.5\n0.2,0\n");
+    }
+}

@@ -187,7 +187,7 @@ fn check_run(
 pub fn animate(a: AnimateArgs) -> Result<()> {
     if let Some(v) = &a.video {
         crate::report::animate::video_kind(v).map_err(anyhow::Error::msg)?;
-        if same_file(v, &a.out) {
+        if super::same_file(v, &a.out) {
             bail!(
                 "--video {}: the page's own path (--out): give the video another name",
                 v.display()
@@ -202,6 +202,30 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         .map(|d| read_run(d).map(|(s, t)| (d.clone(), s, t)))
         .collect::<Result<_>>()?;
     let scene = scene_of(&a, &runs[0].0, &runs[0].1)?;
+    // The page and the video may not land on what they are drawn from.
+    let mut inputs: Vec<(String, PathBuf)> = a
+        .runs
+        .iter()
+        .flat_map(|d| {
+            ["trajectory.csv", "summary.json", "scene.json"]
+                .map(|f| (format!("the run's {f}"), d.join(f)))
+        })
+        .collect();
+    inputs.extend(
+        a.scene
+            .iter()
+            .map(|p| ("the scene (--scene)".into(), p.clone())),
+    );
+    inputs.extend(
+        scene
+            .record_files()
+            .into_iter()
+            .map(|p| ("the scene's record".into(), p)),
+    );
+    super::check_not_an_input(&a.out, "--out", &inputs)?;
+    if let Some(v) = &a.video {
+        super::check_not_an_input(v, "--video", &inputs)?;
+    }
     let ref_index = match &a.reference {
         None => 0,
         Some(r) => reference_index(&runs, r)?,
@@ -294,7 +318,10 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
 /// The run `--reference r` names: a run directory given (however its path is spelt), or the
 /// one run of engine `r`.
 fn reference_index(runs: &[(PathBuf, Summary, Trajectory)], r: &str) -> Result<usize> {
-    if let Some(k) = runs.iter().position(|(d, _, _)| same_file(d, Path::new(r))) {
+    if let Some(k) = runs
+        .iter()
+        .position(|(d, _, _)| super::same_file(d, Path::new(r)))
+    {
         return Ok(k);
     }
     let of_engine: Vec<usize> = (0..runs.len()).filter(|&k| runs[k].1.engine == r).collect();
@@ -306,22 +333,6 @@ fn reference_index(runs: &[(PathBuf, Summary, Trajectory)], r: &str) -> Result<u
             of_engine.len()
         ),
     }
-}
-
-/// Whether two paths name one file or directory (spelt alike, or resolving to one).
-fn same_file(a: &Path, b: &Path) -> bool {
-    if a == b {
-        return true;
-    }
-    let resolved = |p: &Path| {
-        p.canonicalize().ok().or_else(|| {
-            // A file not written yet: its folder resolved, its name kept.
-            let parent = p.parent().filter(|q| !q.as_os_str().is_empty());
-            let folder = parent.map_or_else(std::env::current_dir, |q| q.canonicalize());
-            Some(folder.ok()?.join(p.file_name()?))
-        })
-    };
-    matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// Check that `path` can be written (its folder made if need be), leaving no file behind.

@@ -87,6 +87,9 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     // The engines' folders of --out are rewritten or removed: the scene may not be in it.
     super::check_input_outside(&a.out, "the scene", &a.scene, &[])?;
     let scene = load_scene_with_overrides(&a.scene, &a.set)?;
+    for record in scene.record_files() {
+        super::check_input_outside(&a.out, "the record", &record, &[])?;
+    }
     let reference = ReferenceSpec::parse(&a.reference);
     if let ReferenceSpec::File(f) = &reference {
         // The engines' folders, plots and paper of --out are rewritten or removed.

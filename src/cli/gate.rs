@@ -17,6 +17,22 @@ pub struct GateArgs {
 
 pub fn gate_cmd(a: GateArgs) -> Result<()> {
     let gates = load_gates(&a.gates)?;
+    if let Some(p) = &a.junit {
+        let mut inputs = vec![("the gate file".to_string(), a.gates.clone())];
+        for g in &gates {
+            inputs.push((format!("gate {}'s scene", g.name), g.scene_path.clone()));
+            inputs.extend(
+                g.scene
+                    .record_files()
+                    .into_iter()
+                    .map(|r| (format!("gate {}'s record", g.name), r)),
+            );
+            if let crate::compare::ReferenceSpec::File(f) = &g.reference {
+                inputs.push((format!("gate {}'s reference", g.name), f.clone()));
+            }
+        }
+        super::check_not_an_input(p, "--junit", &inputs)?;
+    }
     let opts = GateOptions {
         cache_dir: a.run_cache.cache_dir()?,
         jobs: a.run_cache.jobs()?,

@@ -177,6 +177,38 @@ pub(crate) fn check_input_outside(
     Ok(())
 }
 
+/// Whether two paths name one file or directory (spelt alike, or resolving to one).
+pub(crate) fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    if a == b {
+        return true;
+    }
+    let resolved = |p: &std::path::Path| {
+        p.canonicalize().ok().or_else(|| {
+            // A file not written yet: its folder resolved, its name kept.
+            let parent = p.parent().filter(|q| !q.as_os_str().is_empty());
+            let folder = parent.map_or_else(std::env::current_dir, |q| q.canonicalize());
+            Some(folder.ok()?.join(p.file_name()?))
+        })
+    };
+    matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// An output file (`flag`, e.g. `--junit`) that would write over one of a command's inputs,
+/// each named by what it is (`the gate file`, a run's `trajectory.csv`, ...).
+pub(crate) fn check_not_an_input(
+    out: &std::path::Path,
+    flag: &str,
+    inputs: &[(String, std::path::PathBuf)],
+) -> Result<()> {
+    if let Some((what, _)) = inputs.iter().find(|(_, p)| same_file(out, p)) {
+        anyhow::bail!(
+            "{flag} {}: is {what}, an input: give another file",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 /// Remove from `out` the files a previous run of the same command wrote and this one does
 /// not (`stale`): names, or `prefix*suffix` patterns. Files a command does not write are
 /// left alone.

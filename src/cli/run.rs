@@ -132,6 +132,14 @@ pub fn run(a: RunArgs) -> Result<()> {
         &["scene.json", "trajectory.csv", "summary.json"],
     )?;
     let s = load_scene_with_overrides(&a.scene, &a.set)?;
+    for record in s.record_files() {
+        super::check_input_outside(
+            &a.out,
+            "the record",
+            &record,
+            &["scene.json", "trajectory.csv", "summary.json"],
+        )?;
+    }
     let e = engine_by_name(&a.engine)?;
     let line = ProgressLine::new(
         e.name(),

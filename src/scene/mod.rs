@@ -528,22 +528,31 @@ impl Scene {
     /// be read says so): what the scene's text alone does not fix.
     pub fn record_hashes(&self) -> serde_json::Map<String, serde_json::Value> {
         let mut records = serde_json::Map::new();
-        if let Some(exc) = &self.excitation {
-            for m in [exc.horizontal.as_ref(), exc.vertical.as_ref()]
-                .into_iter()
-                .flatten()
-            {
-                if let MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } = m {
-                    let p = self.base_dir.join(file);
-                    let p = std::path::absolute(&p).unwrap_or(p);
-                    let h = std::fs::read(&p)
-                        .map(|b| crate::digest::sha256_hex(&b))
-                        .unwrap_or_else(|e| format!("unreadable: {e}"));
-                    records.insert(p.display().to_string(), h.into());
-                }
-            }
+        for p in self.record_files() {
+            let h = std::fs::read(&p)
+                .map(|b| crate::digest::sha256_hex(&b))
+                .unwrap_or_else(|e| format!("unreadable: {e}"));
+            records.insert(p.display().to_string(), h.into());
         }
         records
+    }
+
+    /// The record files the excitation reads (acceleration or displacement), absolute.
+    pub fn record_files(&self) -> Vec<PathBuf> {
+        let Some(exc) = &self.excitation else {
+            return Vec::new();
+        };
+        [exc.horizontal.as_ref(), exc.vertical.as_ref()]
+            .into_iter()
+            .flatten()
+            .filter_map(|m| match m {
+                MotionSpec::Record { file, .. } | MotionSpec::Displacement { file, .. } => {
+                    let p = self.base_dir.join(file);
+                    Some(std::path::absolute(&p).unwrap_or(p))
+                }
+                _ => None,
+            })
+            .collect()
     }
 
     /// The SHA-256 of the scene as [`Scene::to_json`] gives it (a `scene.json` written from
