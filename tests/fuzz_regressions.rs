@@ -3,7 +3,7 @@
 //! file under tests/fuzz_regressions/<target>/ for every crash `make fuzz` finds.
 
 use rockbench::engines::registry::check_scene_str;
-use rockbench::excitation::records::{parse_at2, parse_two_column};
+use rockbench::excitation::records::{Quantity, parse_at2, parse_two_column};
 use rockbench::scene::parse_scene_str;
 use std::path::{Path, PathBuf};
 
@@ -53,7 +53,9 @@ fn scene_json_regressions() {
 fn record_regressions() {
     for (target, parse) in [
         ("record_at2", parse_at2 as fn(&str) -> Result<_, String>),
-        ("record_csv", parse_two_column),
+        ("record_csv", |text| {
+            parse_two_column(text, Quantity::Acceleration)
+        }),
     ] {
         let cases = inputs(target);
         assert!(!cases.is_empty());

@@ -506,13 +506,14 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
         MotionSpec::Displacement { file: rec, scale } => {
             let path = scene.base_dir.join(rec);
             let text = read(&path, file, field)?;
-            let s = records::parse_two_column(&text).map_err(|e| {
-                SceneError::new(
-                    file,
-                    format!("{field}.file"),
-                    format!("{}: {e}", path.display()),
-                )
-            })?;
+            let s =
+                records::parse_two_column(&text, records::Quantity::Displacement).map_err(|e| {
+                    SceneError::new(
+                        file,
+                        format!("{field}.file"),
+                        format!("{}: {e}", path.display()),
+                    )
+                })?;
             if s.v[0] != 0.0 {
                 return Err(SceneError::new(
                     file,

@@ -11,7 +11,7 @@ pub const STANDARD_GRAVITY: f64 = 9.80665;
 /// m/s^2 (a CSV record is in m/s^2; an `.AT2` record in the units its third line states).
 pub fn parse_acceleration(format: RecordFormat, text: &str) -> Result<(Samples, f64), String> {
     match format {
-        RecordFormat::Csv => Ok((parse_two_column(text)?, 1.0)),
+        RecordFormat::Csv => Ok((parse_two_column(text, Quantity::Acceleration)?, 1.0)),
         RecordFormat::At2 => {
             let unit = at2_unit(text)?;
             Ok((parse_at2(text)?, unit))
@@ -95,10 +95,91 @@ pub struct Samples {
     pub v: Vec<f64>,
 }
 
+/// What the values of a two-column record are, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// m/s^2.
+    Acceleration,
+    /// m.
+    Displacement,
+}
+
+impl Quantity {
+    fn unit(self) -> &'static str {
+        match self {
+            Quantity::Acceleration => "m/s^2",
+            Quantity::Displacement => "m",
+        }
+    }
+}
+
+/// The units a header field names, if it names any this module knows: in brackets
+/// (`acc (g)`, `t [s]`), after the last `_`, `-` or blank (`acc_g`), or the whole field (`s`);
+/// normalised (`M/SEC/SEC` is `m/s^2`). Other words (`acc (EW)`) name none.
+fn header_unit(field: &str) -> Option<&'static str> {
+    let known = |w: &str| -> Option<&'static str> {
+        let w = w
+            .trim()
+            .to_ascii_lowercase()
+            .replace(' ', "")
+            .replace("sec", "s")
+            .replace("**", "^")
+            .replace('\u{b2}', "^2");
+        Some(match w.as_str() {
+            "s" | "seconds" | "second" => "s",
+            "ms" | "millis" | "milliseconds" => "ms",
+            "min" | "minutes" => "min",
+            "m/s^2" | "m/s2" | "m/s/s" => "m/s^2",
+            "g" | "gs" => "g",
+            "cm/s^2" | "cm/s2" | "cm/s/s" | "gal" | "gals" => "cm/s^2",
+            "mm/s^2" | "mm/s2" | "mm/s/s" => "mm/s^2",
+            "in/s^2" | "in/s2" | "in/s/s" => "in/s^2",
+            "ft/s^2" | "ft/s2" | "ft/s/s" => "ft/s^2",
+            "m/s" => "m/s",
+            "cm/s" => "cm/s",
+            "m" | "metres" | "meters" => "m",
+            "cm" => "cm",
+            "mm" => "mm",
+            "in" | "inches" => "in",
+            "ft" | "feet" => "ft",
+            _ => return None,
+        })
+    };
+    let bracketed = field
+        .split(['(', '[', '{'])
+        .skip(1)
+        .filter_map(|rest| rest.split([')', ']', '}']).next());
+    let suffix = field.rsplit(['_', '-', ' ']).next().filter(|w| *w != field);
+    bracketed
+        .chain(suffix)
+        .chain(std::iter::once(field))
+        .find_map(known)
+}
+
+/// A header that names units other than a record's own (seconds, and `quantity`'s SI unit):
+/// its values would be read in the wrong units without a word (`acc (g)` read as m/s^2 is 9.8
+/// times too weak).
+fn check_header_units(cols: &[&str], quantity: Quantity, line: &str) -> Result<(), String> {
+    for (k, (col, want)) in cols.iter().zip(["s", quantity.unit()]).enumerate() {
+        if let Some(unit) = header_unit(col)
+            && unit != want
+        {
+            let what = if k == 0 { "times" } else { "values" };
+            return Err(format!(
+                "header `{line}` names {what} in {unit}: a CSV record's times are in s and its \
+                 values in {}; convert them (an acceleration may be scaled with `scale`)",
+                quantity.unit()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Two columns `time, value` separated by a comma, semicolon, tab or spaces. One header line
 /// (the first line that is not blank or a `#` comment, its first field not a number) and `#`
 /// comment lines are skipped; any other line that is not two numbers is an error, never dropped.
-pub fn parse_two_column(text: &str) -> Result<Samples, String> {
+/// A header naming units other than s and `quantity`'s is an error ([`check_header_units`]).
+pub fn parse_two_column(text: &str, quantity: Quantity) -> Result<Samples, String> {
     // A byte-order mark (some spreadsheets write one) is not part of the first field.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut t = Vec::new();
@@ -124,6 +205,10 @@ pub fn parse_two_column(text: &str) -> Result<Samples, String> {
         let header = may_be_header && cols[0].parse::<f64>().is_err();
         if !header && cols.contains(&"") {
             return Err(format!("line {}: an empty field: `{line}`", ln + 1));
+        }
+        if header {
+            check_header_units(&cols, quantity, line)
+                .map_err(|e| format!("line {}: {e}", ln + 1))?;
         }
         let nums: Result<Vec<f64>, _> = cols.iter().map(|c| c.parse::<f64>()).collect();
         match nums {
@@ -280,6 +365,8 @@ fn parse_at2_header(line: &str) -> Option<(usize, f64)> {
 mod tests {
     use super::*;
 
+    const ACC: Quantity = Quantity::Acceleration;
+
     const NEW: &str = "PEER NGA STRONG MOTION DATABASE RECORD\nTest 1940\nACCELERATION TIME SERIES IN UNITS OF G\nNPTS=    5, DT=   .0100 SEC\n 0.1 0.2 0.3\n 0.4 0.5\n";
     const OLD: &str = "PEER STRONG MOTION DATABASE RECORD\nTest\nACCELERATION TIME HISTORY IN UNITS OF G\n   5    0.0100    NPTS, DT\n 1.0E-01 2.0E-01 3.0E-01 4.0E-01 5.0E-01\n";
 
@@ -319,18 +406,55 @@ mod tests {
 
     #[test]
     fn csv_with_header_and_comments() {
-        let s = parse_two_column("# comment\ntime,acc\n0,0\n0.1,1.5\n0.2,-1\n").unwrap();
+        let s = parse_two_column("# comment\ntime,acc\n0,0\n0.1,1.5\n0.2,-1\n", ACC).unwrap();
         assert_eq!(s.t, vec![0.0, 0.1, 0.2]);
         assert_eq!(s.v, vec![0.0, 1.5, -1.0]);
+    }
+
+    /// A header naming units other than s and the record's SI unit is refused, naming them
+    /// (the values were read as m/s^2 or m whatever the header said); units it does not name,
+    /// or words that are no units, are read as before.
+    #[test]
+    fn csv_header_units_other_than_si_are_refused() {
+        let data = "\n0,0\n0.1,0.5\n0.2,0\n";
+        for (header, named) in [
+            ("time(s),acc(g)", "values in g"),
+            ("t [s], a [cm/s^2]", "values in cm/s^2"),
+            ("time_s,acc_gal", "values in cm/s^2"),
+            ("time (ms),acc (m/s2)", "times in ms"),
+            ("t,a [m/s]", "values in m/s"),
+        ] {
+            let e = parse_two_column(&format!("{header}{data}"), ACC).unwrap_err();
+            assert!(
+                e.starts_with(&format!("line 1: header `{header}` names {named}")),
+                "{e}"
+            );
+        }
+        for header in [
+            "time,acc",
+            "t [s],a [m/s^2]",
+            "time_s,acc (EW)",
+            "T (SEC),A (M/SEC/SEC)",
+        ] {
+            let s = parse_two_column(&format!("{header}{data}"), ACC).unwrap();
+            assert_eq!(s.v, vec![0.0, 0.5, 0.0], "{header}");
+        }
+        let disp = Quantity::Displacement;
+        let e = parse_two_column(&format!("t (s),d (cm){data}"), disp).unwrap_err();
+        assert!(
+            e.contains("names values in cm") && e.contains("values in m;"),
+            "{e}"
+        );
+        assert!(parse_two_column(&format!("t (s),d (m){data}"), disp).is_ok());
     }
 
     /// Only the first line may be a header: a first sample with a unit (`5.0g`) is an error
     /// naming its line, not a second header dropped with its acceleration.
     #[test]
     fn csv_only_the_first_line_is_a_header() {
-        let e = parse_two_column("0.00,5.0g\n0.05,6.0g\n0.10,0\n").unwrap_err();
+        let e = parse_two_column("0.00,5.0g\n0.05,6.0g\n0.10,0\n", ACC).unwrap_err();
         assert_eq!(e, "line 1: not two numbers: `0.00,5.0g`");
-        let e = parse_two_column("time,acc\ns,m/s2\n0,0\n0.1,1\n").unwrap_err();
+        let e = parse_two_column("time,acc\ns,m/s2\n0,0\n0.1,1\n", ACC).unwrap_err();
         assert!(e.starts_with("line 2: not two numbers"), "{e}");
     }
 
@@ -386,9 +510,9 @@ mod tests {
     /// t >= 0 (a part before the run would be dropped while its peak still scaled the record).
     #[test]
     fn csv_byte_order_mark_and_negative_times() {
-        let s = parse_two_column("\u{feff}0,5.0\n0.02,0.2\n0.04,0.3\n").unwrap();
+        let s = parse_two_column("\u{feff}0,5.0\n0.02,0.2\n0.04,0.3\n", ACC).unwrap();
         assert_eq!(s.v, vec![5.0, 0.2, 0.3]);
-        let e = parse_two_column("-1,5.0\n-0.5,5\n0,0.3\n0.1,0.3\n").unwrap_err();
+        let e = parse_two_column("-1,5.0\n-0.5,5\n0,0.3\n0.1,0.3\n", ACC).unwrap_err();
         assert_eq!(
             e,
             "line 1: time -1 is before 0 (a record starts at t >= 0, the start of the run)"
@@ -409,17 +533,17 @@ mod tests {
             "0\t1\n0.1  2\n",
             "0,\t1\n0.1 ,2\n",
         ] {
-            let s = parse_two_column(text).unwrap();
+            let s = parse_two_column(text, Quantity::Acceleration).unwrap();
             assert_eq!((s.t, s.v), (vec![0.0, 0.1], vec![1.0, 2.0]), "{text:?}");
         }
-        assert!(parse_two_column("time,,acc\n0,0\n0.1,1\n").is_ok());
-        let e = parse_two_column("0,0\n0.1,,0.2\n").unwrap_err();
+        assert!(parse_two_column("time,,acc\n0,0\n0.1,1\n", ACC).is_ok());
+        let e = parse_two_column("0,0\n0.1,,0.2\n", ACC).unwrap_err();
         assert_eq!(e, "line 2: an empty field: `0.1,,0.2`");
     }
 
     #[test]
     fn csv_non_increasing_time_names_the_line() {
-        let e = parse_two_column("0,0\n0.1,1\n0.1,2\n").unwrap_err();
+        let e = parse_two_column("0,0\n0.1,1\n0.1,2\n", ACC).unwrap_err();
         assert!(e.starts_with("line 3"), "{e}");
     }
 }
