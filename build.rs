@@ -4,15 +4,19 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+#[path = "src/worker_sources.rs"]
+mod worker_sources;
+
 /// The files and directories whose changes make another program: the build script reruns when
 /// any of them changes, and `RB_GIT_COMMIT` is marked modified when any differs from the commit.
-const BUILD_INPUTS: [&str; 6] = [
+const BUILD_INPUTS: [&str; 7] = [
     "src",
     "build.rs",
     "Cargo.toml",
     "Cargo.lock",
-    "python/rockbench/worker.py",
-    "python/rockbench/engines",
+    worker_sources::WORKER_FILES[0],
+    worker_sources::WORKER_FILES[1],
+    worker_sources::WORKER_ENGINES,
 ];
 
 fn main() {
@@ -65,30 +69,24 @@ fn source_hash() {
             }
         }
     }
-    println!("cargo:rustc-env=RB_SOURCE_HASH={}", fnv(files));
+    println!(
+        "cargo:rustc-env=RB_SOURCE_HASH={}",
+        worker_sources::fnv(Path::new("."), files)
+    );
 }
 
-/// `RB_WORKER_HASH`: FNV-1a of the Python sources of the MuJoCo and PyBullet worker
-/// (python/rockbench/worker.py and python/rockbench/engines/*.py) and of the Siconos worker
-/// (python/rockbench/siconos_worker.py), part of the run stores' keys of those engines.
+/// `RB_WORKER_HASH`: FNV-1a of the Python sources of the worker engines
+/// ([`worker_sources::worker_files`]), part of the run stores' keys of those engines.
 fn worker_hash() {
-    let mut files = vec![
-        PathBuf::from("python/rockbench/worker.py"),
-        PathBuf::from("python/rockbench/siconos_worker.py"),
-    ];
-    println!("cargo:rerun-if-changed=python/rockbench/engines");
-    if let Ok(rd) = std::fs::read_dir("python/rockbench/engines") {
-        for e in rd.flatten() {
-            let p = e.path();
-            if p.extension().is_some_and(|x| x == "py") {
-                files.push(p);
-            }
-        }
-    }
+    println!("cargo:rerun-if-changed={}", worker_sources::WORKER_ENGINES);
+    let files = worker_sources::worker_files(Path::new("."));
     for f in &files {
         println!("cargo:rerun-if-changed={}", f.display());
     }
-    println!("cargo:rustc-env=RB_WORKER_HASH={}", fnv(files));
+    println!(
+        "cargo:rustc-env=RB_WORKER_HASH={}",
+        worker_sources::fnv(Path::new("."), files)
+    );
 }
 
 /// `RB_GIT_COMMIT`: the commit the program was built from (`git rev-parse HEAD` in the package's
@@ -123,18 +121,4 @@ fn git_commit() {
     let modified = git(&status).is_none_or(|s| !s.is_empty());
     let suffix = if modified { " (modified)" } else { "" };
     println!("cargo:rustc-env=RB_GIT_COMMIT={commit}{suffix}");
-}
-
-/// FNV-1a of the files' paths and contents, in sorted order.
-fn fnv(mut files: Vec<PathBuf>) -> String {
-    files.sort();
-    let mut h: u64 = 0xcbf29ce484222325;
-    for f in files {
-        let bytes = std::fs::read(&f).unwrap_or_default();
-        for b in f.display().to_string().bytes().chain(bytes) {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x100000001b3);
-        }
-    }
-    format!("{h:016x}")
 }

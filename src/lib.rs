@@ -67,3 +67,4 @@ pub mod text_table;
 pub mod trajectory;
 pub mod validation;
 pub mod walls;
+pub mod worker_sources;

@@ -15,13 +15,30 @@ pub fn program_id() -> &'static str {
     crate::build_info::SOURCE_HASH
 }
 
-/// The Python workers' sources (`RB_WORKER_HASH`: MuJoCo's and PyBullet's worker and Siconos'
-/// own) for the engines they run, as compiled with this program, so a changed worker never
-/// reuses an old result; `None` for the engines of this program.
+/// The Python workers' sources (MuJoCo's and PyBullet's worker and Siconos' own) for the
+/// engines they run, so a changed worker never reuses an old result; `None` for the engines of
+/// this program. Hashed where the package's sources are, as the program starts (an edited
+/// worker in a checkout, installed for development, runs as edited), else as compiled
+/// (`RB_WORKER_HASH`).
 pub fn worker_id(engine: &str) -> Option<&'static str> {
+    static NOW: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     ["mujoco", "pybullet", "siconos"]
         .contains(&engine)
-        .then_some(env!("RB_WORKER_HASH"))
+        .then(|| {
+            NOW.get_or_init(|| worker_hash_at(Path::new(env!("CARGO_MANIFEST_DIR"))))
+                .as_str()
+        })
+}
+
+/// The workers' sources' hash under the package directory `root`, or the compiled one where
+/// `root` holds none.
+fn worker_hash_at(root: &Path) -> String {
+    use crate::worker_sources::{WORKER_FILES, fnv, worker_files};
+    if root.join(WORKER_FILES[0]).is_file() {
+        fnv(root, worker_files(root))
+    } else {
+        env!("RB_WORKER_HASH").to_string()
+    }
 }
 
 /// The key of the result of `inputs` (everything that decides it, as JSON) run by this program
@@ -94,6 +111,30 @@ pub fn store<T: Serialize>(dir: &Path, key: &str, entry: &T) -> Result<(), Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The workers' hash is that of their files as they are: the compiled one while they are
+    /// unchanged, another once one is edited (a copy of the package's worker files edited),
+    /// and the compiled one where no sources are.
+    #[test]
+    fn the_workers_hash_follows_their_files() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        assert_eq!(worker_hash_at(root), env!("RB_WORKER_HASH"));
+        let copy = tempfile::tempdir().unwrap();
+        for f in crate::worker_sources::worker_files(root) {
+            std::fs::create_dir_all(copy.path().join(&f).parent().unwrap()).unwrap();
+            std::fs::copy(root.join(&f), copy.path().join(&f)).unwrap();
+        }
+        assert_eq!(worker_hash_at(copy.path()), env!("RB_WORKER_HASH"));
+        let engine = copy
+            .path()
+            .join("python/rockbench/engines/mujoco_engine.py");
+        let mut text = std::fs::read_to_string(&engine).unwrap();
+        text.push_str("\n# edited\n");
+        std::fs::write(&engine, text).unwrap();
+        assert_ne!(worker_hash_at(copy.path()), env!("RB_WORKER_HASH"));
+        let empty = tempfile::tempdir().unwrap();
+        assert_eq!(worker_hash_at(empty.path()), env!("RB_WORKER_HASH"));
+    }
 
     #[test]
     fn an_entry_is_read_back_whole_and_a_changed_input_has_another_key() {

@@ -58,8 +58,8 @@ def row(scene: str, ref: rockbench.Run, engine: str, overrides: list[str]) -> st
     d_imp = 1e3 * (g["impacts"][0] - r["impacts"][0]) if g["impacts"] else float("nan")
     a_ref = r["peaks"][1]["amplitude"]
     a_got = g["peaks"][1]["amplitude"] if len(g["peaks"]) > 1 else float("nan")
-    phi_ref = ref.blocks["block"]["phi"]
-    phi = np.interp(ref.t, got.t, got.blocks["block"]["phi"])
+    phi_ref = ref.blocks[r["name"]]["phi"]
+    phi = np.interp(ref.t, got.t, got.blocks[r["name"]]["phi"])
     rms = float(np.sqrt(np.mean((phi - phi_ref) ** 2)))
     return (
         f"| {engine} | {' '.join(overrides) or 'defaults'} | {d_imp:+.2f} | "
@@ -67,15 +67,47 @@ def row(scene: str, ref: rockbench.Run, engine: str, overrides: list[str]) -> st
     )
 
 
+def references(scenes: str) -> dict[str, tuple[str, rockbench.Run]]:
+    """Each scene of :data:`SCENES` in the folder `scenes` (its path) and its Housner run,
+    before any other run; a ValueError naming ``--scenes`` and the file says what is wrong
+    (no such folder, a scene missing or not a scene, no impact and second peak to measure)."""
+    if not Path(scenes).is_dir():
+        what = "not a directory" if Path(scenes).exists() else "no such directory"
+        raise ValueError(f"--scenes {scenes}: {what}")
+    refs = {}
+    for name in SCENES:
+        scene = str(Path(scenes) / f"{name}.toml")
+        if not Path(scene).is_file():
+            raise ValueError(
+                f"--scenes {scenes}: no {name}.toml (the sweep needs "
+                f"{' and '.join(n + '.toml' for n in SCENES)})"
+            )
+        try:
+            ref = rockbench.run(scene, engine="housner")
+        except (ValueError, RuntimeError) as e:
+            why = str(e) if str(e).startswith(scene) else f"{scene}: {e}"
+            raise ValueError(f"--scenes: {why}") from None
+        if len(ref.summary["blocks"]) != 1 or not block(ref)["impacts"] or len(block(ref)["peaks"]) < 2:
+            raise ValueError(
+                f"--scenes: {scene}: not a free-rocking block (one block whose Housner run "
+                "has an impact and a peak after it)"
+            )
+        refs[name] = (scene, ref)
+    return refs
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m rockbench.settings_sweep")
     ap.add_argument("--scenes", default="validation/scenes", help="directory of the scenes")
     ap.add_argument("--out", help="also write the table to this Markdown file")
     a = ap.parse_args(argv)
+    try:
+        refs = references(a.scenes)
+    except ValueError as e:
+        print(" ".join(str(e).split()), file=sys.stderr)
+        return 2
     lines = []
-    for name in SCENES:
-        scene = str(Path(a.scenes) / f"{name}.toml")
-        ref = rockbench.run(scene, engine="housner")
+    for name, (scene, ref) in refs.items():
         lines += [
             f"\n### {name}\n",
             "| engine | settings | first impact - Housner (ms) | amplitude after impact 1 (%) "

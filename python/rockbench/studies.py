@@ -146,7 +146,8 @@ def _python_worker_run(key: str, spec: str, cache: str) -> tuple[str, bool, str]
 def ida_task(jobs: list[tuple[int, str, str]], study: str, cache: str) -> dict[str, Any]:
     """Hunt and fill the IDA of `jobs` (scene index, engine, record id) through the cache. The
     Rust core drives the hunt; MuJoCo and PyBullet runs in it are worker processes of this
-    worker's own interpreter (``ROCKBENCH_PYTHON``, unless set)."""
+    worker's own interpreter (``ROCKBENCH_PYTHON``, unless set; the runs' keys name it spelled
+    one way, however it is spelled here)."""
     os.environ.setdefault("ROCKBENCH_PYTHON", sys.executable)
     start = time.perf_counter()
     made, cached, runs = fragility_ida_batch(study, jobs, cache)
@@ -224,13 +225,19 @@ def spread(n: int, parts: int) -> list[list[int]]:
 
 class NoWorkersError(TimeoutError):
     """The Dask scheduler has no workers and none joined within the wait allowed
-    (`worker_timeout` of :func:`fragility` / :func:`run_many`, ``--timeout`` of the command).
-    Nothing of the study ran; its tasks were cancelled."""
+    (`worker_timeout` of :func:`fragility` / :func:`run_many`, ``--timeout`` of the command):
+    it had none when the study started (`left` False: nothing of the study ran), or every
+    worker left while it ran (`left` True: the runs finished before are in the run cache
+    `cache`, None for ``run_many`` of scenes). Its tasks were cancelled."""
 
-    def __init__(self, message: str, address: str, timeout: float) -> None:
+    def __init__(
+        self, message: str, address: str, timeout: float, left: bool = False, cache: str | None = None
+    ) -> None:
         super().__init__(message)
         self.address = address
         self.timeout = timeout
+        self.left = left
+        self.cache = cache
 
 
 class ClusterError(RuntimeError):
@@ -297,6 +304,40 @@ def _await_workers(
         ) from None
 
 
+#: How often a study whose tasks are all waiting asks the scheduler whether it has workers, s.
+WORKER_POLL_S = 1.0
+
+
+def _check_workers_present(
+    client: Any, inflight: dict[Any, Any], absent_since: float | None, timeout: float | None,
+    function: str, progress: Callable[[str], None] | None,
+) -> float | None:
+    """No task ended for a while: whether the scheduler still has workers. When it has none
+    (they all left: the tasks wait for one), when it was first seen without (None: it has
+    some); none for `timeout` s (None: wait for ever): cancel `inflight` and raise
+    :class:`NoWorkersError`."""
+    if client.nthreads():
+        return None
+    now = time.monotonic()
+    address = str(getattr(client.scheduler, "address", client))
+    if absent_since is None:
+        if progress:
+            wait = "for ever" if timeout is None else f"up to {timeout:g} s"
+            progress(f"every worker left the scheduler {address}; waiting {wait} for one to join")
+        return now
+    if timeout is not None and now - absent_since >= timeout:
+        client.cancel(list(inflight.values()))
+        inflight.clear()
+        raise NoWorkersError(
+            f"{function}: client: every worker left the scheduler {address}; none joined "
+            f"within {timeout:g} s (worker_timeout)",
+            address,
+            float(timeout),
+            left=True,
+        )
+    return absent_since
+
+
 def distribute(
     client: Any,
     fn: Callable[..., dict[str, Any]],
@@ -325,8 +366,11 @@ def distribute(
     A scheduler with no workers: once the first tasks are submitted (an adaptive cluster
     scales up for them), wait for one to join, at most `worker_timeout` s (None: for ever),
     else cancel them and raise :class:`NoWorkersError` (its message starts with
-    `function`)."""
-    from distributed import as_completed
+    `function`). The same once every worker has left while tasks remain: no worker for
+    `worker_timeout` s, and :class:`NoWorkersError` with `left` True."""
+    from concurrent.futures import CancelledError
+
+    from distributed import wait
 
     start = time.perf_counter()
     nthreads = client.nthreads()
@@ -356,29 +400,43 @@ def distribute(
             _await_workers(client, first, worker_timeout, function, progress)
             no_workers[0] = False
             slots = max(1, sum(client.nthreads().values()))
-        queue = as_completed(first)  # type: ignore[no-untyped-call]
+        absent_since: float | None = None  # when the scheduler was last seen without workers
         try:
-            for fut in queue:
-                del inflight[fut.key]
-                r = fut.result()
-                if on_result:
-                    on_result(r)
-                i = index[fut.key]
-                results[i] = r
-                done_items += len(batches[i])
-                fut.release()
-                nxt = next(pending, None)
-                if nxt is not None:
-                    queue.add(submit(nxt))  # type: ignore[no-untyped-call]
-                if progress and (time.perf_counter() - last[0] >= 1.0 or done_items == len(items)):
-                    last[0] = time.perf_counter()
-                    progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
+            while inflight:
+                try:
+                    ended = wait(  # type: ignore[no-untyped-call]
+                        list(inflight.values()), timeout=WORKER_POLL_S, return_when="FIRST_COMPLETED"
+                    ).done
+                except TimeoutError:
+                    ended = set()
+                except CancelledError:
+                    # Cancelled futures (the scheduler lost): their results raise what happened.
+                    ended = {f for f in inflight.values() if f.done()}
+                if not ended:
+                    absent_since = _check_workers_present(
+                        client, inflight, absent_since, worker_timeout, function, progress
+                    )
+                    continue
+                absent_since = None
+                for fut in sorted(ended, key=lambda f: index[f.key]):
+                    del inflight[fut.key]
+                    r = fut.result()
+                    if on_result:
+                        on_result(r)
+                    i = index[fut.key]
+                    results[i] = r
+                    done_items += len(batches[i])
+                    fut.release()
+                    nxt = next(pending, None)
+                    if nxt is not None:
+                        submit(nxt)
+                    if progress and (time.perf_counter() - last[0] >= 1.0 or done_items == len(items)):
+                        last[0] = time.perf_counter()
+                        progress(f"{label}: {done_items}/{len(items)} done ({len(results)} tasks)")
         except BaseException as e:
             # A task failed (its worker died, its own error, ...): the study's other tasks
             # must not go on running on the cluster once this call has raised. (Not when the
             # scheduler is lost: the client has cancelled them, and asking it would wait.)
-            from concurrent.futures import CancelledError
-
             lost = isinstance(e, (CancelledError, OSError))
             if inflight and not lost and client.status == "running":
                 try:
@@ -459,7 +517,8 @@ def _check_task_size(function: str, task_seconds: Any, runs_per_task: Any) -> No
         )
 
 
-#: The default wait for a first worker when the scheduler has none, s (`worker_timeout`).
+#: The default wait for a worker when the scheduler has none (at the start, or once every
+#: worker has left), s (`worker_timeout`).
 WORKER_TIMEOUT = 120.0
 
 
@@ -478,8 +537,17 @@ def _distributed(function: str, cache: str | None, call: Callable[[], T]) -> T:
     exception."""
     try:
         return call()
-    except NoWorkersError:
-        raise
+    except NoWorkersError as e:
+        if not e.left or cache is None:
+            raise
+        raise NoWorkersError(
+            f"{e}; the runs finished so far are in the run cache {cache}: rerunning the study "
+            "resumes from them",
+            e.address,
+            e.timeout,
+            left=True,
+            cache=cache,
+        ) from None
     except Exception as e:
         what = _cluster_failure(e)
         if what is None:
@@ -590,8 +658,9 @@ def fragility(
     another path when workers do not share the client's filesystem: their runs come back with
     the tasks and are stored in `cache` as each task ends). `task_seconds` / `runs_per_task`
     size the tasks (``runs_per_task`` also sizes IDA tasks, in records). `worker_timeout`: how
-    long to wait for a first worker when the scheduler has none (s; None: for ever), else
-    :class:`NoWorkersError` (a TimeoutError naming the scheduler).
+    long to wait for a first worker when the scheduler has none, or for one to come back when
+    every worker has left (s; None: for ever), else :class:`NoWorkersError` (a TimeoutError
+    naming the scheduler).
 
     A failure of the cluster while the study runs (a task's worker died: ``KilledWorker``; the
     connection to the scheduler lost: ``FutureCancelledError``, ``CommClosedError``) raises a
@@ -626,7 +695,9 @@ def fragility(
     stored = [0]
 
     def store(r: dict[str, Any]) -> None:
-        runs = r["runs"] if "runs" in r else [(k, text) for k, made, text in r["results"] if made]
+        # Every run a task gives, made or found in the workers' cache (which the client's store
+        # may not hold: it is elsewhere, or another study filled it); the store keeps new ones.
+        runs = r["runs"] if "runs" in r else [(k, text) for k, _, text in r["results"]]
         stored[0] += fragility_store(cache_dir, runs)
 
     specs = fragility_run_specs(path)
@@ -859,7 +930,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs-per-task", type=int, help="fixed task size (runs; IDA: records)")
     ap.add_argument(
         "--timeout", type=float, default=20.0,
-        help="seconds to wait for the scheduler, and for a first worker if it has none (default 20)",
+        help="seconds to wait for the scheduler, and for a worker when it has none (default 20)",
     )
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
     a = ap.parse_args(argv)
@@ -907,7 +978,15 @@ def main(argv: list[str] | None = None) -> int:
             command=" ".join(["python", "-m", "rockbench.study", *(sys.argv[1:] if argv is None else argv)]),
         )
     except NoWorkersError as e:
-        print(f"--scheduler {a.scheduler}: no workers joined within {e.timeout:g} s", file=sys.stderr)
+        if e.left:
+            print(
+                f"--scheduler {a.scheduler}: every worker left and none joined within {e.timeout:g} s; "
+                f"the runs finished so far are in the run cache {e.cache}: rerunning the command "
+                "resumes from them",
+                file=sys.stderr,
+            )
+        else:
+            print(f"--scheduler {a.scheduler}: no workers joined within {e.timeout:g} s", file=sys.stderr)
         return 1
     except ClusterError as e:
         print(

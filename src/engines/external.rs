@@ -204,16 +204,37 @@ pub fn check_table(scene: &Scene, engine: &str) -> Result<serde_json::Value, Sce
     Ok(serde_json::Value::Object(table))
 }
 
-/// The interpreter that runs worker engine `engine` here ([`ExternalEngine::interpreter`]), as
-/// an absolute path with its symbolic links kept (two venvs of one Python are two sets of
-/// packages), or `none`: part of the keys of stored results, so that another interpreter never
-/// reuses this one's runs. `None` for the engines of this program.
+/// The interpreter that runs worker engine `engine` here ([`ExternalEngine::interpreter`]), or
+/// `none`: part of the keys of stored results, so that another interpreter never reuses this
+/// one's runs. `None` for the engines of this program. One interpreter is one spelling
+/// ([`interpreter_spelling`]).
 pub fn interpreter_id(engine: &str) -> Option<String> {
     let worker = ExternalEngine::new(engine)?;
     Some(match worker.interpreter() {
-        Ok(p) => std::path::absolute(&p).unwrap_or(p).display().to_string(),
+        Ok(p) => interpreter_spelling(&p).display().to_string(),
         Err(_) => "none".into(),
     })
+}
+
+/// An interpreter's path spelled one way: its folder absolute with symbolic links and `..`
+/// resolved, and the name `python` where that is the same file in the folder (a venv's
+/// `python3`, `python3.11`). The file itself is not resolved: a venv's `bin/python` links to
+/// its base Python, whose packages are others.
+pub fn interpreter_spelling(python: &Path) -> PathBuf {
+    let absolute = std::path::absolute(python).unwrap_or_else(|_| python.to_path_buf());
+    let (Some(folder), Some(name)) = (absolute.parent(), absolute.file_name()) else {
+        return absolute;
+    };
+    let folder = folder
+        .canonicalize()
+        .unwrap_or_else(|_| folder.to_path_buf());
+    let (path, plain) = (folder.join(name), folder.join("python"));
+    let same = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+    if path != plain && same(&path, &plain) {
+        plain
+    } else {
+        path
+    }
 }
 
 /// An engine run by `python -m rockbench.worker`.

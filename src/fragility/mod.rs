@@ -258,8 +258,8 @@ pub struct Runner {
     pub cached: AtomicUsize,
     pub early: AtomicUsize,
     run_wall: Mutex<f64>,
-    /// The runs this runner made: (key, outcome), in the order they ended.
-    made_runs: Mutex<Vec<(String, RunOutcome)>>,
+    /// The runs this runner gave, made or read from the cache: (key, outcome), in order.
+    runs: Mutex<Vec<(String, RunOutcome)>>,
     pub expected: AtomicUsize,
     start: Instant,
     last: Mutex<Instant>,
@@ -279,7 +279,7 @@ impl Runner {
             cached: AtomicUsize::new(0),
             early: AtomicUsize::new(0),
             run_wall: Mutex::new(0.0),
-            made_runs: Mutex::new(Vec::new()),
+            runs: Mutex::new(Vec::new()),
             expected: AtomicUsize::new(0),
             start: Instant::now(),
             last: Mutex::new(Instant::now()),
@@ -306,6 +306,10 @@ impl Runner {
         {
             self.cached.fetch_add(1, Ordering::Relaxed);
             self.tick(o.stop);
+            self.runs
+                .lock()
+                .expect("not poisoned")
+                .push((key, o.clone()));
             return Ok((o, true));
         }
         if self.stop.load(Ordering::Relaxed) {
@@ -320,7 +324,7 @@ impl Runner {
         *self.run_wall.lock().expect("not poisoned") += o.wall_s;
         // A run that cannot be stored would leave a study that cannot resume: an error.
         run_store::store(&self.dir, &key, &o).map_err(|e| format!("the run cache: {e}"))?;
-        self.made_runs
+        self.runs
             .lock()
             .expect("not poisoned")
             .push((key, o.clone()));
@@ -328,10 +332,11 @@ impl Runner {
         Ok((o, false))
     }
 
-    /// The runs made so far, (key, outcome): what a distributed task sends back, so that its
-    /// results reach the client's store even when the worker's cache is not shared.
-    pub fn made_runs(&self) -> Vec<(String, RunOutcome)> {
-        self.made_runs.lock().expect("not poisoned").clone()
+    /// The runs given so far, made or read from the cache, (key, outcome): what a distributed
+    /// task sends back, so that its results reach the client's store even when the worker's
+    /// cache is not the client's.
+    pub fn runs(&self) -> Vec<(String, RunOutcome)> {
+        self.runs.lock().expect("not poisoned").clone()
     }
 
     /// Runs made (not taken from the cache) so far.

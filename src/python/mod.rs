@@ -551,12 +551,14 @@ fn fragility_ida_jobs(study: PathBuf) -> PyResult<Vec<(usize, String, String)>> 
     Ok(crate::fragility::ida_jobs(&load_study(&study)?))
 }
 
-/// Runs made, runs found in the cache, and the runs made as `(key, outcome_json)`.
+/// Runs made, runs found in the cache, and every run given (made or found) as
+/// `(key, outcome_json)`.
 type IdaBatch = (usize, usize, Vec<(String, String)>);
 
 /// Run the IDA jobs `jobs` of a study through the run cache `cache` (GIL released): finished
 /// runs are read, missing ones run and stored. Returns `(made, cached, [(key, outcome_json),
-/// ...])`: the run counts and the runs made.
+/// ...])`: the run counts and every run the hunt used, made or read (the client's store may
+/// lack those this cache held).
 #[pyfunction]
 fn fragility_ida_batch(
     py: Python<'_>,
@@ -571,15 +573,15 @@ fn fragility_ida_batch(
     py.detach(|| -> Result<_, String> {
         let runner = crate::fragility::Runner::new(cache, true);
         crate::fragility::run_ida_jobs(&st, &runner, &jobs)?;
-        let made = runner
-            .made_runs()
+        let runs = runner
+            .runs()
             .into_iter()
             .map(|(k, o)| (k, serde_json::to_string(&o).expect("outcomes serialise")))
             .collect();
         Ok((
             runner.made(),
             runner.cached.load(std::sync::atomic::Ordering::Relaxed),
-            made,
+            runs,
         ))
     })
     .map_err(PyRuntimeError::new_err)

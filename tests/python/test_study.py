@@ -846,3 +846,149 @@ def test_a_lost_scheduler_is_a_runtime_error_from_dasks(
             rockbench.run_many([str(ROOT / "validation/scenes/housner-slender.toml")] * 2, client=client, runs_per_task=1)
         monkeypatch.setattr(distributed.Future, "result", real)
     assert len(cache_entries(cache)) >= 4
+
+
+def test_a_workers_ida_runs_have_one_key_however_its_interpreter_is_spelled(
+    study: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An IDA task keyed its MuJoCo and PyBullet runs by the worker's interpreter as spelled
+    (python3, python, a linked folder, ``..``): one run had several keys, and the client (whose
+    runs name ./.venv/bin/python) ran the workers' runs again. Another file linking to the
+    interpreter (a second venv would be one) keeps its own key."""
+    from rockbench import studies
+
+    (tmp_path / "block.toml").write_text((study.parent / "block.toml").read_text())
+    (tmp_path / "suite.toml").write_text(
+        '[suite]\nname = "one"\n\n[[record]]\nid = "r1"\nfile = "%s"\npair = "p0"\n' % (study.parent / "r1.AT2")
+    )
+    mujoco = tmp_path / "study.toml"
+    mujoco.write_text(
+        'name = "one"\nscenes = ["block.toml"]\nsuite = "suite.toml"\nengines = ["mujoco"]\n'
+        'cache = "cache"\ntail = 2.0\n\n[intensity]\nmeasure = "pga-ratio"\nlevels = [2.2]\n\n'
+        '[[limit_state]]\nname = "overturn"\nkind = "overturn"\n'
+    )
+    venv = ROOT / ".venv" / "bin"
+    (tmp_path / "linked-bin").symlink_to(venv)
+    (tmp_path / "other-python").symlink_to(venv / "python")
+    version = f"python{sys.version_info.major}.{sys.version_info.minor}"
+    spellings = [venv / "python", venv / "python3", venv / version, venv / ".." / "bin" / "python",
+                 tmp_path / "linked-bin" / "python3"]
+    assert all(p.exists() for p in spellings)
+    # What the Rust core keys the task's runs by: the key of the study's run made in its call.
+    monkeypatch.setattr(
+        studies, "fragility_ida_batch",
+        lambda st, jobs, cache: (0, 0, [(rockbench.fragility_run_specs(st)[0][0], "")]),
+    )
+
+    def task_key(python: Path) -> str:
+        monkeypatch.setenv("ROCKBENCH_PYTHON", "")  # restored as it was when the test ends
+        monkeypatch.delenv("ROCKBENCH_PYTHON")
+        monkeypatch.setattr(sys, "executable", str(python))
+        (key, _), = studies.ida_task([], str(mujoco), str(tmp_path / "cache"))["runs"]
+        return key
+
+    keys = {str(p): task_key(p) for p in spellings}
+    monkeypatch.delenv("ROCKBENCH_PYTHON")
+    monkeypatch.chdir(ROOT)
+    client = rockbench.fragility_run_specs(mujoco)[0][0]
+    assert set(keys.values()) == {client}, keys
+    assert task_key(tmp_path / "other-python") != client
+
+
+def stripes_only(study: Path, where: Path) -> Path:
+    """`study` without its IDA, in `where` (its records read where they are)."""
+    (where / "block.toml").write_text((study.parent / "block.toml").read_text())
+    suite = (study.parent / "suite.toml").read_text()
+    (where / "suite.toml").write_text(re.sub(r'file = "(r\d+\.AT2)"', lambda m: f'file = "{study.parent / m[1]}"', suite))
+    text = study.read_text()
+    out = where / "stripes.toml"
+    out.write_text(text.split("[ida]")[0] + "[fit]" + text.split("[fit]")[1])
+    return out
+
+
+def test_runs_the_workers_cache_already_holds_reach_the_clients_store(
+    study: Path, client: Client, tmp_path: Path
+) -> None:
+    """Workers with their own cache that holds some of the study's runs (an earlier study): a
+    task sent back only the runs it made, so the client's assembly ran the others again."""
+    stripes = stripes_only(study, tmp_path)
+    cache, elsewhere = tmp_path / "client", tmp_path / "workers"
+    held = rockbench.fragility(stripes, cache=elsewhere)
+    assert held.counts["made"] == held.counts["runs"] == 5 * N_RECORDS
+    gone = sorted(elsewhere.glob("*/*.json"))[::4]  # a quarter the workers make again
+    for p in gone:
+        p.unlink()
+    res = rockbench.fragility(stripes, client, cache=cache, worker_cache=elsewhere)
+    d = res.distributed
+    assert d is not None
+    assert d["made"] == len(gone) and d["stored_by_client"] == held.counts["runs"]
+    assert res.counts["made"] == 0
+    assert cache_entries(cache) == cache_entries(elsewhere)
+    assert_same_study(held.json, res.json)
+
+
+def test_ida_runs_the_workers_cache_already_holds_reach_the_clients_store(
+    study: Path, local: tuple[rockbench.FragilityResult, Path], client: Client, tmp_path: Path
+) -> None:
+    """An IDA task returned only the runs its hunt made, not those it read from the workers'
+    own cache: the client's assembly made them again (51 runs). Now every run reaches the
+    client's store, and the assembly makes none."""
+    import shutil
+
+    loc, loc_dir = local
+    cache, elsewhere = tmp_path / "client", tmp_path / "workers"
+    shutil.copytree(loc_dir / "cache", elsewhere)
+    res = rockbench.fragility(study, client, cache=cache, worker_cache=elsewhere)
+    assert res.distributed is not None and res.distributed["made"] == 0
+    assert res.counts["made"] == 0
+    assert cache_entries(cache) == cache_entries(elsewhere)
+
+
+def test_a_study_whose_workers_all_left_gives_up_after_the_timeout(
+    study: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every worker leaves while the study runs (retired, scaled down: no task killed): its
+    tasks waited for a worker for ever. Now, as when none joins at the start: the study ends
+    after `worker_timeout` s without a worker, its tasks cancelled, saying where its runs are."""
+    from rockbench import studies
+
+    store = studies.fragility_store
+
+    def store_then_retire(cache: Any, runs: Any) -> int:
+        # The first task's runs are stored, then every worker leaves.
+        n = store(cache, runs)
+        if c.nthreads():
+            cluster.scale(0)
+        return n
+
+    monkeypatch.setattr(studies, "fragility_store", store_then_retire)
+    cache = tmp_path / "cache"
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1, dashboard_address=":0") as cluster, \
+            Client(cluster) as c:
+        address = cluster.scheduler_address
+        start = time.monotonic()
+        with pytest.raises(studies.NoWorkersError) as e:
+            rockbench.fragility(study, c, cache=cache, runs_per_task=4, worker_timeout=1)
+        assert 1 <= time.monotonic() - start < 30
+        assert isinstance(e.value, TimeoutError) and e.value.left
+        assert str(e.value) == (
+            f"fragility: client: every worker left the scheduler {address}; none joined within 1 s "
+            f"(worker_timeout); the runs finished so far are in the run cache {cache}: rerunning "
+            "the study resumes from them"
+        )
+        assert len(cache_entries(cache)) >= 4
+        # The tasks were cancelled: nothing waits on the scheduler.
+        assert c.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)) == 0
+        # The command says it in one line.
+        cluster.scale(1)
+        c.wait_for_workers(1, timeout=30)
+        code = studies.main(
+            [str(study), "--scheduler", address, "--cache", str(cache), "--out", str(tmp_path / "o"),
+             "--timeout", "1", "--quiet", "--runs-per-task", "4"]
+        )
+        err = capsys.readouterr().err
+        assert code == 1 and err == (
+            f"--scheduler {address}: every worker left and none joined within 1 s; the runs "
+            f"finished so far are in the run cache {cache}: rerunning the command resumes from them\n"
+        ), err
+        assert not (tmp_path / "o").exists()
