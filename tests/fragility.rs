@@ -265,6 +265,19 @@ fn bad_studies_stop_before_running_with_one_line() {
         &out,
         &["record[6].file", "has the same bytes as record[0] (`r0`)"],
     );
+    // The same samples in other bytes (a line end added) are the same motion.
+    let copy = std::fs::read_to_string(d.join("r0.AT2")).unwrap() + "\n";
+    std::fs::write(d.join("r0-copy.AT2"), copy).unwrap();
+    std::fs::write(
+        d.join("suite.toml"),
+        format!("{manifest}[[record]]\nid = \"again\"\nfile = \"r0-copy.AT2\"\n"),
+    )
+    .unwrap();
+    fails_with(
+        &study,
+        &out,
+        &["record[6].file", "has the same samples as record[0] (`r0`)"],
+    );
     std::fs::write(d.join("suite.toml"), manifest).unwrap();
     // A run cache that is a file, found at --check rather than at the first run.
     edit("cache = \"cache\"", "cache = \"suite.toml\"");

@@ -145,6 +145,9 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
     }
     let mut seen = BTreeSet::new();
     let mut out = Vec::new();
+    // Each record's motion: its samples, in m/s^2 (the same motion in other bytes: other
+    // line ends, a header, comments, blanks).
+    let mut motions: Vec<String> = Vec::new();
     for (k, r) in m.record.iter().enumerate() {
         let field = |f: &str| format!("record[{k}].{f}");
         let err = |f: &str, msg: String| SceneError::new(&file, field(f), msg);
@@ -171,6 +174,13 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
         }
         let (s, unit) = records::parse_acceleration(fmt, &text)
             .map_err(|e| err("file", format!("{}: {e}", fpath.display())))?;
+        motions.push({
+            let samples: Vec<u8> = (s.t.iter())
+                .chain(s.v.iter().map(|v| v * unit).collect::<Vec<_>>().iter())
+                .flat_map(|x| x.to_le_bytes())
+                .collect();
+            crate::digest::sha256_hex(&samples)
+        });
         let npts = s.t.len();
         let dt = s.t[1] - s.t[0];
         let (pa, pgv) = peaks(&s, unit);
@@ -255,14 +265,17 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
         });
         // The same motion under two ids would count as two independent records in a fit.
         let new = out.last().expect("just pushed");
-        if let Some(j) = out[..out.len() - 1]
-            .iter()
-            .position(|o| o.sha256 == new.sha256)
-        {
+        let motion = motions.last().expect("just pushed");
+        if let Some(j) = (0..out.len() - 1).find(|&j| &motions[j] == motion) {
+            let same = if out[j].sha256 == new.sha256 {
+                "the same bytes"
+            } else {
+                "the same samples"
+            };
             return Err(err(
                 "file",
                 format!(
-                    "{} has the same bytes as record[{j}] (`{}`): one motion counted twice",
+                    "{} has {same} as record[{j}] (`{}`): one motion counted twice",
                     fpath.display(),
                     out[j].id
                 ),
