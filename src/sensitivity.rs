@@ -477,13 +477,31 @@ impl Study {
 /// `mm rms (largest) | ratio to the standard error` of `a` against `b`.
 fn difference_cells(a: &Ensemble, b: &Ensemble) -> anyhow::Result<String> {
     let d = a.difference(b).map_err(|e| anyhow::anyhow!(e))?;
-    let ratio = d.rms / d.standard_error;
-    let ratio = if ratio < 1e3 {
+    Ok(format!(
+        "{:.3} ({:.3}) | {}",
+        1e3 * d.rms,
+        1e3 * d.max,
+        in_standard_errors(d.rms, d.standard_error)
+    ))
+}
+
+/// A difference over its standard error. Ensembles without spread (deterministic runs: every
+/// member the same) have none: their difference is none or infinitely many (0/0 read "NaN").
+fn in_standard_errors(rms: f64, standard_error: f64) -> String {
+    if standard_error == 0.0 {
+        return if rms == 0.0 {
+            "none (no spread, no difference)"
+        } else {
+            "inf (no spread)"
+        }
+        .into();
+    }
+    let ratio = rms / standard_error;
+    if ratio < 1e3 {
         format!("{ratio:.1}")
     } else {
         format!("{ratio:.1e}")
-    };
-    Ok(format!("{:.3} ({:.3}) | {ratio}", 1e3 * d.rms, 1e3 * d.max))
+    }
 }
 
 /// Cut an unfinished last line (a run interrupted while it was written) from `path`, so that
@@ -619,6 +637,20 @@ fn text_hash(text: &str) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Deterministic ensembles (every member the same: a spread of 0) differ by none or by
+    /// infinitely many standard errors; the table said "NaN" for 0/0.
+    #[test]
+    fn ensembles_without_spread_are_read_as_such() {
+        let same = |x: f64| Ensemble::of(&[vec![x, 1.0], vec![x, 1.0]]).unwrap();
+        let cell = |a: &Ensemble, b: &Ensemble| difference_cells(a, b).unwrap();
+        assert!(cell(&same(0.5), &same(0.5)).ends_with("| none (no spread, no difference)"));
+        assert!(cell(&same(0.5), &same(0.7)).ends_with("| inf (no spread)"));
+        let spread = Ensemble::of(&[vec![0.5, 1.0], vec![0.7, 1.0]]).unwrap();
+        let c = cell(&spread, &same(0.6));
+        let ratio: f64 = c.rsplit("| ").next().unwrap().parse().unwrap();
+        assert!(ratio.is_finite() && ratio < 1.0, "{c}");
+    }
 
     #[test]
     fn configurations_parse_or_say_what_is_wrong() {

@@ -199,6 +199,16 @@ fn bad_gate_files_are_one_line_naming_the_field() {
             ),
             "gate[0] (a).target: check = \"value\" compares |value|",
         ),
+        // A relative difference from a stated 0 divides by 0: it failed on every run.
+        (
+            gate_toml(
+                "a",
+                "impact_time_1",
+                1e-3,
+                "check = \"rel-diff\"\ntarget = 0",
+            ),
+            "gate[0] (a).target: check = \"rel-diff\" divides by |target|, which is 0: give abs-diff",
+        ),
         (
             gate_toml("a", "impact_time_1", 1e-3, "")
                 .replace("reference = \"housner\"", "reference = \"native\""),

@@ -653,3 +653,40 @@ fn every_problem_of_the_single_object_scenes_is_certified() {
         "{note}"
     );
 }
+
+/// A gate belongs to the case run with its scene and overrides in any order (a key is never
+/// given twice): the same overrides listed otherwise were "not a run of any case".
+#[test]
+fn a_gate_with_its_cases_overrides_in_another_order_is_that_cases() {
+    use rockbench::gates::load_gates;
+    use rockbench::validation::{assign_gates, load_suite};
+    let dir = tmp("order");
+    let scene = root().join("validation/scenes/housner-slender.toml");
+    let suite = dir.join("suite.toml");
+    std::fs::write(
+        &suite,
+        format!(
+            "[[case]]\nname = \"c\"\ntitle = \"c\"\ndescription = \"c\"\nreference = \"housner\"\n\n\
+             [[case.run]]\nlabel = \"short\"\nscene = \"{}\"\nset = [\"duration=2.0\", \"native.dt=5e-4\"]\n",
+            scene.display()
+        ),
+    )
+    .unwrap();
+    let gates = dir.join("gates.toml");
+    let gate = |set: &str| {
+        format!(
+            "[[gate]]\nname = \"g\"\nscene = \"{}\"\nset = {set}\nengine = \"native\"\n\
+             reference = \"housner\"\nmetric = \"impact_time_1\"\ntolerance = 5e-4\n",
+            scene.display()
+        )
+    };
+    let cases = load_suite(&suite).unwrap();
+    std::fs::write(&gates, gate("[\"native.dt=5e-4\", \"duration=2.0\"]")).unwrap();
+    assert_eq!(
+        assign_gates(&cases, &load_gates(&gates).unwrap()),
+        Ok(vec![0])
+    );
+    std::fs::write(&gates, gate("[\"native.dt=1e-3\", \"duration=2.0\"]")).unwrap();
+    let e = assign_gates(&cases, &load_gates(&gates).unwrap()).unwrap_err();
+    assert!(e.contains("is not a run of any case of the suite"), "{e}");
+}

@@ -270,6 +270,12 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
                     .into(),
             ));
         }
+        if g.check == Some(Check::RelDiff) && g.target == Some(0.0) {
+            return Err(err(
+                at("target"),
+                "check = \"rel-diff\" divides by |target|, which is 0: give abs-diff".into(),
+            ));
+        }
         if g.reference == g.engine {
             return Err(err(
                 at("reference"),

@@ -215,12 +215,19 @@ fn same_path(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// The case (index) a gate belongs to.
+/// The case (index) a gate belongs to: a run of the same scene with the same overrides, in any
+/// order (a key is never given twice, so their order does not matter).
 pub fn case_of(cases: &[Case], g: &Gate) -> Option<usize> {
+    let sorted = |set: &[String]| {
+        let mut s = set.to_vec();
+        s.sort();
+        s
+    };
+    let gate_set = sorted(&g.set);
     cases.iter().position(|c| {
         c.runs
             .iter()
-            .any(|r| same_path(&r.scene_path, &g.scene_path) && r.set == g.set)
+            .any(|r| same_path(&r.scene_path, &g.scene_path) && sorted(&r.set) == gate_set)
     })
 }
 
