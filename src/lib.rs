@@ -68,3 +68,4 @@ pub mod trajectory;
 pub mod validation;
 pub mod walls;
 pub mod worker_sources;
+pub mod writable;

@@ -217,8 +217,9 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
     }
 }
 
-/// `--out` naming a file: refused in one line before anything runs, by every command that
-/// writes a directory.
+/// `--out` naming a file, or a folder that cannot be made (under /proc): refused in one line
+/// before anything runs, by every command that writes a directory (a spectrum found out when it
+/// wrote its outputs, after every run).
 #[test]
 fn an_out_that_is_a_file_is_refused_before_any_run() {
     let dir = common::tmp("rb-settings", "out-file");
@@ -263,6 +264,12 @@ fn an_out_that_is_a_file_is_refused_before_any_run() {
             "{args:?}"
         );
         assert_eq!(std::fs::read_to_string(&file).unwrap(), "a file\n");
+        let unmakeable = Path::new("/proc/rockbench/out");
+        let se = refused(&args, unmakeable);
+        assert!(
+            se.starts_with("error: --out: /proc/rockbench/out: cannot write in /proc ("),
+            "{args:?}: {se}"
+        );
     }
     assert_eq!(
         std::fs::read_dir(&dir).unwrap().count(),

@@ -613,19 +613,10 @@ def check_out(out: PathLike, cache_dir: PathLike, what: str = "out") -> Path:
     if str(out) == "":
         raise ValueError(f"{what}: an empty path (it would be the working directory)")
     try:
-        abs_ = Path(check_study_out(Path(out), Path(cache_dir)))
+        return Path(check_study_out(Path(out), Path(cache_dir)))
     except ValueError as e:
         msg = str(e)
         raise ValueError(what + msg[len("--out") :] if msg.startswith("--out") else msg) from None
-    # The outputs are written to a folder beside `out`, made with its missing parents.
-    parent = abs_.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir():
-        raise ValueError(f"{what}: {os.fspath(out)}: {parent} is a file, not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ValueError(f"{what}: {os.fspath(out)}: cannot write in {parent}")
-    return abs_
 
 
 def _paths(study: PathLike, cache: PathLike | None) -> tuple[Path, Path]:

@@ -235,11 +235,13 @@ pub(crate) fn remove_stale(out: &std::path::Path, stale: &[&str]) -> Result<()> 
     Ok(())
 }
 
+/// `--out` is a folder that can be made and written in (checked before any run).
 pub(crate) fn check_out_dir(out: &std::path::Path) -> Result<()> {
     if out.exists() && !out.is_dir() {
         anyhow::bail!("--out: {} is a file, not a directory", out.display());
     }
-    Ok(())
+    crate::writable::check_can_write_in(out)
+        .map_err(|e| anyhow::anyhow!("--out: {}: {e}", out.display()))
 }
 
 /// A command line clap refuses, as one line: its message, its tips and the usage of the

@@ -527,11 +527,15 @@ pub fn replaceable_out(out: &Path) -> Result<PathBuf, String> {
     Ok(abs)
 }
 
-/// [`replaceable_out`], and the study's run cache (`cache`) outside `out`: the outputs replace
-/// the folder whole, and a cache inside it was deleted with it (every run made again on the
-/// next study). Gives `out` made absolute.
+/// [`replaceable_out`], the study's run cache (`cache`) outside `out` (the outputs replace the
+/// folder whole, and a cache inside it was deleted with it: every run made again on the next
+/// study), and the folder `out` is in one this process can write in (the outputs are written
+/// beside `out`, then renamed: found at the end, a whole study's runs were done for nothing).
+/// Gives `out` made absolute.
 pub fn check_study_out(out: &Path, cache: &Path) -> Result<PathBuf, String> {
     let abs = replaceable_out(out)?;
+    crate::writable::check_can_write_in(abs.parent().unwrap_or(Path::new("/")))
+        .map_err(|e| format!("--out: {}: {e}", out.display()))?;
     let cache_abs = std::path::absolute(cache).unwrap_or_else(|_| cache.to_path_buf());
     // Compared through the folders that exist (symbolic links resolved), then lexically.
     let real = |p: &Path| {
