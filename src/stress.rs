@@ -630,12 +630,11 @@ impl Contracts {
                 .trim()
                 .parse()
                 .map_err(|_| err(format!("`{value}` is not a number")))?;
-            registry::check_names("--contract", [engine]).map_err(|_| {
-                err(format!(
-                    "unknown engine `{engine}` (known: {})",
-                    registry::names().join(", ")
-                ))
-            })?;
+            if registry::find(engine).is_none() {
+                return Err(err(
+                    crate::engines::EngineError::Unknown(engine.into()).to_string()
+                ));
+            }
             let k = match c.changed.iter().position(|x| x.engine == engine) {
                 Some(k) => k,
                 None => {
