@@ -465,6 +465,16 @@ pub fn scene_impacts(
         .collect()
 }
 
+/// The largest |phi| of the history, at its extremum between the samples (as a peak is
+/// located: [`peaks`], `kinks` the instants where the rate may jump), not at its largest
+/// sample; 0 for an empty history.
+pub fn max_abs(h: &History, kinks: &[f64]) -> f64 {
+    if h.is_empty() {
+        return 0.0;
+    }
+    stretch_peak(h, 0, h.len(), 0, kinks).amplitude
+}
+
 /// Every impact of the blocks whose impacts are given, in order: the instants where a rate may
 /// jump in every block touching them (the `kinks` of [`peaks`]).
 pub fn all_impacts<'a>(impacts: impl IntoIterator<Item = &'a [f64]>) -> Vec<f64> {
@@ -1068,6 +1078,22 @@ mod tests {
         // Alone, it is the history's peak.
         let before = h.slice(12..40);
         assert_eq!(peaks(&before, &[], &[]).len(), 1);
+    }
+
+    /// The largest |phi| is the extremum between the samples, not the largest sample (the
+    /// peaks half way between two samples: 1.2 % low).
+    #[test]
+    fn the_largest_rotation_is_the_extremum_between_samples() {
+        let t: Vec<f64> = (0..40).map(|k| 5e-3 + k as f64 * 1e-2).collect();
+        let w = 2.0 * std::f64::consts::PI / 0.2;
+        let (phi, omega) = sample(&t, |x| (1e-2 * (w * x).sin(), 1e-2 * w * (w * x).cos()));
+        let h = History::new(&t, &phi, &omega);
+        let largest_sample = phi.iter().fold(0.0f64, |m, p| m.max(p.abs()));
+        assert!(largest_sample < 0.99e-2);
+        // The cubic Hermite interpolant errs by O((w h)^4): 2.5e-5 relative at w h = 0.31.
+        let refined = max_abs(&h, &[]);
+        assert!((refined - 1e-2).abs() < 1e-6, "{refined}");
+        assert_eq!(max_abs(&h.slice(0..0), &[]), 0.0);
     }
 
     #[test]

@@ -174,7 +174,7 @@ impl Summary {
                     rest_times,
                     overturned,
                     overturn_time,
-                    max_abs_phi: phi.iter().fold(0.0, |m, p| m.max(p.abs())),
+                    max_abs_phi: events::max_abs(&absolute, &kinks),
                 }
             })
             .collect();

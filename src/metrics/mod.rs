@@ -267,14 +267,15 @@ fn series_events(
     let k1 = tr.t.partition_point(|t| *t <= window.1);
     let (rot_all, rate_all) = s.rotation_and_rate(tr);
     let h = History::new(&tr.t, &rot_all, &rate_all).slice(k0..k1);
-    let (t, phi) = (h.t, h.phi);
+    let t = h.t;
     let b = &scene.blocks[s.block];
     let alpha = b.critical_angle();
     let (peaks, restitution) = if s.measured {
         let mut pk = events::peaks(&h, impacts, kinks);
-        // Nor is a first stretch cut by a window that starts after the history, where it is
-        // already falling back (its largest |phi| at the window's first sample, the rate
-        // inward): its peak came before the window (one taken there made a restitution > 1).
+        // A first stretch cut by a window that starts after the history, where it is already
+        // falling back (its largest |phi| at the window's first sample, the rate inward), has
+        // no peak either: its peak came before the window (one taken there made a restitution
+        // > 1).
         if k0 > 0
             && let (Some(first), Some(&t_start)) = (pk.first(), t.first())
             && first.t <= t_start
@@ -323,7 +324,7 @@ fn series_events(
         rest_times,
         overturned,
         overturn_time,
-        max_abs_rotation: phi.iter().fold(0.0, |m, p| m.max(p.abs())),
+        max_abs_rotation: events::max_abs(&h, kinks),
     }
 }
 
