@@ -289,7 +289,6 @@ pub(crate) fn validate(scene: &Scene, tables: Option<super::TableCheck>) -> Resu
         }
     }
     check_overturning(scene, &layout)?;
-    check_footings(scene, &layout)?;
     check_initial_overlaps(scene, &layout)?;
 
     // Excitation.
@@ -632,47 +631,6 @@ fn check_initial_overlaps(scene: &Scene, layout: &Layout) -> Result<(), SceneErr
                     ),
                 ));
             }
-        }
-    }
-    Ok(())
-}
-
-/// A column of blocks placed by `offset`, standing upright: each block, with what it carries,
-/// must have its centre of mass over its footing on the block below (the overlap of the two),
-/// else the column overturns from rest at once (refused as a rotation that does so is).
-fn check_footings(scene: &Scene, layout: &Layout) -> Result<(), SceneError> {
-    let n = scene.blocks.len();
-    let upright =
-        scene.initial.tilt == 0.0 && scene.initial.blocks.values().all(|s| s.rotation == 0.0);
-    if !upright || scene.blocks.iter().any(|b| b.x.is_some()) {
-        return Ok(());
-    }
-    for i in 1..n {
-        let group = i..n;
-        let mass: f64 = group.clone().map(|j| scene.blocks[j].mass()).sum();
-        let com = group
-            .map(|j| scene.blocks[j].mass() * layout.upright[j].0)
-            .sum::<f64>()
-            / mass;
-        let (b, below) = (&scene.blocks[i], &scene.blocks[i - 1]);
-        let (x, xb) = (layout.upright[i].0, layout.upright[i - 1].0);
-        let from = (x - b.width / 2.0).max(xb - below.width / 2.0);
-        let to = (x + b.width / 2.0).min(xb + below.width / 2.0);
-        let slack = 1e-12 * (b.width + below.width);
-        if com < from - slack || com > to + slack {
-            return Err(SceneError::new(
-                &scene.source,
-                format!("blocks[{i}].offset"),
-                format!(
-                    "puts the centre of mass of `{}` and what it carries (x = {} m) beyond its \
-                     footing on `{}` (x from {} to {} m): the stack would start overturning",
-                    b.name,
-                    num(com),
-                    below.name,
-                    num(from),
-                    num(to)
-                ),
-            ));
         }
     }
     Ok(())
