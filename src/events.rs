@@ -12,7 +12,10 @@
 //! - **Impact**: a zero crossing of the rotation (relative rotation for a block on another
 //!   block), extrapolated from the last sample before the sign change. A crossing counts only
 //!   when the largest |phi| of the half-wave that ends at it reaches the noise floor (default
-//!   1e-5 rad), so jitter about zero is not counted. A half-wave that ends flat (within
+//!   1e-5 rad; its extremum between the samples where its largest sample is within a factor
+//!   2 below), so jitter about zero is not counted. Another block's impact inside the interval,
+//!   before the crossing, is a kink of the rate: the crossing is then read backwards from the
+//!   sample after it. A half-wave that ends flat (within
 //!   [`FLAT`] of zero: a block stopped dead by the impact, lying on its face) counts as an
 //!   impact where it reaches zero, whether the block stays flat or later lifts off, unless
 //!   the history ends on that one flat sample; while flat, the sign of its round-off is no
@@ -23,7 +26,9 @@
 //!   interpolant of (phi, omega) at its two ends peaks (local error O(h^4)); a parabola through
 //!   the three samples around the largest |phi| where the rate does not change sign; the
 //!   largest sample at the ends of a stretch. The other blocks' impacts are kinks of the rate
-//!   too: no interpolant spans one; the kink's value is extrapolated from the nearer end.
+//!   too: no interpolant spans one; the kink's value is extrapolated from the nearer end. A last
+//!   stretch still growing where the history ends has no peak, unless it is the only one.
+//! - **Largest rotation**: max |phi| of the history, located as a peak is ([`max_abs`]).
 //! - **Rest time** at epsilon: the earliest time after which |phi| stays below epsilon to the
 //!   end of the history, extrapolated from the last sample at or above epsilon (`None` if the
 //!   last sample is not below it).
@@ -220,9 +225,7 @@ impl<'a> History<'a> {
             None => lin(self.phi[next]),
         }
     }
-}
 
-impl History<'_> {
     /// The zero crossing between sample `k` and the next sample `next`, on the other side of
     /// zero, where the interval may hold `kinks` (other blocks' impacts, sorted). Extrapolated
     /// from `k` (acceleration from `lo..=k`) when it crosses before the first kink; else from
