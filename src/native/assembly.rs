@@ -105,12 +105,20 @@ fn body_terms(row: &mut SparseRow, i: usize, pose: &Pose, p: (f64, f64), d: (f64
 /// without allocating: its entries and their number.
 #[inline]
 pub fn normal_row(c: &ContactPoint, q: &[f64]) -> ([(usize, f64); 6], usize) {
+    row_along(c, q, c.normal)
+}
+
+/// The row of one contact point's relative displacement along `d` at the positions `q`
+/// (`d` the normal: [`normal_row`]; its tangent `(n.1, -n.0)`: the `trow` of
+/// [`contact_rows`]), without allocating: its entries and their number.
+#[inline]
+pub fn row_along(c: &ContactPoint, q: &[f64], d: (f64, f64)) -> ([(usize, f64); 6], usize) {
     let mut row = [(0, 0.0); 6];
-    row[..3].copy_from_slice(&body_entries(c.b, &pose(q, c.b), c.point, c.normal, 1.0));
+    row[..3].copy_from_slice(&body_entries(c.b, &pose(q, c.b), c.point, d, 1.0));
     let Some(a) = c.a else {
         return (row, 3);
     };
-    row[3..].copy_from_slice(&body_entries(a, &pose(q, a), c.point, c.normal, -1.0));
+    row[3..].copy_from_slice(&body_entries(a, &pose(q, a), c.point, d, -1.0));
     (row, 6)
 }
 

@@ -4,9 +4,10 @@
 
 use super::{CLOSED_GAP, END_OF_STEP, NativeState, PENETRATION_TOLERANCE, StepError, Stepper};
 use crate::geometry::ContactPoint;
-use crate::native::assembly::{contact_rows, normal_row, poses};
+use crate::native::assembly::{contact_rows, normal_row, poses, row_along};
 use crate::native::material::{Gradient, Increment, MaterialContact};
 use crate::native::problem::{StepProblem, StepSolution};
+use crate::native::settings::FrictionLaw;
 use crate::scene::AppliedAs;
 
 /// Sorted keys of the points of `pr` that `closed` marks (which points end closed, as the
@@ -91,8 +92,12 @@ struct Ordinary<'a> {
 
 impl Stepper {
     /// Whether a closed point (gap within `CLOSED_GAP`) approaches faster than it would close
-    /// `CLOSED_GAP` in a step: if so, the points of the islands that hold such a point (all of
-    /// them without `island_impacts`; the other islands need no impact).
+    /// `CLOSED_GAP` in a step, under the velocity-level law of the friction law: `n·v` under
+    /// Coulomb's; `(n ± mu t)·v`, the cone's rows, under the associative law (a closed point
+    /// sliding without lifting by `mu |slip|`, as a block launched along the ground starts:
+    /// the mean-velocity law reflected its velocity about the cone, an elastic hop of 131 mm
+    /// for 33 mm). If so, the points of the islands that hold such a point (all of them
+    /// without `island_impacts`; the other islands need no impact).
     pub(super) fn approaching(
         &self,
         s: &NativeState,
@@ -101,8 +106,17 @@ impl Stepper {
         let approaches = |c: &ContactPoint| {
             c.gap <= CLOSED_GAP && {
                 let (nrow, len) = normal_row(c, &s.q);
-                self.normal_speed(c, &nrow[..len], &s.v, s.ground_w) * self.settings.dt
-                    < -CLOSED_GAP
+                let vn = self.normal_speed(c, &nrow[..len], &s.v, s.ground_w);
+                let approach = match self.settings.friction_law {
+                    FrictionLaw::Coulomb => vn,
+                    FrictionLaw::Associative => {
+                        let t = (c.normal.1, -c.normal.0);
+                        let (trow, len) = row_along(c, &s.q, t);
+                        let vt = self.speed_along(c, t, &trow[..len], &s.v, s.ground_w);
+                        vn - self.bodies.friction(c) * vt.abs()
+                    }
+                };
+                approach * self.settings.dt < -CLOSED_GAP
             }
         };
         if !contacts.iter().any(approaches) {

@@ -201,10 +201,24 @@ impl Stepper {
         v: &[f64],
         w: (f64, f64),
     ) -> f64 {
-        let mut vn = row_dot(nrow, v);
+        self.speed_along(c, c.normal, nrow, v, w)
+    }
+
+    /// Relative velocity of a point along `d` (its row along `d`,
+    /// [`row_along`](crate::native::assembly::row_along)) for block
+    /// velocities `v` and ground velocity `w` (counted only when the ground moves).
+    pub(super) fn speed_along(
+        &self,
+        c: &ContactPoint,
+        d: (f64, f64),
+        row: &[(usize, f64)],
+        v: &[f64],
+        w: (f64, f64),
+    ) -> f64 {
+        let mut speed = row_dot(row, v);
         if c.a.is_none() && self.applied_as == AppliedAs::MovingGround {
-            vn -= c.normal.0 * w.0 + c.normal.1 * w.1;
+            speed -= d.0 * w.0 + d.1 * w.1;
         }
-        vn
+        speed
     }
 }
