@@ -243,38 +243,3 @@ fn a_peak_at_another_blocks_impact_does_not_move_with_the_output_sampling() {
         );
     }
 }
-
-/// In a stack, another block's impact can fall inside the sample interval of a block's own
-/// crossing, before it: the crossing is read from after it. The four-block stack's middle
-/// block (b1) crosses at 29.46 ms, after b2's and b3's impacts in the same interval: at 1 ms and
-/// 3.3 ms output its impact is 10 us output's to 2 us (extrapolated across the kinks, 28 us
-/// early).
-#[test]
-fn a_crossing_after_another_blocks_impact_does_not_move_with_the_output_sampling() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/almost-solved-stack.toml");
-    let run = |interval: &str| {
-        let set = [
-            "native.dt=1e-5".to_string(),
-            format!("output_interval={interval}"),
-        ];
-        let s = load_scene_with_overrides(&path, &set).unwrap();
-        run_timed(engine_by_name("native").unwrap().as_ref(), &s)
-            .unwrap()
-            .1
-    };
-    let fine = run("1e-5");
-    let want = fine.blocks[1].impacts[0];
-    let others: Vec<f64> = [0, 2, 3]
-        .iter()
-        .flat_map(|&j| fine.blocks[j].impacts.clone())
-        .filter(|t| (want - 1e-3..want).contains(t))
-        .collect();
-    assert!(!others.is_empty(), "another impact lies just before b1's");
-    for interval in ["1e-3", "3.306779144021914e-3"] {
-        let got = run(interval).blocks[1].impacts[0];
-        assert!(
-            (got - want).abs() < 2e-6,
-            "{interval}: b1's first impact {got} against {want}"
-        );
-    }
-}

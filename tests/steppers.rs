@@ -405,9 +405,12 @@ fn impact_stepper_first_impact_is_second_order() {
 /// A light plank (4.5 x 0.096 m, 10 kg/m^3) hopping under a heavy block (2.24 x 1 m, 3366
 /// kg/m^3; mass ratio ~1750) that lands on it, from `make proptest`: the sub-step to the
 /// block's located impact instant drove the plank's corner 1.44 mm through the ground (the
-/// free trial had closed it later), which the impact stepper now catches by halving the
-/// instant. The run keeps the penetration invariant (1e-4 of the smallest dimension) and
-/// halves at least one instant.
+/// free trial had closed it later), which the impact stepper catches by finding the instant
+/// again from that sub-step (before, by halving it). The run keeps the penetration invariant
+/// (1e-4 of the smallest dimension). (Its launch, the plank sliding outside the associative
+/// cone, is now a plastic impact at the start, and on that path no sub-step goes through a
+/// face: `a_block_landing_almost_flat_does_not_rebound_elastically` holds the instants found
+/// again.)
 #[test]
 fn a_plank_struck_by_a_heavy_block_stays_out_of_the_ground() {
     let scene = rockbench::scene::parse_scene_str(PLANK, false, "plank", &[]).unwrap();
@@ -429,7 +432,6 @@ fn a_plank_struck_by_a_heavy_block_stays_out_of_the_ground() {
         .find(|c| c.name == "penetration")
         .expect("a penetration check");
     assert!(!penetration.violated(), "{}: {notes}", penetration.detail);
-    assert!(!notes.contains(" 0 impact instants halved"), "{notes}");
 }
 
 const PLANK: &str = r#"name = "random"

@@ -246,12 +246,13 @@ impl NativeEngine {
                 )];
                 if stepper.gradient_solves > 0 {
                     notes.push(format!(
-                        "impact stepper: {} solves for the discrete-gradient rows ({:.2} a step), {} end velocities settled, {} plastic impacts at the start of a step, {} impact instants halved, {} taken at the end of their step, {} island steps located apart from the others, {} steps or parts of steps halved for their rows to converge",
+                        "impact stepper: {} solves for the discrete-gradient rows ({:.2} a step), {} end velocities settled, {} plastic impacts at the start of a step, {} impact instants halved, {} found again from their sub-step, {} taken at the end of their step, {} island steps located apart from the others, {} steps or parts of steps halved for their rows to converge",
                         stepper.gradient_solves,
                         stepper.gradient_solves as f64 / computed.max(1) as f64,
                         stepper.settled_velocities,
                         stepper.start_impacts,
                         stepper.halved_instants,
+                        stepper.refound_instants,
                         stepper.end_of_step_instants,
                         stepper.island_steps,
                         stepper.halved_steps

@@ -374,6 +374,7 @@ impl Stepper {
                     Some(t) => {
                         tau = t;
                         refinements += 1;
+                        self.refound_instants += 1;
                         halved = false;
                     }
                     None => {

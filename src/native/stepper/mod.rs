@@ -237,6 +237,9 @@ pub struct Stepper {
     /// Impact stepper: located impact instants halved because a located point was through its
     /// face at the instant first found.
     pub halved_instants: u64,
+    /// Impact stepper: located impact instants found again from the sub-step to them, because
+    /// a located point was through its face at its end (`INSTANT_REFINEMENTS`).
+    pub refound_instants: u64,
     /// Impact stepper: located impact instants taken at the end of their step
     /// (`END_OF_STEP`).
     pub end_of_step_instants: u64,
@@ -283,6 +286,7 @@ macro_rules! counters {
             $s.settled_velocities,
             $s.start_impacts,
             $s.halved_instants,
+            $s.refound_instants,
             $s.end_of_step_instants,
             $s.island_steps,
         ]
@@ -294,7 +298,7 @@ macro_rules! counters {
 struct Carried<'a> {
     last_contacts: &'a [ContactPoint],
     last_solution: &'a StepSolution,
-    counters: [u64; 10],
+    counters: [u64; 11],
     halved_steps: u64,
     projected_energy: f64,
     accel: &'a [f64],
@@ -312,7 +316,7 @@ struct Carried<'a> {
 struct CarriedOwned {
     last_contacts: Vec<ContactPoint>,
     last_solution: StepSolution,
-    counters: [u64; 10],
+    counters: [u64; 11],
     /// Absent from the checkpoints of builds that did not halve steps.
     #[serde(default)]
     halved_steps: u64,
@@ -389,6 +393,7 @@ impl Stepper {
             gradient_solves: 0,
             start_impacts: 0,
             halved_instants: 0,
+            refound_instants: 0,
             end_of_step_instants: 0,
             halved_steps: 0,
             settled_velocities: 0,
