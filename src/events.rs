@@ -324,8 +324,8 @@ pub struct Peak {
 pub const FLAT: f64 = 1e-12;
 
 /// Zero crossings that count as impacts (see the module docs). `kinks` (sorted) are the other
-/// blocks' impacts, where this block's rate may jump too: a crossing is never extrapolated
-/// across one ([`History::crossing_between_kinks`]).
+/// blocks' impacts, where this block's rate may jump too: a crossing is extrapolated from the
+/// side of its interval that has no kink before it, where one side has none.
 pub fn impacts(h: &History, floor: f64, kinks: &[f64]) -> Vec<f64> {
     let (t, phi) = (h.t, h.phi);
     let n = phi.len();

@@ -178,7 +178,8 @@ fn check_header_units(cols: &[&str], quantity: Quantity, line: &str) -> Result<(
 /// Two columns `time, value` separated by a comma, semicolon, tab or spaces. One header line
 /// (the first line that is not blank or a `#` comment, its first field not a number) and `#`
 /// comment lines are skipped; any other line that is not two numbers is an error, never dropped.
-/// A header naming units other than s and `quantity`'s is an error ([`check_header_units`]).
+/// A header naming units other than s and `quantity`'s (`acc (g)`, `time (ms)`) is an error:
+/// they are not read as SI.
 pub fn parse_two_column(text: &str, quantity: Quantity) -> Result<Samples, String> {
     // A byte-order mark (some spreadsheets write one) is not part of the first field.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
