@@ -139,10 +139,10 @@ fn resumed_runs_of_every_stepper_law_and_sleep_are_the_uninterrupted_runs() {
     // The certificates' record is carried: the resumed run reports the whole run's.
     let certified = resumed_is_uninterrupted(two, &["duration=1", "native.certify=true"], 600);
     assert!(certified.contains("certificates: "), "{certified}");
-    // Stopped within the window of `native.stop_at_rest` (the blocks come to rest at 5.118 s).
+    // Stopped within the window of `native.stop_at_rest` (the blocks come to rest at 5.131 s).
     let rest = resumed_is_uninterrupted(two, &["duration=8", "native.stop_at_rest=true"], 5110);
     assert!(
-        rest.contains("every block at rest from t = 5.1180 s"),
+        rest.contains("every block at rest from t = 5.1310 s"),
         "{rest}"
     );
     let sleep = resumed_is_uninterrupted(
