@@ -4,7 +4,7 @@
 
 use super::{CLOSED_GAP, END_OF_STEP, NativeState, PENETRATION_TOLERANCE, StepError, Stepper};
 use crate::geometry::ContactPoint;
-use crate::native::assembly::{contact_key, contact_rows, normal_row, poses, row_along};
+use crate::native::assembly::{contact_rows, normal_row, poses, row_along};
 use crate::native::material::{Gradient, Increment, MaterialContact};
 use crate::native::problem::{StepProblem, StepSolution};
 use crate::native::settings::FrictionLaw;
@@ -392,19 +392,6 @@ impl Stepper {
                 continue;
             }
             let at = self.detect_waking(s);
-            // The located points at their faces at the instant: the first to close, and those
-            // within `CLOSED_GAP` of it. The others close later in the step and are located in
-            // a later round. (Taken in this impact, a point still in the air held its block
-            // there: a block landing almost flat, its second corner 0.09 mm up, stopped dead.)
-            let gap_of = |key: u64| at.iter().find(|c| contact_key(c) == key).map(|c| c.gap);
-            let first = located
-                .iter()
-                .filter_map(|&k| gap_of(k))
-                .fold(f64::INFINITY, f64::min);
-            let located: Vec<u64> = located
-                .into_iter()
-                .filter(|&k| gap_of(k).is_some_and(|g| g <= first.max(0.0) + CLOSED_GAP))
-                .collect();
             iterations += self
                 .impact(s, &at, &located)
                 .map_err(|failure| StepError::Solver {
