@@ -258,6 +258,12 @@ impl NativeEngine {
                         stepper.halved_steps
                     ));
                 }
+                if stepper.struck_open > 0 {
+                    notes.push(format!(
+                        "impact stepper: {} located impacts struck points still open at their instant, by up to {:.3e} m, because they close later in the same step (`native.simultaneous_impacts = \"instant\"` strikes each at its own instant; docs/method.md, \"Impacts together or in turn\")",
+                        stepper.struck_open, stepper.widest_struck_gap
+                    ));
+                }
                 if let Some(c) = stepper.certified() {
                     notes.push(format!(
                         "certificates: {} step problems solved, each displacement within {:.3e} m of its QP's minimiser by the duality gap ({} bounded only above {:.0e} m, {} with a row violated; displacements up to {:.3e} m a step)",

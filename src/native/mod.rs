@@ -16,7 +16,9 @@ pub mod solver;
 pub mod stepper;
 
 pub use problem::{StepProblem, StepSolution};
-pub use settings::{Formulation, FrictionLaw, NativeSettings, SolverKind, StepperKind};
+pub use settings::{
+    Formulation, FrictionLaw, NativeSettings, SimultaneousImpacts, SolverKind, StepperKind,
+};
 pub use stepper::{NativeState, StepError, Stepper};
 
 use crate::excitation::GroundMotion;

@@ -4,10 +4,10 @@
 
 use super::{CLOSED_GAP, END_OF_STEP, NativeState, PENETRATION_TOLERANCE, StepError, Stepper};
 use crate::geometry::ContactPoint;
-use crate::native::assembly::{contact_rows, normal_row, poses, row_along};
+use crate::native::assembly::{contact_key, contact_rows, normal_row, poses, row_along};
 use crate::native::material::{Gradient, Increment, MaterialContact};
 use crate::native::problem::{StepProblem, StepSolution};
-use crate::native::settings::FrictionLaw;
+use crate::native::settings::{FrictionLaw, SimultaneousImpacts};
 use crate::scene::AppliedAs;
 
 /// Sorted keys of the points of `pr` that `closed` marks (which points end closed, as the
@@ -141,6 +141,34 @@ impl Stepper {
                 .copied()
                 .collect(),
         )
+    }
+
+    /// The located points that take the impact at the instant reached (its points `at`): all
+    /// of them under `simultaneous_impacts = "step"` (counted in `struck_open` when one is
+    /// still open there); under `"instant"`, those at their faces, within `CLOSED_GAP` of the
+    /// first to close, the others left to later rounds.
+    fn striking_now(&mut self, at: &[ContactPoint], located: Vec<u64>) -> Vec<u64> {
+        let gap_of = |key: u64| at.iter().find(|c| contact_key(c) == key).map(|c| c.gap);
+        let gaps = || located.iter().filter_map(|&k| gap_of(k));
+        let first = gaps().fold(f64::INFINITY, f64::min).max(0.0);
+        if self.settings.simultaneous_impacts == SimultaneousImpacts::Step {
+            let widest = gaps().fold(0.0, f64::max);
+            if widest > first + CLOSED_GAP {
+                self.struck_open += 1;
+                self.widest_struck_gap = self.widest_struck_gap.max(widest);
+            }
+            return located;
+        }
+        let at_faces: Vec<u64> = located
+            .iter()
+            .copied()
+            .filter(|&k| gap_of(k).is_some_and(|g| g <= first + CLOSED_GAP))
+            .collect();
+        if at_faces.is_empty() {
+            located
+        } else {
+            at_faces
+        }
     }
 
     /// One step with the impact instants located.
@@ -392,6 +420,7 @@ impl Stepper {
                 continue;
             }
             let at = self.detect_waking(s);
+            let located = self.striking_now(&at, located);
             iterations += self
                 .impact(s, &at, &located)
                 .map_err(|failure| StepError::Solver {

@@ -246,6 +246,11 @@ pub struct Stepper {
     /// Impact stepper: steps (or parts of steps) taken again as two halves because their
     /// discrete-gradient iteration did not converge (`CONVERGED_DRIFT`).
     pub halved_steps: u64,
+    /// Impact stepper under `simultaneous_impacts = "step"`: located impacts that struck a
+    /// point still open at their instant (by more than `CLOSED_GAP`), and the widest such gap,
+    /// m. Under `"instant"` such points strike at their own instants.
+    pub struck_open: u64,
+    pub widest_struck_gap: f64,
     /// Impact stepper: the acceleration of the last sub-step (the predictor of the next).
     accel: Vec<f64>,
     /// Sorted keys of the points that carried a normal force at the end of the last step
@@ -301,6 +306,8 @@ struct Carried<'a> {
     counters: [u64; 11],
     halved_steps: u64,
     projected_energy: f64,
+    struck_open: u64,
+    widest_struck_gap: f64,
     accel: &'a [f64],
     loaded: &'a [u64],
     struck: &'a [u64],
@@ -323,6 +330,10 @@ struct CarriedOwned {
     /// Absent from the checkpoints of builds that did not count it.
     #[serde(default)]
     projected_energy: f64,
+    #[serde(default)]
+    struck_open: u64,
+    #[serde(default)]
+    widest_struck_gap: f64,
     accel: Vec<f64>,
     loaded: Vec<u64>,
     struck: Vec<u64>,
@@ -396,6 +407,8 @@ impl Stepper {
             refound_instants: 0,
             end_of_step_instants: 0,
             halved_steps: 0,
+            struck_open: 0,
+            widest_struck_gap: 0.0,
             settled_velocities: 0,
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
@@ -427,6 +440,8 @@ impl Stepper {
             counters,
             halved_steps: self.halved_steps,
             projected_energy: self.projected_energy,
+            struck_open: self.struck_open,
+            widest_struck_gap: self.widest_struck_gap,
             accel: &self.accel,
             loaded: &self.loaded,
             struck: &self.struck,
@@ -455,6 +470,8 @@ impl Stepper {
         counters!(self) = c.counters;
         self.halved_steps = c.halved_steps;
         self.projected_energy = c.projected_energy;
+        self.struck_open = c.struck_open;
+        self.widest_struck_gap = c.widest_struck_gap;
         self.last_contacts = c.last_contacts;
         self.last_solution = c.last_solution;
         self.accel = c.accel;
