@@ -328,6 +328,17 @@ impl Stepper {
                     self.settle_kept(s, &contacts, &end, &carries, &pr, &mut sol)?;
                     self.work.end_gradients = end;
                 }
+                if !fresh.is_empty() {
+                    // Those closing within the first half of the step closed under the
+                    // velocity-level law, plastic, which leaves them up to `(1 - theta) h |v_n|`
+                    // inside their faces, as impacts at step ends do.
+                    self.project_out_penetration(s)
+                        .map_err(|failure| StepError::Solver {
+                            step: s.step + 1,
+                            t: s.t,
+                            failure,
+                        })?;
+                }
                 // The located points have just closed: not a new impact in the next step even if
                 // the short rest of this one left them without a force (gap within the fall of
                 // `g h^2/2`).

@@ -64,13 +64,20 @@ impl Stepper {
                     vn -= n.0 * w0.0 + n.1 * w0.1;
                     vt -= n.1 * w0.0 - n.0 * w0.1;
                 }
+                // Closing within the first half of the step, its impact not located (impacts
+                // not located, or this one left over: `under_cone`). Its position-level row
+                // would reflect it: `v = 2 dq/h - v0` with `dq_n >= -gap` separates.
+                let velocity_level = c.gap > CLOSED_GAP
+                    && (!self.settings.locate_impacts
+                        || self.under_cone.binary_search(&r.key).is_ok())
+                    && c.gap + (1.0 - th) * dt * vn <= 0.0;
                 if c.gap <= CLOSED_GAP {
                     // Closed: `g0+ + G dq >= 0` with the discrete-gradient rows, i.e. the
                     // mean relative velocity of the step does not approach (a penetration
                     // at round-off level is held, not pushed out: that would do work).
                     r.g_n += c.gap.max(0.0) - c.gap;
-                } else if !self.settings.locate_impacts && c.gap + (1.0 - th) * dt * vn <= 0.0 {
-                    // Closing within the first half of the step, impacts not located: the
+                } else if velocity_level {
+                    // Closing within the first half of the step, its impact not located: the
                     // velocity-level law on the end-of-step relative
                     // velocity, (n ± mu t)·v >= 0, i.e.
                     // (nrow ± mu trow) dq - (n ± mu t)·Δd - (1 - w) dt (v_n0 ± mu v_t0) >= 0:
@@ -97,7 +104,7 @@ impl Stepper {
                         // Open, or leaving its face: no force before it touches (the gap row
                         // alone); its closing is located.
                         r.mu = 0.0;
-                    } else if c.gap > CLOSED_GAP {
+                    } else if c.gap > CLOSED_GAP && !velocity_level {
                         // Left unlocated, it closes under its cone anchored where it closes:
                         // the slip of its approach is no slip on its face. The instant is the
                         // free motion's closing instant, or the step's end. The anchor moves by
