@@ -580,7 +580,11 @@ fn a_running_bond_wall_starts_to_move_at_its_static_collapse_acceleration() {
 /// was their ordinary sub-step, in which a point free of the cone until it closes
 /// (`free_until_it_closes`) closed frictionless and the courses slid on it, and +2.58 mm when
 /// the redo's cone was anchored where the free motion closes the point without a bound (an
-/// anchor the motion does not reach lifts the point).
+/// anchor the motion does not reach lifts the point). Measured 2026-12-07, with the leftover
+/// impacts that close early in their step plastic: -4.70 mm at step ends, -3.95 located at dt
+/// 1e-3 (-4.10 / -3.94 / -4.10 at 5e-4 / 2.5e-4 / 1e-4; under `simultaneous_impacts =
+/// "instant"` -6.40 / 0.90 / 5.75 / 3.80 at 1e-3 to 1e-4, docs/method.md, "Impacts together
+/// or in turn").
 #[test]
 fn a_wall_under_a_record_slides_on_no_frictionless_closing() {
     let mut w = WallSpec::running_bond(10, 6);
