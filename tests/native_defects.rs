@@ -437,6 +437,47 @@ fn a_light_post_squeezed_from_under_a_stack_stays_out_of_the_ground() {
     gains_no_energy_while_turning(&scene, &out, 0, 1.0);
 }
 
+/// A 1 x 2.5 m block thrown up by its ground (a vertical half-sine of -15 m/s^2 for 0.2 s from
+/// 0.5 s, with a horizontal one of `horizontal` m/s^2) under the native engine at `dt` with the
+/// `[native]` lines `native`: its energy at 0.9 s (the rotation's included, above its rest), its
+/// largest rotation after 0.8 s (it lands at 0.80 s) and the run's notes.
+fn thrown_block(horizontal: f64, dt: f64, native: &str) -> (f64, f64, String) {
+    let text = format!(
+        "name = \"landing\"\nduration = 0.9\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.5\n\
+         [excitation.vertical]\nkind = \"half-sine\"\namplitude = -15.0\nduration = 0.2\nstart = 0.5\n\
+         [excitation.horizontal]\nkind = \"half-sine\"\namplitude = {horizontal:e}\nduration = 0.2\n\
+         start = 0.5\n[output]\ninterval = 1e-3\n[native]\ndt = {dt:e}\n{native}\n"
+    );
+    let scene = check_scene_str(&text, false, "landing.toml", &[], Path::new(".")).unwrap();
+    let out = engine_by_name("native").unwrap().run(&scene).unwrap();
+    let b = &out.trajectory.blocks[0];
+    let m = scene.blocks[0].mass();
+    let k = b.vx.len() - 1;
+    let energy = 0.5 * m * (b.vx[k].powi(2) + b.vz[k].powi(2))
+        + 0.5 * scene.blocks[0].inertia() * b.omega[k].powi(2)
+        + m * scene.gravity * (b.z[k] - 1.25);
+    let after = out.trajectory.t.iter().position(|&t| t > 0.8).unwrap();
+    let rocked = b.phi[after..].iter().fold(0.0f64, |a, p| a.max(p.abs()));
+    (energy, rocked, out.notes.join("; "))
+}
+
+/// [`thrown_block`] at `dt` (`coarse`) against dt 1e-4 (`fine`): the energy at 0.9 s and the
+/// largest rotation after landing agree to 2 %.
+fn lands_as_at_the_fine_step(coarse: &(f64, f64, String), fine: &(f64, f64, String), dt: f64) {
+    assert!(
+        (coarse.0 / fine.0 - 1.0).abs() < 0.02,
+        "energy at 0.9 s: {} J/m at dt {dt:e}, {} at dt 1e-4",
+        coarse.0,
+        fine.0
+    );
+    assert!(
+        (coarse.1 / fine.1 - 1.0).abs() < 0.02,
+        "largest rotation after landing: {} rad at dt {dt:e}, {} at dt 1e-4",
+        coarse.1,
+        fine.1
+    );
+}
+
 /// A block thrown up by its ground (a vertical half-sine of -15 m/s^2 with a horizontal one)
 /// lands almost flat at 0.80 s, both corners within 0.4 ms: at dt 1e-3 it rebounded 0.7 m/s,
 /// keeping 98 % of its kinetic energy (2193 J/m at 0.9 s, against 33 J/m at dt 1e-4), and
@@ -447,43 +488,14 @@ fn a_light_post_squeezed_from_under_a_stack_stays_out_of_the_ground() {
 /// largest rotation after landing are dt 1e-4's to 2 %.
 #[test]
 fn a_block_landing_almost_flat_does_not_rebound_elastically() {
-    let run = |dt: f64| {
-        let text = format!(
-            "name = \"landing\"\nduration = 0.9\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.5\n\
-             [excitation.vertical]\nkind = \"half-sine\"\namplitude = -15.0\nduration = 0.2\nstart = 0.5\n\
-             [excitation.horizontal]\nkind = \"half-sine\"\namplitude = 1.0\nduration = 0.2\nstart = 0.5\n\
-             [output]\ninterval = 1e-3\n[native]\ndt = {dt:e}\n"
-        );
-        let scene = check_scene_str(&text, false, "landing.toml", &[], Path::new(".")).unwrap();
-        let out = engine_by_name("native").unwrap().run(&scene).unwrap();
-        let b = &out.trajectory.blocks[0];
-        let m = scene.blocks[0].mass();
-        let k = b.vx.len() - 1;
-        let energy = 0.5 * m * (b.vx[k].powi(2) + b.vz[k].powi(2))
-            + 0.5 * scene.blocks[0].inertia() * b.omega[k].powi(2)
-            + m * scene.gravity * (b.z[k] - 1.25);
-        let after = out.trajectory.t.iter().position(|&t| t > 0.8).unwrap();
-        let rocked = b.phi[after..].iter().fold(0.0f64, |a, p| a.max(p.abs()));
-        (energy, rocked, out.notes.join("; "))
-    };
+    let run = |dt: f64| thrown_block(1.0, dt, "");
     let (coarse, fine) = (run(1e-3), run(1e-4));
     assert!(
         !coarse.2.contains(" 0 found again from their sub-step"),
         "the landing's instant is found again: {}",
         coarse.2
     );
-    assert!(
-        (coarse.0 / fine.0 - 1.0).abs() < 0.02,
-        "energy at 0.9 s: {} J/m at dt 1e-3, {} at dt 1e-4",
-        coarse.0,
-        fine.0
-    );
-    assert!(
-        (coarse.1 / fine.1 - 1.0).abs() < 0.02,
-        "largest rotation after landing: {} rad at dt 1e-3, {} at dt 1e-4",
-        coarse.1,
-        fine.1
-    );
+    lands_as_at_the_fine_step(&coarse, &fine, 1e-3);
 }
 
 /// The same block landing almost flat with a weaker horizontal pulse (0.5 m/s^2): its second
@@ -491,47 +503,19 @@ fn a_block_landing_almost_flat_does_not_rebound_elastically() {
 /// - Under `simultaneous_impacts = "step"` (the default), every point closing within the rest
 ///   of the step strikes at the first instant: at dt 1e-3 the second corner, still in the air,
 ///   takes the plastic impact too and the block lands dead (measured: 6.6e-9 of dt 1e-4's
-///   energy left at 0.9 s); the run's notes say so, with the gap. At dt 1e-4 the step resolves the two
-///   instants and both rules give the same run.
+///   energy left at 0.9 s); the run's notes say so, with the gap. At dt 1e-4 the step
+///   resolves the two instants and both rules give the same run.
 /// - Under `"instant"`, each corner strikes at its own instant: dt 2e-3 and 1e-3 give dt
 ///   1e-4's energy at 0.9 s and largest rotation after landing to 2 % (rapier, MuJoCo,
 ///   PyBullet and Siconos rock it too: docs/method.md, "Impacts together or in turn").
 #[test]
 fn points_closing_later_in_the_step_strike_at_their_own_instant_under_instant_impacts() {
-    let run = |rule: &str, dt: f64| {
-        let text = format!(
-            "name = \"landing\"\nduration = 0.9\n[[blocks]]\nname = \"b\"\nwidth = 1.0\nheight = 2.5\n\
-             [excitation.vertical]\nkind = \"half-sine\"\namplitude = -15.0\nduration = 0.2\nstart = 0.5\n\
-             [excitation.horizontal]\nkind = \"half-sine\"\namplitude = 0.5\nduration = 0.2\nstart = 0.5\n\
-             [output]\ninterval = 1e-3\n[native]\ndt = {dt:e}\nsimultaneous_impacts = \"{rule}\"\n"
-        );
-        let scene = check_scene_str(&text, false, "landing.toml", &[], Path::new(".")).unwrap();
-        let out = engine_by_name("native").unwrap().run(&scene).unwrap();
-        let b = &out.trajectory.blocks[0];
-        let m = scene.blocks[0].mass();
-        let k = b.vx.len() - 1;
-        let energy = 0.5 * m * (b.vx[k].powi(2) + b.vz[k].powi(2))
-            + 0.5 * scene.blocks[0].inertia() * b.omega[k].powi(2)
-            + m * scene.gravity * (b.z[k] - 1.25);
-        let after = out.trajectory.t.iter().position(|&t| t > 0.8).unwrap();
-        let rocked = b.phi[after..].iter().fold(0.0f64, |a, p| a.max(p.abs()));
-        (energy, rocked, out.notes.join("; "))
-    };
+    let run =
+        |rule: &str, dt: f64| thrown_block(0.5, dt, &format!("simultaneous_impacts = \"{rule}\""));
     let fine = run("instant", 1e-4);
     for dt in [2e-3, 1e-3] {
         let coarse = run("instant", dt);
-        assert!(
-            (coarse.0 / fine.0 - 1.0).abs() < 0.02,
-            "energy at 0.9 s: {} J/m at dt {dt:e}, {} at dt 1e-4",
-            coarse.0,
-            fine.0
-        );
-        assert!(
-            (coarse.1 / fine.1 - 1.0).abs() < 0.02,
-            "largest rotation after landing: {} rad at dt {dt:e}, {} at dt 1e-4",
-            coarse.1,
-            fine.1
-        );
+        lands_as_at_the_fine_step(&coarse, &fine, dt);
         assert!(
             !coarse.2.contains("struck points still open"),
             "{}",

@@ -109,12 +109,7 @@ impl Stepper {
             settled?;
         }
         if kept && impact && !self.settings.locate_impacts {
-            self.project_out_penetration(s)
-                .map_err(|failure| StepError::Solver {
-                    step: s.step + 1,
-                    t: s.t,
-                    failure,
-                })?;
+            self.project_out_penetration_of_step(s)?;
         }
         if !s.q.iter().chain(&s.v).all(|x| x.is_finite()) {
             return Err(StepError::NonFinite {

@@ -332,12 +332,7 @@ impl Stepper {
                     // Those closing within the first half of the step closed under the
                     // velocity-level law, plastic, which leaves them up to `(1 - theta) h |v_n|`
                     // inside their faces, as impacts at step ends do.
-                    self.project_out_penetration(s)
-                        .map_err(|failure| StepError::Solver {
-                            step: s.step + 1,
-                            t: s.t,
-                            failure,
-                        })?;
+                    self.project_out_penetration_of_step(s)?;
                 }
                 // The located points have just closed: not a new impact in the next step even if
                 // the short rest of this one left them without a force (gap within the fall of

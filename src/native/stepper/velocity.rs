@@ -372,4 +372,18 @@ impl Stepper {
         self.projected_energy += gained.max(0.0);
         Ok(())
     }
+
+    /// [`Stepper::project_out_penetration`] at the end of a step, its failure an error naming
+    /// the step.
+    pub(super) fn project_out_penetration_of_step(
+        &mut self,
+        s: &mut NativeState,
+    ) -> Result<(), StepError> {
+        self.project_out_penetration(s)
+            .map_err(|failure| StepError::Solver {
+                step: s.step + 1,
+                t: s.t,
+                failure,
+            })
+    }
 }
