@@ -27,7 +27,9 @@ pub enum StepperKind {
     /// Impact-consistent and second order: midpoint kinematics, contact rows as
     /// discrete gradients of the contact points' gap functions over the step (a closed contact
     /// neither drifts nor works), impacts located within the step and plastic there (Moreau's
-    /// law, Housner's restitution on a sticking corner). Energy never grows without excitation.
+    /// law, Housner's restitution on a sticking corner). Without excitation energy grows only by
+    /// the position projections of impacts not located (`locate_impacts = false`, or left over
+    /// by `located_per_step`), first order in dt and counted in the run's notes.
     /// `theta` does not enter it. The default.
     #[default]
     Impact,
