@@ -148,22 +148,28 @@ impl Stepper {
     /// still open there); under `"instant"`, those at their faces, within `CLOSED_GAP` of the
     /// first to close, the others left to later rounds.
     fn striking_now(&mut self, at: &[ContactPoint], located: Vec<u64>) -> Vec<u64> {
-        let gap_of = |key: u64| at.iter().find(|c| contact_key(c) == key).map(|c| c.gap);
-        let gaps = || located.iter().filter_map(|&k| gap_of(k));
-        let first = gaps().fold(f64::INFINITY, f64::min).max(0.0);
+        // The located points' gaps, in one pass over the points detected at the instant.
+        let mut keys = located.clone();
+        keys.sort_unstable();
+        let gaps: Vec<(u64, f64)> = at
+            .iter()
+            .map(|c| (contact_key(c), c.gap))
+            .filter(|(key, _)| keys.binary_search(key).is_ok())
+            .collect();
+        let first = gaps.iter().fold(f64::INFINITY, |m, g| m.min(g.1)).max(0.0);
         if self.settings.simultaneous_impacts == SimultaneousImpacts::Step {
-            let widest = gaps().fold(0.0, f64::max);
+            let widest = gaps.iter().fold(0.0f64, |m, g| m.max(g.1));
             if widest > first + CLOSED_GAP {
                 self.struck_open += 1;
                 self.widest_struck_gap = self.widest_struck_gap.max(widest);
             }
             return located;
         }
-        let at_faces: Vec<u64> = located
-            .iter()
-            .copied()
-            .filter(|&k| gap_of(k).is_some_and(|g| g <= first + CLOSED_GAP))
-            .collect();
+        let at_face = |key: &u64| {
+            gaps.iter()
+                .any(|(k, g)| k == key && *g <= first + CLOSED_GAP)
+        };
+        let at_faces: Vec<u64> = located.iter().copied().filter(at_face).collect();
         if at_faces.is_empty() {
             located
         } else {

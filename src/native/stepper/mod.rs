@@ -247,9 +247,10 @@ pub struct Stepper {
     /// discrete-gradient iteration did not converge (`CONVERGED_DRIFT`).
     pub halved_steps: u64,
     /// Impact stepper under `simultaneous_impacts = "step"`: located impacts that struck a
-    /// point still open at their instant (by more than `CLOSED_GAP`), and the widest such gap,
-    /// m. Under `"instant"` such points strike at their own instants.
+    /// point still open at their instant (by more than `CLOSED_GAP`). Under `"instant"` such
+    /// points strike at their own instants.
     pub struck_open: u64,
+    /// The widest gap of the points counted in `struck_open` at their impact's instant, m.
     pub widest_struck_gap: f64,
     /// Impact stepper: the acceleration of the last sub-step (the predictor of the next).
     accel: Vec<f64>,
