@@ -16,7 +16,15 @@ fn main() -> ExitCode {
         Err(e) => {
             let msg = format!("{e:#}");
             eprintln!("error: {}", msg.replace('\n', " "));
-            ExitCode::FAILURE
+            let suspended = matches!(
+                e.downcast_ref(),
+                Some(rockbench::engines::EngineError::Suspended { .. })
+            );
+            if suspended {
+                ExitCode::from(rockbench::cli::interrupt::EXIT_STATUS)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -156,6 +156,100 @@ fn resumed_runs_of_every_stepper_law_and_sleep_are_the_uninterrupted_runs() {
     );
 }
 
+/// A Ctrl-C (SIGINT) of a checkpointed run, sent once its first progress line is out: it writes
+/// its checkpoint at the step it reached and exits 130 with one line saying how to resume,
+/// writing no output; the same command resumes it to the uninterrupted run, to the bit.
+#[cfg(unix)]
+#[test]
+fn a_checkpointed_run_stopped_by_ctrl_c_resumes_to_the_uninterrupted_run() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = common::tmp("rb-checkpoint", "sigint");
+    let path = scene("wall-in-motion-pulse");
+    let sets = ["duration=0.35"];
+    let whole = run(&path, &sets, &dir.join("whole"), &[]);
+    assert!(whole.status.success());
+
+    let ck = dir.join("run.ckpt");
+    let mut child = common::bin()
+        .args(["run", path.to_str().unwrap(), "--set", sets[0], "--out"])
+        .arg(dir.join("resumed"))
+        .args([
+            "--checkpoint",
+            ck.to_str().unwrap(),
+            "--progress-interval",
+            "0.05",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = BufReader::new(child.stderr.take().unwrap());
+    let reader = std::thread::spawn(move || {
+        let mut lines = Vec::new();
+        for line in stderr.lines() {
+            let line = line.unwrap();
+            let _ = tx.send(());
+            lines.push(line);
+        }
+        lines
+    });
+    rx.recv().expect("a progress line before the run ends");
+    // SAFETY: signals a child of this process, which has not been waited for.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let status = child.wait().unwrap();
+    let err = reader.join().unwrap();
+    let last = err.last().unwrap();
+    assert_eq!(status.code(), Some(130), "{err:?}");
+    assert!(
+        last.starts_with("error: interrupted after step ") && last.contains("resumes the run"),
+        "{err:?}"
+    );
+    let step: u64 = last["error: interrupted after step ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(step < 350, "{last}");
+    assert!(ck.exists(), "no checkpoint");
+    assert!(
+        !dir.join("resumed").exists(),
+        "the interrupted run wrote outputs"
+    );
+
+    let resumed = run(
+        &path,
+        &sets,
+        &dir.join("resumed"),
+        &["--checkpoint", ck.to_str().unwrap()],
+    );
+    assert!(
+        resumed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert!(!ck.exists());
+    let bytes = |d: &str| std::fs::read(dir.join(d).join("trajectory.csv")).unwrap();
+    assert!(
+        bytes("whole") == bytes("resumed"),
+        "the resumed trajectory differs"
+    );
+    assert_eq!(
+        summary_without_wall(&dir.join("whole")),
+        summary_without_wall(&dir.join("resumed"))
+    );
+    let notes = std::fs::read_to_string(dir.join("resumed/summary.json")).unwrap();
+    assert!(
+        notes.contains(&format!("resumed from a checkpoint after step {step} ")),
+        "{notes}"
+    );
+}
+
 #[test]
 fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
     let dir = common::tmp("rb-checkpoint", "refused");

@@ -7,6 +7,7 @@ mod compare;
 mod converge;
 mod fragility;
 mod gate;
+pub mod interrupt;
 mod references;
 mod run;
 mod sensitivity;

@@ -32,6 +32,8 @@ pub struct RunArgs {
     /// Native engine: write the run's state to FILE as it goes (its samples to FILE.samples), and
     /// resume from FILE when it is there (same build, same scene and overrides); both removed
     /// once the outputs are written. The outputs are those of an uninterrupted run, to the bit.
+    /// A Ctrl-C (or SIGTERM) writes the checkpoint at the step reached and ends the run (exit
+    /// status 130); a second one ends the process at once.
     #[arg(long, value_name = "FILE")]
     checkpoint: Option<PathBuf>,
     /// Seconds of wall time between checkpoint writes.
@@ -147,11 +149,19 @@ pub fn run(a: RunArgs) -> Result<()> {
         super::seconds("--progress-interval", a.progress_interval, true)?,
     );
     let quiet = a.quiet;
+    // A checkpointed run stops cleanly on Ctrl-C: its checkpoint written at the step reached.
+    let interrupt = a
+        .checkpoint
+        .as_ref()
+        .map(|_| super::interrupt::Interrupt::install());
     let progress = |t: f64| {
         if !quiet {
             line.report(t)
         }
-        ControlFlow::Continue(())
+        match &interrupt {
+            Some(i) if i.requested() => ControlFlow::Break(()),
+            _ => ControlFlow::Continue(()),
+        }
     };
     let (output, mut summary) = match &a.checkpoint {
         None => run_timed_reporting(e.as_ref(), &s, &progress)?,

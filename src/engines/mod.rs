@@ -47,6 +47,11 @@ pub enum EngineError {
     Stopped { step: u64, path: String },
     #[error("engine `{engine}` was interrupted at t = {t} s, as its caller asked")]
     Interrupted { engine: &'static str, t: f64 },
+    /// Interrupted with a checkpoint written at the step it stopped after.
+    #[error(
+        "interrupted after step {step} (t = {t} s); its checkpoint is written: `--checkpoint {path}` resumes the run"
+    )]
+    Suspended { step: u64, t: f64, path: String },
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error("{0}")]

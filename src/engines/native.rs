@@ -146,7 +146,11 @@ impl NativeEngine {
             if k % every == 0 || k == n_steps {
                 tr.push(time_of(k), &states);
             }
-            if progress(time_of(k)).is_break() {
+            // Asked to stop, a checkpointed run first finishes this step's bookkeeping (its
+            // rest count) and writes its checkpoint below, so that it resumes after this step
+            // (at its last step it has nothing left to resume: it ends).
+            let interrupted = progress(time_of(k)).is_break();
+            if interrupted && checkpointing.is_none() {
                 return Err(EngineError::Interrupted {
                     engine: "native",
                     t: time_of(k),
@@ -178,7 +182,7 @@ impl NativeEngine {
             }
             if let Some(c) = checkpointing.filter(|_| k < n_steps) {
                 let stop = c.stop_after_step == Some(k);
-                if stop || last_write.elapsed() >= c.interval {
+                if stop || interrupted || last_write.elapsed() >= c.interval {
                     let mut samples_sha256 = String::new();
                     if let Some(log) = samples.as_mut() {
                         log.append(&tr).map_err(EngineError::Io)?;
@@ -202,6 +206,13 @@ impl NativeEngine {
                 if stop {
                     return Err(EngineError::Stopped {
                         step: k,
+                        path: c.path.display().to_string(),
+                    });
+                }
+                if interrupted {
+                    return Err(EngineError::Suspended {
+                        step: k,
+                        t: state.t,
                         path: c.path.display().to_string(),
                     });
                 }

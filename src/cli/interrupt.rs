@@ -1,0 +1,70 @@
+//! A Ctrl-C (SIGINT) or SIGTERM asked of a run that can stop cleanly.
+//!
+//! While an [`Interrupt`] lives, the first SIGINT or SIGTERM only sets a flag, which the run's
+//! observer reads after every step: a checkpointed native run then writes its checkpoint at
+//! that step and exits, and the same command resumes it. The handler is installed with
+//! `SA_RESETHAND`, so a second signal ends the process as it would have without one.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+static REQUESTED: AtomicBool = AtomicBool::new(false);
+
+/// The conventional exit status of a process stopped by SIGINT (128 + 2).
+pub const EXIT_STATUS: u8 = 130;
+
+/// The handler, installed for its lifetime; the signals' earlier dispositions come back on drop.
+pub struct Interrupt {
+    #[cfg(unix)]
+    before: [(libc::c_int, libc::sigaction); 2],
+}
+
+#[cfg(unix)]
+extern "C" fn on_signal(_: libc::c_int) {
+    // Async-signal-safe: one atomic store.
+    REQUESTED.store(true, Ordering::SeqCst);
+}
+
+impl Interrupt {
+    #[cfg(unix)]
+    pub fn install() -> Self {
+        REQUESTED.store(false, Ordering::SeqCst);
+        let install = |signal: libc::c_int| {
+            // SAFETY: `sigaction` is given zeroed structures of its own type, filled with a
+            // handler that only stores to an atomic; the old disposition is written to `old`.
+            unsafe {
+                let mut action: libc::sigaction = std::mem::zeroed();
+                action.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
+                action.sa_flags = libc::SA_RESETHAND;
+                libc::sigemptyset(&mut action.sa_mask);
+                let mut old: libc::sigaction = std::mem::zeroed();
+                libc::sigaction(signal, &action, &mut old);
+                (signal, old)
+            }
+        };
+        Interrupt {
+            before: [install(libc::SIGINT), install(libc::SIGTERM)],
+        }
+    }
+
+    #[cfg(not(unix))]
+    pub fn install() -> Self {
+        Interrupt {}
+    }
+
+    /// Whether a signal has asked the run to stop.
+    pub fn requested(&self) -> bool {
+        REQUESTED.load(Ordering::SeqCst)
+    }
+}
+
+impl Drop for Interrupt {
+    fn drop(&mut self) {
+        #[cfg(unix)]
+        for (signal, old) in &self.before {
+            // SAFETY: puts back the disposition `install` read.
+            unsafe {
+                libc::sigaction(*signal, old, std::ptr::null_mut());
+            }
+        }
+    }
+}
