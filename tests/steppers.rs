@@ -648,6 +648,7 @@ fn located_per_step_bounds_the_impacts_located_in_a_step() {
 /// under the velocity-level law on its end velocity, as with `locate_impacts = false`.
 #[test]
 fn impacts_left_over_by_the_cap_are_plastic() {
+    // The rest times, the statue's displacement and the impacts the cap left (from the notes).
     let run = |cap: u32| {
         let set = vec![format!("native.located_per_step={cap}")];
         let path = common::root().join("validation/scenes/two-block-free-rocking.toml");
@@ -659,11 +660,38 @@ fn impacts_left_over_by_the_cap_are_plastic() {
             .map(|b| b.rest_time.unwrap())
             .collect();
         let statue = &out.trajectory.blocks[1];
-        (rest, statue.x[statue.x.len() - 1] - statue.x[0])
+        let capped = summary
+            .notes
+            .iter()
+            .find_map(|n| n.split_once(" steps (or island steps) reached"))
+            .map(|(before, after)| {
+                let steps: u64 = before.rsplit(' ').next().unwrap().parse().unwrap();
+                let left: u64 = after
+                    .split("leaving ")
+                    .nth(1)
+                    .unwrap()
+                    .split(' ')
+                    .next()
+                    .unwrap()
+                    .parse()
+                    .unwrap();
+                (steps, left)
+            })
+            .unwrap_or((0, 0));
+        (rest, statue.x[statue.x.len() - 1] - statue.x[0], capped)
     };
-    let (rest, x) = run(8);
+    let (rest, x, (steps8, _)) = run(8);
+    let (_, _, (steps1, left1)) = run(1);
+    assert!(
+        steps1 > 0 && left1 >= steps1,
+        "cap 1: {steps1} steps, {left1} impacts left"
+    );
+    assert!(
+        steps8 < steps1,
+        "cap 8: {steps8} steps reached it, cap 1: {steps1}"
+    );
     for cap in [1, 2] {
-        let (capped_rest, capped_x) = run(cap);
+        let (capped_rest, capped_x, _) = run(cap);
         for (b, (r, c)) in rest.iter().zip(&capped_rest).enumerate() {
             assert!(
                 (r - c).abs() < 0.01,

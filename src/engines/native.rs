@@ -275,6 +275,12 @@ impl NativeEngine {
                         stepper.struck_open, stepper.widest_struck_gap
                     ));
                 }
+                if stepper.capped_steps > 0 {
+                    notes.push(format!(
+                        "impact stepper: {} steps (or island steps) reached `native.located_per_step` = {}, leaving {} new impacts unlocated, taken at the end of their step (first order in dt; docs/method.md, \"Located impacts a step\")",
+                        stepper.capped_steps, ns.located_per_step, stepper.capped_impacts
+                    ));
+                }
                 if let Some(c) = stepper.certified() {
                     notes.push(format!(
                         "certificates: {} step problems solved, each displacement within {:.3e} m of its QP's minimiser by the duality gap ({} bounded only above {:.0e} m, {} with a row violated; displacements up to {:.3e} m a step)",

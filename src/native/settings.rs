@@ -148,7 +148,8 @@ pub struct NativeSettings {
     /// step of an island (default 8, at least 1). A step whose impacts come in more rounds than
     /// this (a wall in motion, where hundreds of joints close a step) leaves the rest to its
     /// ordinary end: each round re-solves the impacting island some ten times (see
-    /// docs/method.md, "Located impacts a step").
+    /// docs/method.md, "Located impacts a step"). A run's notes count the steps that reached it
+    /// and the impacts they left.
     #[serde(default = "d_located_per_step")]
     pub located_per_step: u32,
     /// Impact-consistent stepper with `locate_impacts`: `step` (default) or `instant`, which

@@ -267,6 +267,11 @@ impl Stepper {
                     return Ok(sol);
                 }
             }
+            if round == rounds && !timed.is_empty() {
+                // The cap reached: these close at the end of the step (below).
+                self.capped_steps += 1;
+                self.capped_impacts += timed.len() as u64;
+            }
             let tau = if timed.is_empty() || round == rounds {
                 None
             } else {

@@ -252,6 +252,11 @@ pub struct Stepper {
     pub struck_open: u64,
     /// The widest gap of the points counted in `struck_open` at their impact's instant, m.
     pub widest_struck_gap: f64,
+    /// Impact stepper: steps (of the scene or of an island) that reached `located_per_step`
+    /// with new impacts still to locate.
+    pub capped_steps: u64,
+    /// The new impacts those steps left to close at the end of their step, unlocated.
+    pub capped_impacts: u64,
     /// Impact stepper: the acceleration of the last sub-step (the predictor of the next).
     accel: Vec<f64>,
     /// Sorted keys of the points that carried a normal force at the end of the last step
@@ -309,6 +314,8 @@ struct Carried<'a> {
     projected_energy: f64,
     struck_open: u64,
     widest_struck_gap: f64,
+    capped_steps: u64,
+    capped_impacts: u64,
     accel: &'a [f64],
     loaded: &'a [u64],
     struck: &'a [u64],
@@ -335,6 +342,10 @@ struct CarriedOwned {
     struck_open: u64,
     #[serde(default)]
     widest_struck_gap: f64,
+    #[serde(default)]
+    capped_steps: u64,
+    #[serde(default)]
+    capped_impacts: u64,
     accel: Vec<f64>,
     loaded: Vec<u64>,
     struck: Vec<u64>,
@@ -410,6 +421,8 @@ impl Stepper {
             halved_steps: 0,
             struck_open: 0,
             widest_struck_gap: 0.0,
+            capped_steps: 0,
+            capped_impacts: 0,
             settled_velocities: 0,
             accel: vec![0.0; 3 * n_blocks],
             loaded: Vec::new(),
@@ -443,6 +456,8 @@ impl Stepper {
             projected_energy: self.projected_energy,
             struck_open: self.struck_open,
             widest_struck_gap: self.widest_struck_gap,
+            capped_steps: self.capped_steps,
+            capped_impacts: self.capped_impacts,
             accel: &self.accel,
             loaded: &self.loaded,
             struck: &self.struck,
@@ -473,6 +488,8 @@ impl Stepper {
         self.projected_energy = c.projected_energy;
         self.struck_open = c.struck_open;
         self.widest_struck_gap = c.widest_struck_gap;
+        self.capped_steps = c.capped_steps;
+        self.capped_impacts = c.capped_impacts;
         self.last_contacts = c.last_contacts;
         self.last_solution = c.last_solution;
         self.accel = c.accel;
