@@ -45,6 +45,7 @@ pub mod gallery;
 pub mod gates;
 pub mod geometry;
 pub mod instructions;
+pub mod interrupt;
 pub mod invariants;
 pub mod loglog;
 pub mod metrics;

@@ -20,8 +20,9 @@ fn main() -> ExitCode {
                 e.downcast_ref(),
                 Some(rockbench::engines::EngineError::Suspended { .. })
             );
-            if suspended {
-                ExitCode::from(rockbench::cli::interrupt::EXIT_STATUS)
+            let stopped = e.downcast_ref::<rockbench::interrupt::Stopped>().is_some();
+            if suspended || stopped {
+                ExitCode::from(rockbench::interrupt::EXIT_STATUS)
             } else {
                 ExitCode::FAILURE
             }

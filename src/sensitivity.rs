@@ -17,7 +17,7 @@
 
 use crate::bench::median;
 use crate::engines::registry::load_scene_with_overrides;
-use crate::engines::{engine_by_name, run_timed};
+use crate::engines::{engine_by_name, run_timed_reporting};
 use crate::metrics::displacement;
 use crate::metrics::ensemble::Ensemble;
 use anyhow::{Context, bail};
@@ -261,10 +261,29 @@ impl Study {
                 if runs.iter().any(|r| r.config == c.label && r.member == k) {
                     continue;
                 }
+                // A Ctrl-C (`rockbench sensitivity`) starts no run after it and stops the one
+                // under way, which is not written; the lines written resume the study.
+                let stopped = || {
+                    crate::interrupt::Stopped(format!(
+                        "interrupted after {} of {total} runs; they are kept in {}, and the same command resumes the study from them",
+                        self.done(&runs),
+                        runs_path.display()
+                    ))
+                };
+                if crate::interrupt::requested() {
+                    return Err(stopped().into());
+                }
                 let scene = load_scene_with_overrides(&self.scene, &self.run_sets(c, k))?;
                 let engine = engine_by_name(&c.engine)?;
-                let (o, s) = run_timed(engine.as_ref(), &scene)
-                    .with_context(|| format!("{}, member {k}", c.label))?;
+                let made = run_timed_reporting(
+                    engine.as_ref(),
+                    &scene,
+                    &crate::interrupt::go_on_unless_interrupted,
+                );
+                if crate::interrupt::requested() {
+                    return Err(stopped().into());
+                }
+                let (o, s) = made.with_context(|| format!("{}, member {k}", c.label))?;
                 let window = (0.0, scene.duration);
                 let run = Run {
                     config: c.label.clone(),

@@ -521,6 +521,13 @@ impl<'a> Spectrum<'a> {
                 stored
             }
             None => {
+                // No run starts once a Ctrl-C has come (`rockbench spectrum`).
+                if crate::interrupt::requested() {
+                    return Err(EngineError::Interrupted {
+                        engine: self.engine.name(),
+                        t: 0.0,
+                    });
+                }
                 let (outcome, engine_settings) = self.simulate(&scene, amplitude)?;
                 let run = StoredRun {
                     outcome,
@@ -556,7 +563,9 @@ impl<'a> Spectrum<'a> {
             let (tr, impacts, stop) = housner_early_stop(scene, false)?;
             (tr, Some(vec![impacts]), stop)
         } else {
-            let out = self.engine.run(scene)?;
+            let out = self
+                .engine
+                .run_reporting(scene, &crate::interrupt::go_on_unless_interrupted)?;
             if !out.trajectory.is_finite() {
                 return Err(EngineError::Failed {
                     engine: self.engine.name(),
@@ -709,7 +718,7 @@ pub fn similarity(
     let curve = |s: &Scene| -> Result<(Vec<f64>, Vec<f64>, f64), EngineError> {
         let sp = Spectrum::new(s, engine, pulse, settings);
         let scene = sp.scene(ratio, amplitude);
-        let out = engine.run(&scene)?;
+        let out = engine.run_reporting(&scene, &crate::interrupt::go_on_unless_interrupted)?;
         let b = &out.trajectory.blocks[0];
         let pt: Vec<f64> = out.trajectory.t.iter().map(|t| t * sp.p).collect();
         let y: Vec<f64> = b.phi.iter().map(|x| x / sp.alpha).collect();

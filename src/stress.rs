@@ -725,7 +725,7 @@ fn measure(
             let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 let e = make(&name)?;
                 let t0 = Instant::now();
-                let main = e.run(&scene);
+                let main = e.run_reporting(&scene, &crate::interrupt::go_on_unless_interrupted);
                 let wall = t0.elapsed().as_secs_f64();
                 let out = main?;
                 // The invariant runs (mirror, rerun) are timed apart from the main run.
@@ -861,7 +861,8 @@ impl StoredCell {
 
 /// [`run_cell`] through the run store `dir`: the cell's run read back when the store has it (and
 /// `true`), else made, and kept when it is the run's own answer (a finished run, one the engine
-/// refused, or an engine's error; not a timeout or a panic). A run that cannot be kept is an
+/// refused, or an engine's error; not a timeout, a panic or a run under way when an interrupt
+/// came, [`crate::interrupt`]). A run that cannot be kept is an
 /// error (a map that cannot resume is not run).
 pub fn run_cell_stored(
     engine: &str,
@@ -889,7 +890,8 @@ pub fn run_cell_stored(
         return Ok((finish(r, judge, Some(scene)), true));
     }
     let (r, keep) = measure(engine, Arc::new(engine_by_name), cell, tol, timeout);
-    if keep {
+    // A run stopped by an interrupt is not the cell's answer.
+    if keep && !crate::interrupt::requested() {
         crate::run_store::store(dir, &key, &StoredCell::of(&r))
             .map_err(|e| format!("the run store: {e}"))?;
     }
@@ -905,16 +907,25 @@ fn run_checked_extra(
 ) -> Result<((), InvariantReport), EngineError> {
     let mut report = InvariantReport::default();
     let mirrored = crate::invariants::mirror_scene(scene);
-    report.checks.push(match engine.run(&mirrored) {
-        Ok(m) => {
-            crate::invariants::mirror_check_run(engine, scene, &out.trajectory, &m.trajectory, tol)
-        }
-        Err(e) => crate::invariants::Check::run_failed("mirror", e),
-    });
-    report.checks.push(match engine.run(scene) {
-        Ok(again) => crate::invariants::check_rerun(&out.trajectory, &again.trajectory),
-        Err(e) => crate::invariants::Check::run_failed("rerun", e),
-    });
+    let go_on = &crate::interrupt::go_on_unless_interrupted;
+    report
+        .checks
+        .push(match engine.run_reporting(&mirrored, go_on) {
+            Ok(m) => crate::invariants::mirror_check_run(
+                engine,
+                scene,
+                &out.trajectory,
+                &m.trajectory,
+                tol,
+            ),
+            Err(e) => crate::invariants::Check::run_failed("mirror", e),
+        });
+    report
+        .checks
+        .push(match engine.run_reporting(scene, go_on) {
+            Ok(again) => crate::invariants::check_rerun(&out.trajectory, &again.trajectory),
+            Err(e) => crate::invariants::Check::run_failed("rerun", e),
+        });
     Ok(((), report))
 }
 

@@ -644,8 +644,9 @@ fn the_p695_suites_load_and_check() {
     }
 }
 
-/// Ctrl-C in the middle of a study: every cache entry left is whole (parses), no output folder
-/// is written, and the rerun resumes from the entries.
+/// Ctrl-C in the middle of a study: it exits with status 130 and one line saying where the runs
+/// finished are kept, every cache entry left is whole (parses, no temporary file), no output
+/// folder is written, and the rerun resumes from the entries.
 #[test]
 fn an_interrupted_study_leaves_whole_entries_and_resumes() {
     let d = tmp("rb-fragility", "interrupt");
@@ -674,7 +675,7 @@ fn an_interrupted_study_leaves_whole_entries_and_resumes() {
             Ok(())
         });
     }
-    let mut child = cmd.spawn().unwrap();
+    let mut child = cmd.stderr(std::process::Stdio::piped()).spawn().unwrap();
     let cache = d.join("cache");
     let entries = |dir: &Path| -> Vec<std::path::PathBuf> {
         let mut v = Vec::new();
@@ -703,12 +704,26 @@ fn an_interrupted_study_leaves_whole_entries_and_resumes() {
         libc::kill(child.id() as i32, libc::SIGINT);
     }
     let status = child.wait().unwrap();
-    assert!(!status.success(), "the study finished before the interrupt");
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with(&format!(
+            "error: {}: interrupted; the runs finished are kept in ",
+            study.display()
+        )) && err
+            .trim_end()
+            .ends_with("the same command resumes the study from them"),
+        "{err}"
+    );
     assert!(!out.exists(), "an output folder was written");
-    let json: Vec<_> = entries(&cache)
-        .into_iter()
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .collect();
+    let json = entries(&cache);
+    assert!(
+        json.iter()
+            .all(|p| p.extension().is_some_and(|e| e == "json")),
+        "{json:?}"
+    );
     for p in &json {
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(p).unwrap()).expect("a whole entry");

@@ -52,9 +52,20 @@ pub fn run(a: FragilityArgs) -> Result<()> {
         .num_threads(a.jobs.unwrap_or(0))
         .build()
         .map_err(|e| anyhow!("--jobs: {e}"))?;
-    let res = pool
-        .install(|| fragility::run_study(&st, a.quiet))
-        .map_err(|e| anyhow!("{}: {e}", a.study.display()))?;
+    // A Ctrl-C starts no run after it and stops those under way; the runs finished are in the
+    // cache, and the same command resumes from them.
+    let interrupt = crate::interrupt::Interrupt::install();
+    let res = pool.install(|| fragility::run_study(&st, a.quiet));
+    if interrupt.requested() {
+        return Err(crate::interrupt::Stopped(format!(
+            "{}: interrupted; the runs finished are kept in {}, and the same command resumes the study from them",
+            a.study.display(),
+            st.cache_dir.display()
+        ))
+        .into());
+    }
+    drop(interrupt);
+    let res = res.map_err(|e| anyhow!("{}: {e}", a.study.display()))?;
     report::write_all(&a.out, &st, &res, &command, a.paper).map_err(|e| anyhow!(e))?;
     for f in &res.fits {
         if let Some(x) = f.fit {

@@ -7,7 +7,6 @@ mod compare;
 mod converge;
 mod fragility;
 mod gate;
-pub mod interrupt;
 mod references;
 mod run;
 mod sensitivity;

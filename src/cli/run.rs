@@ -153,7 +153,7 @@ pub fn run(a: RunArgs) -> Result<()> {
     let interrupt = a
         .checkpoint
         .as_ref()
-        .map(|_| super::interrupt::Interrupt::install());
+        .map(|_| crate::interrupt::Interrupt::install());
     let progress = |t: f64| {
         if !quiet {
             line.report(t)

@@ -47,7 +47,9 @@ pub fn run(a: SensitivityArgs) -> Result<()> {
         configs: parse_configs(&a.configs)?,
         sets: a.set,
     };
+    let interrupt = crate::interrupt::Interrupt::install();
     let md = study.run(&a.out, &|line| eprintln!("{line}"))?;
+    drop(interrupt);
     print!("{md}");
     eprintln!("wrote {}", a.out.join("sensitivity.md").display());
     Ok(())

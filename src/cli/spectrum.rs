@@ -216,7 +216,24 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
             .and_then(|()| sp.check_longest_run([*ratio].iter()))
             .map_err(|e| anyhow!("--similarity: {e}"))?;
     }
-    let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}")).map_err(|e| anyhow!(e))?;
+    // A Ctrl-C starts no run after it and stops those under way; nothing is written, and the
+    // same command resumes from the runs kept in the store.
+    let interrupt = crate::interrupt::Interrupt::install();
+    let stopped = || -> anyhow::Error {
+        crate::interrupt::Stopped(match &req.store {
+            Some(dir) => format!(
+                "interrupted; the runs finished are kept in {}, and the same command resumes from them",
+                dir.display()
+            ),
+            None => "interrupted; nothing is kept (--no-cache)".to_string(),
+        })
+        .into()
+    };
+    let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}"));
+    if interrupt.requested() {
+        return Err(stopped());
+    }
+    let res = res.map_err(|e| anyhow!(e))?;
     // The similarity runs are made before anything is written: a failed one leaves no outputs.
     let mut similarity_files = None;
     if let Some((other, ratio, amp)) = &similar {
@@ -242,15 +259,18 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         };
         for (k, e) in a.engines.iter().enumerate() {
             let eng = spectrum::engine(e).map_err(|e| anyhow!(e))?;
-            let (pt, ya, yb) = spectrum::similarity(
+            let similar = spectrum::similarity(
                 &base,
                 other,
                 eng.as_ref(),
                 (pulses[0], *ratio, *amp),
                 &st,
                 2001,
-            )
-            .map_err(|err| anyhow!("--similarity: {e}: {err}"))?;
+            );
+            if interrupt.requested() {
+                return Err(stopped());
+            }
+            let (pt, ya, yb) = similar.map_err(|err| anyhow!("--similarity: {e}: {err}"))?;
             let diff = ya
                 .iter()
                 .zip(&yb)
@@ -277,6 +297,7 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
         }
         similarity_files = Some((csv, plot.render()));
     }
+    drop(interrupt);
     let out = &a.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     // The figures and similarity files of an earlier spectrum here (its spectrum.json says

@@ -114,14 +114,34 @@ pub fn stress(a: StressArgs) -> Result<()> {
     let mut from_store = 0usize;
     let mut all: Vec<CellResult> = Vec::new();
     let mut unexplained = 0;
+    // Each engine's pages, written once every engine's cells are run.
+    let mut pages: Vec<(String, String)> = Vec::new();
+    // A Ctrl-C starts no cell after it and stops the one under way, whose answer is not kept;
+    // nothing is written, and the same command resumes from the cells kept in the store.
+    let interrupt = crate::interrupt::Interrupt::install();
+    let total = engines.len() * cells.len();
     for engine in &engines {
         let mut results = Vec::new();
         for cell in &cells {
-            let (r, stored) = match &store {
+            let answer = match &store {
                 Some(dir) => run_cell_stored(engine, cell, &tol, timeout, &judge, dir)
-                    .map_err(anyhow::Error::msg)?,
-                None => (run_cell(engine, cell, &tol, timeout, &judge), false),
+                    .map_err(anyhow::Error::msg),
+                None => Ok((run_cell(engine, cell, &tol, timeout, &judge), false)),
             };
+            if interrupt.requested() {
+                bail!(crate::interrupt::Stopped(format!(
+                    "interrupted after {} of {total} cells; {}",
+                    all.len() + results.len(),
+                    match &store {
+                        Some(dir) => format!(
+                            "the cells run are kept in {}, and the same command resumes the map from them",
+                            dir.display()
+                        ),
+                        None => "nothing is kept (--no-cache)".to_string(),
+                    }
+                )));
+            }
+            let (r, stored) = answer?;
             from_store += usize::from(stored);
             if r.status != crate::stress::Status::Skipped {
                 let issues: Vec<String> = r
@@ -178,19 +198,20 @@ pub fn stress(a: StressArgs) -> Result<()> {
             t.wall_s
         );
         unexplained += t.unexplained;
-        let w = |name: String, text: String| -> Result<()> {
-            let p = a.out.join(name);
-            std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
-        };
-        w(format!("{engine}.csv"), csv(&results))?;
+        pages.push((format!("{engine}.csv"), csv(&results)));
         let mut m = meta.clone();
         m["engine"] = engine.clone().into();
         m["totals"] = serde_json::to_value(&t)?;
-        w(
+        pages.push((
             format!("{engine}.html"),
             html(engine, &results, &judge.contracts.of(engine), &m),
-        )?;
+        ));
         all.extend(results);
+    }
+    drop(interrupt);
+    for (name, text) in pages {
+        let p = a.out.join(name);
+        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))?;
     }
     // An earlier map's pages of engines this one did not run.
     let stale: Vec<String> = registry::ENGINES

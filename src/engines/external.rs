@@ -447,6 +447,13 @@ impl ExternalEngine {
         let status = loop {
             match child.try_wait() {
                 Ok(Some(status)) => break status,
+                Ok(None) if crate::interrupt::requested() => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return Err(self.failed(
+                        "the worker was stopped: the command was interrupted".to_string(),
+                    ));
+                }
                 Ok(None) if start.elapsed() >= timeout => {
                     let _ = child.kill();
                     let _ = child.wait();

@@ -264,7 +264,8 @@ pub struct Runner {
     start: Instant,
     last: Mutex<Instant>,
     quiet: bool,
-    /// Set from outside (a Ctrl-C in the Python bindings): no run starts after it.
+    /// Set from outside (a Ctrl-C in the Python bindings): no run starts after it, nor after
+    /// a signal caught by [`crate::interrupt::Interrupt`] (the command line).
     stop: Arc<AtomicBool>,
 }
 
@@ -312,7 +313,7 @@ impl Runner {
                 .push((key, o.clone()));
             return Ok((o, true));
         }
-        if self.stop.load(Ordering::Relaxed) {
+        if self.stop.load(Ordering::Relaxed) || crate::interrupt::requested() {
             return Err(STOPPED.to_string());
         }
         let o = run::run_one(spec).map_err(|e| {

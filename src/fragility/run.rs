@@ -297,7 +297,7 @@ pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulat
         return soft_early(engine, scene);
     }
     let e = engine_by_name(engine)?;
-    let out = e.run(scene)?;
+    let out = e.run_reporting(scene, &crate::interrupt::go_on_unless_interrupted)?;
     if !out.trajectory.is_finite() {
         return Err(EngineError::Failed {
             engine: e.name(),

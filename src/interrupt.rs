@@ -1,9 +1,12 @@
-//! A Ctrl-C (SIGINT) or SIGTERM asked of a run that can stop cleanly.
+//! A Ctrl-C (SIGINT) or SIGTERM asked of long work that can stop cleanly.
 //!
-//! While an [`Interrupt`] lives, the first SIGINT or SIGTERM only sets a flag, which the run's
-//! observer reads after every step: a checkpointed native run then writes its checkpoint at
-//! that step and exits, and the same command resumes it. The handler is installed with
-//! `SA_RESETHAND`, so a second signal ends the process as it would have without one.
+//! While an [`Interrupt`] lives, the first SIGINT or SIGTERM only sets a flag. A checkpointed
+//! native run reads it after every step, writes its checkpoint at that step and exits; a
+//! stability map, a fragility study, a spectrum and a sensitivity study start no run after it,
+//! stop the runs under way ([`go_on_unless_interrupted`], and external workers killed), keep
+//! nothing those runs answered, write no output and end with [`Stopped`]: the same command
+//! resumes from the runs kept in their store (a sensitivity study's runs.csv). The handler is installed with `SA_RESETHAND`, so a second signal ends
+//! the process as it would have without one.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -11,6 +14,27 @@ static REQUESTED: AtomicBool = AtomicBool::new(false);
 
 /// The conventional exit status of a process stopped by SIGINT (128 + 2).
 pub const EXIT_STATUS: u8 = 130;
+
+/// Long work stopped by an interrupt: what was kept and how it resumes, one line. The command
+/// line exits with [`EXIT_STATUS`].
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Stopped(pub String);
+
+/// Whether a signal has asked the work to stop (never while no [`Interrupt`] is installed: a
+/// signal then ends the process).
+pub fn requested() -> bool {
+    REQUESTED.load(Ordering::SeqCst)
+}
+
+/// A run's observer ([`crate::engines::Progress`]) that stops it once a signal has come.
+pub fn go_on_unless_interrupted(_t: f64) -> std::ops::ControlFlow<()> {
+    if requested() {
+        std::ops::ControlFlow::Break(())
+    } else {
+        std::ops::ControlFlow::Continue(())
+    }
+}
 
 /// The handler, installed for its lifetime; the signals' earlier dispositions come back on drop.
 pub struct Interrupt {
@@ -53,12 +77,13 @@ impl Interrupt {
 
     /// Whether a signal has asked the run to stop.
     pub fn requested(&self) -> bool {
-        REQUESTED.load(Ordering::SeqCst)
+        requested()
     }
 }
 
 impl Drop for Interrupt {
     fn drop(&mut self) {
+        REQUESTED.store(false, Ordering::SeqCst);
         #[cfg(unix)]
         for (signal, old) in &self.before {
             // SAFETY: puts back the disposition `install` read.

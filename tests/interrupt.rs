@@ -1,0 +1,265 @@
+//! Ctrl-C on long commands (`rockbench::interrupt`): a stability map, a spectrum and a
+//! sensitivity study stop with exit status 130 and one line saying what is kept, write no
+//! output, keep only what they finished (whole entries in their run store, whole lines in
+//! runs.csv), and the same command then resumes to the uninterrupted answer. The fragility
+//! study's is `an_interrupted_study_leaves_whole_entries_and_resumes` (tests/fragility.rs).
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+/// The lines of `from`, each signalled on `tx` as it comes.
+fn watch<R: Read>(from: BufReader<R>, tx: Option<std::sync::mpsc::Sender<()>>) -> Vec<String> {
+    let mut kept = Vec::new();
+    for line in from.lines() {
+        let line = line.unwrap();
+        if let Some(tx) = &tx {
+            let _ = tx.send(());
+        }
+        kept.push(line);
+    }
+    kept
+}
+
+/// Runs `cmd`, sends it SIGINT once it has printed its first line on `stdout` (or on stderr
+/// when `on_stdout` is false), and gives its exit status and the lines of stderr.
+fn interrupted(cmd: &mut Command, on_stdout: bool) -> (Option<i32>, Vec<String>) {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stdout = BufReader::new(child.stdout.take().unwrap());
+    let stderr = BufReader::new(child.stderr.take().unwrap());
+    let (out_tx, err_tx) = if on_stdout {
+        (Some(tx), None)
+    } else {
+        (None, Some(tx))
+    };
+    let out = std::thread::spawn(move || watch(stdout, out_tx));
+    let err = std::thread::spawn(move || watch(stderr, err_tx));
+    rx.recv().expect("a line before the command ends");
+    // SAFETY: signals a child of this process, which has not been waited for.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let status = child.wait().unwrap();
+    out.join().unwrap();
+    (status.code(), err.join().unwrap())
+}
+
+/// The files under `dir`, recursively.
+fn files(dir: &Path) -> Vec<PathBuf> {
+    let mut v = Vec::new();
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        if e.path().is_dir() {
+            v.extend(files(&e.path()));
+        } else {
+            v.push(e.path());
+        }
+    }
+    v
+}
+
+/// Every file of a run store is a whole JSON entry (no temporary file left behind).
+fn whole_entries(store: &Path) -> usize {
+    let all = files(store);
+    for p in &all {
+        assert!(
+            p.extension().is_some_and(|e| e == "json"),
+            "not an entry: {}",
+            p.display()
+        );
+        let text = std::fs::read_to_string(p).unwrap();
+        serde_json::from_str::<serde_json::Value>(&text).expect("a whole entry");
+    }
+    all.len()
+}
+
+/// A CSV's rows without its `wall_s` column, the one thing two runs of the same work differ in.
+fn without_wall_times(csv: &str) -> Vec<String> {
+    let header: Vec<&str> = csv.lines().next().unwrap_or_default().split(',').collect();
+    let wall = header.iter().position(|h| *h == "wall_s");
+    csv.lines()
+        .map(|l| {
+            let mut f: Vec<&str> = l.split(',').collect();
+            if let Some(k) = wall {
+                f.remove(k);
+            }
+            f.join(",")
+        })
+        .collect()
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The stability map's cells of two factors (some 2 s of runs): stopped after its first cell,
+/// it keeps only the cells it finished, and resumes to the uninterrupted map.
+#[test]
+fn a_stability_map_stopped_by_ctrl_c_keeps_its_finished_cells_and_resumes() {
+    const FACTORS: &str = "blocks,wall_courses";
+    let dir = common::tmp("rb-interrupt", "stress");
+    let store = dir.join("store");
+    let map = |out: &str| {
+        let mut c = common::bin();
+        c.args(["stress", "--engines", "native", "--factors", FACTORS])
+            .arg("--out")
+            .arg(dir.join(out))
+            .arg("--cache-dir")
+            .arg(&store);
+        c
+    };
+    let (code, err) = interrupted(&mut map("map"), true);
+    assert_eq!(code, Some(130), "{err:?}");
+    let last = err.last().unwrap();
+    assert!(
+        last.starts_with("error: interrupted after ")
+            && last.contains(" cells; the cells run are kept in ")
+            && last.ends_with("the same command resumes the map from them"),
+        "{err:?}"
+    );
+    let words: Vec<&str> = last.split(' ').collect();
+    let (done, cells): (usize, usize) = (words[3].parse().unwrap(), words[5].parse().unwrap());
+    assert!(done >= 1 && done < cells, "{last}");
+    // The cells finished, and no other: the one under way was stopped and not kept.
+    assert_eq!(whole_entries(&store), done);
+    assert!(
+        files(&dir.join("map")).is_empty(),
+        "an interrupted map wrote outputs"
+    );
+
+    let resumed = common::run_ok(&mut map("map"));
+    assert_eq!(resumed.matches("(stored)").count(), done, "{resumed}");
+    assert_eq!(whole_entries(&store), cells);
+    let uninterrupted = common::run_ok(
+        common::bin()
+            .args(["stress", "--engines", "native", "--factors", FACTORS])
+            .arg("--out")
+            .arg(dir.join("whole"))
+            .arg("--no-cache"),
+    );
+    assert!(
+        uninterrupted.contains(&format!("{cells} finished")),
+        "{uninterrupted}"
+    );
+    // The same cells, measured the same.
+    assert_eq!(
+        without_wall_times(&read(&dir.join("map/native.csv"))),
+        without_wall_times(&read(&dir.join("whole/native.csv")))
+    );
+}
+
+/// A spectrum stopped after its first minimum writes nothing, keeps whole entries, and
+/// resumes from them to the uninterrupted spectrum.
+#[test]
+fn a_spectrum_stopped_by_ctrl_c_writes_nothing_and_resumes() {
+    let dir = common::tmp("rb-interrupt", "spectrum");
+    let store = dir.join("store");
+    let spectrum = |out: &str, store: Option<&Path>| {
+        let mut c = common::bin();
+        c.args([
+            "spectrum",
+            "0.4x4",
+            "--pulse",
+            "half-sine,one-sine,one-cosine",
+            "--ratios",
+            "0.5:10:10",
+            "--amplitudes",
+            "none",
+            "--engines",
+            "native",
+        ])
+        .arg("--out")
+        .arg(dir.join(out));
+        match store {
+            Some(s) => c.arg("--cache-dir").arg(s),
+            None => c.arg("--no-cache"),
+        };
+        c
+    };
+    let (code, err) = interrupted(&mut spectrum("spectrum", Some(&store)), false);
+    assert_eq!(code, Some(130), "{err:?}");
+    let last = err.last().unwrap();
+    assert!(
+        last.starts_with("error: interrupted; the runs finished are kept in ")
+            && last.ends_with("the same command resumes from them"),
+        "{err:?}"
+    );
+    let kept = whole_entries(&store);
+    assert!(kept > 0, "no run kept");
+    assert!(
+        !dir.join("spectrum").exists(),
+        "an interrupted spectrum wrote outputs"
+    );
+
+    let mut cmd = spectrum("spectrum", Some(&store));
+    let out = cmd.output().unwrap();
+    let mut text = String::new();
+    out.stderr.as_slice().read_to_string(&mut text).unwrap();
+    assert!(out.status.success(), "{text}");
+    let json: serde_json::Value =
+        serde_json::from_str(&read(&dir.join("spectrum/spectrum.json"))).unwrap();
+    assert_eq!(
+        json["runs_from_store"].as_u64(),
+        Some(kept as u64),
+        "{text}"
+    );
+    common::run_ok(&mut spectrum("whole", None));
+    for f in ["minimum.csv", "map.csv"] {
+        assert_eq!(
+            without_wall_times(&read(&dir.join("spectrum").join(f))),
+            without_wall_times(&read(&dir.join("whole").join(f))),
+            "{f}"
+        );
+    }
+}
+
+/// A sensitivity study stopped after its first member keeps that member's line in runs.csv and
+/// no other, writes no sensitivity.md, and the same command resumes with the members left.
+#[test]
+fn a_sensitivity_study_stopped_by_ctrl_c_keeps_its_finished_runs_and_resumes() {
+    let dir = common::tmp("rb-interrupt", "sensitivity");
+    let out = dir.join("study");
+    let study = || {
+        let mut c = common::bin();
+        c.arg("sensitivity")
+            .arg(common::root().join("validation/scenes/wall-in-motion-pulse.toml"))
+            .args([
+                "--perturb",
+                "excitation.horizontal.amplitude=4.905",
+                "--configs",
+                "native",
+                "--members",
+                "3",
+                "--set",
+                "duration=0.3",
+            ])
+            .arg("--out")
+            .arg(&out);
+        c
+    };
+    let (code, err) = interrupted(&mut study(), false);
+    assert_eq!(code, Some(130), "{err:?}");
+    let last = err.last().unwrap();
+    assert!(
+        last.starts_with("error: interrupted after 1 of 3 runs; they are kept in ")
+            && last.ends_with("the same command resumes the study from them"),
+        "{err:?}"
+    );
+    let runs = read(&out.join("runs.csv"));
+    assert_eq!(runs.lines().count(), 2 + 1, "{runs}");
+    assert!(!out.join("sensitivity.md").exists());
+
+    let resumed = study().output().unwrap();
+    let progress = String::from_utf8_lossy(&resumed.stderr).to_string();
+    assert!(resumed.status.success(), "{progress}");
+    assert_eq!(progress.matches("member").count(), 2, "{progress}");
+    assert_eq!(read(&out.join("runs.csv")).lines().count(), 2 + 3);
+    assert!(out.join("sensitivity.md").exists());
+}
