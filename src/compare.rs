@@ -430,7 +430,8 @@ fn run_all(
                                 format!("{name}: {}: {}", st.word(), st.reason().unwrap_or(""))
                             }
                         };
-                        if opts.progress {
+                        // After a Ctrl-C the runs are stopped or not run: the command says so once.
+                        if opts.progress && !crate::interrupt::requested() {
                             bar.suspend(|| eprintln!("{line}"));
                         }
                         bar.inc(1);

@@ -21,6 +21,20 @@ pub const EXIT_STATUS: u8 = 130;
 #[error("{0}")]
 pub struct Stopped(pub String);
 
+impl Stopped {
+    /// Stopped work whose finished runs are kept in the store `store` (none: `--no-cache`),
+    /// from which the same command resumes `what`.
+    pub fn kept_in(store: Option<&std::path::Path>, what: &str) -> Stopped {
+        Stopped(match store {
+            Some(dir) => format!(
+                "interrupted; the runs finished are kept in {}, and the same command resumes {what} from them",
+                dir.display()
+            ),
+            None => "interrupted; nothing is kept (--no-cache)".to_string(),
+        })
+    }
+}
+
 /// Whether a signal has asked the work to stop (never while no [`Interrupt`] is installed: a
 /// signal then ends the process).
 pub fn requested() -> bool {

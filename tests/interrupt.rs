@@ -1,7 +1,7 @@
-//! Ctrl-C on long commands (`rockbench::interrupt`): a stability map, a spectrum and a
-//! sensitivity study stop with exit status 130 and one line saying what is kept, write no
-//! output, keep only what they finished (whole entries in their run store, whole lines in
-//! runs.csv), and the same command then resumes to the uninterrupted answer. The fragility
+//! Ctrl-C on long commands (`rockbench::interrupt`): a stability map, a spectrum, a
+//! sensitivity study and accuracy gates stop with exit status 130 and one line saying what is
+//! kept, write no output, keep only what they finished (whole entries in their run store or
+//! cache, whole lines in runs.csv), and the same command then resumes from it. The fragility
 //! study's is `an_interrupted_study_leaves_whole_entries_and_resumes` (tests/fragility.rs).
 
 mod common;
@@ -188,7 +188,7 @@ fn a_spectrum_stopped_by_ctrl_c_writes_nothing_and_resumes() {
     let last = err.last().unwrap();
     assert!(
         last.starts_with("error: interrupted; the runs finished are kept in ")
-            && last.ends_with("the same command resumes from them"),
+            && last.ends_with("the same command resumes the spectrum from them"),
         "{err:?}"
     );
     let kept = whole_entries(&store);
@@ -262,4 +262,67 @@ fn a_sensitivity_study_stopped_by_ctrl_c_keeps_its_finished_runs_and_resumes() {
     assert_eq!(progress.matches("member").count(), 2, "{progress}");
     assert_eq!(read(&out.join("runs.csv")).lines().count(), 2 + 3);
     assert!(out.join("sensitivity.md").exists());
+}
+
+/// Accuracy gates stopped after their first run keep the runs finished in the run cache (whole
+/// entries only), print no verdict and write no JUnit file; the same command resumes from them.
+#[test]
+fn gates_stopped_by_ctrl_c_keep_their_finished_runs_and_resume() {
+    let dir = common::tmp("rb-interrupt", "gates");
+    let cache = dir.join("cache");
+    let junit = dir.join("junit.xml");
+    let slender = common::root().join("validation/scenes/housner-slender.toml");
+    // Three native runs of about a second each (a million steps and more) against Housner's.
+    let text: String = [8, 12, 16]
+        .iter()
+        .map(|d| {
+            format!(
+                "[[gate]]\nname = \"slender-{d}\"\nscene = \"{}\"\nset = [\"duration={d}\", \"native.dt=1e-5\"]\n\
+                 engine = \"native\"\nreference = \"housner\"\nmetric = \"impact_time_1\"\ntolerance = 1e-2\n\n",
+                slender.display()
+            )
+        })
+        .collect();
+    let file = dir.join("gates.toml");
+    std::fs::write(&file, text).unwrap();
+    let gates = || {
+        let mut c = common::bin();
+        c.arg("gate")
+            .arg(&file)
+            .args(["--jobs", "1", "--cache-dir"])
+            .arg(&cache)
+            .arg("--junit")
+            .arg(&junit);
+        c
+    };
+    let (code, err) = interrupted(&mut gates(), false);
+    assert_eq!(code, Some(130), "{err:?}");
+    assert_eq!(
+        err.last().unwrap(),
+        &format!(
+            "error: interrupted; the runs finished are kept in {}, and the same command resumes the gates from them",
+            cache.display()
+        )
+    );
+    assert!(
+        !junit.exists(),
+        "an interrupted gate file wrote its JUnit file"
+    );
+    let entries: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        entries.iter().all(|e| !e.starts_with(".tmp")),
+        "{entries:?}"
+    );
+    let kept = entries.len();
+    assert!((1..6).contains(&kept), "{entries:?}");
+
+    let resumed = common::run_ok(&mut gates());
+    assert!(
+        resumed.contains(&format!("{kept} from the cache, {} run now", 6 - kept)),
+        "{resumed}"
+    );
+    assert!(resumed.contains("3 of 3 gates as expected"), "{resumed}");
 }

@@ -66,7 +66,13 @@ pub fn run(a: ConvergeArgs) -> Result<()> {
         overrides: a.set,
     };
     let runner = |engine: &str, scene: &crate::scene::Scene| cache.run(engine, scene);
+    // A Ctrl-C starts no run after it and stops those under way; nothing is written, and the
+    // same command resumes from the runs kept in the run cache.
+    let interrupt = crate::interrupt::Interrupt::install();
     let c = converge(&a.scene, &opts, &runner, &|r| {
+        if interrupt.requested() {
+            return;
+        }
         eprintln!(
             "{} dt={}: {}{}{}",
             r.engine,
@@ -78,8 +84,13 @@ pub fn run(a: ConvergeArgs) -> Result<()> {
                 .unwrap_or_default(),
             if r.cached { " (cached)" } else { "" }
         )
-    })
-    .map_err(|e| anyhow!(e))?;
+    });
+    if interrupt.requested() {
+        let store = (!a.no_cache).then_some(a.cache_dir.as_path());
+        return Err(crate::interrupt::Stopped::kept_in(store, "the study").into());
+    }
+    drop(interrupt);
+    let c = c.map_err(|e| anyhow!(e))?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     // An earlier study's figures of quantities this one does not plot, and its paper when none
     // is asked for, are not this one's (its converge.csv says one was written here).

@@ -57,12 +57,8 @@ pub fn run(a: FragilityArgs) -> Result<()> {
     let interrupt = crate::interrupt::Interrupt::install();
     let res = pool.install(|| fragility::run_study(&st, a.quiet));
     if interrupt.requested() {
-        return Err(crate::interrupt::Stopped(format!(
-            "{}: interrupted; the runs finished are kept in {}, and the same command resumes the study from them",
-            a.study.display(),
-            st.cache_dir.display()
-        ))
-        .into());
+        let kept = crate::interrupt::Stopped::kept_in(Some(&st.cache_dir), "the study");
+        return Err(crate::interrupt::Stopped(format!("{}: {kept}", a.study.display())).into());
     }
     drop(interrupt);
     let res = res.map_err(|e| anyhow!("{}: {e}", a.study.display()))?;

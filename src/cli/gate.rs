@@ -38,7 +38,16 @@ pub fn gate_cmd(a: GateArgs) -> Result<()> {
         jobs: a.run_cache.jobs()?,
         progress: a.run_cache.progress(),
     };
+    // A Ctrl-C starts no run after it and stops those under way; nothing is printed as a
+    // verdict, and the same command resumes from the runs kept in the run cache.
+    let interrupt = crate::interrupt::Interrupt::install();
     let (results, stats) = run_gates(&gates, &opts);
+    if interrupt.requested() {
+        return Err(
+            crate::interrupt::Stopped::kept_in(opts.cache_dir.as_deref(), "the gates").into(),
+        );
+    }
+    drop(interrupt);
     print!("{}", table(&results));
     for r in results.iter().filter(|r| r.outcome.is_bad()) {
         println!("{}: {}: {}", r.outcome.word(), r.gate.name, r.message);

@@ -220,14 +220,7 @@ pub fn run(a: SpectrumArgs) -> Result<()> {
     // same command resumes from the runs kept in the store.
     let interrupt = crate::interrupt::Interrupt::install();
     let stopped = || -> anyhow::Error {
-        crate::interrupt::Stopped(match &req.store {
-            Some(dir) => format!(
-                "interrupted; the runs finished are kept in {}, and the same command resumes from them",
-                dir.display()
-            ),
-            None => "interrupted; nothing is kept (--no-cache)".to_string(),
-        })
-        .into()
+        crate::interrupt::Stopped::kept_in(req.store.as_deref(), "the spectrum").into()
     };
     let res = spectrum::compute(&base, &req, &|l| eprintln!("{l}"));
     if interrupt.requested() {

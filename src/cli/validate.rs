@@ -97,7 +97,17 @@ pub fn validate_cmd(a: ValidateArgs) -> Result<()> {
         jobs: a.run_cache.jobs()?,
         progress: a.run_cache.progress(),
     };
-    let (results, stats) = validate(&cases, &gates, &opts).map_err(anyhow::Error::msg)?;
+    // A Ctrl-C starts no run after it and stops those under way; nothing is written, and the
+    // same command resumes from the runs kept in the run cache.
+    let interrupt = crate::interrupt::Interrupt::install();
+    let validated = validate(&cases, &gates, &opts);
+    if interrupt.requested() {
+        return Err(
+            crate::interrupt::Stopped::kept_in(opts.cache_dir.as_deref(), "the suite").into(),
+        );
+    }
+    drop(interrupt);
+    let (results, stats) = validated.map_err(anyhow::Error::msg)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     std::fs::create_dir_all(&a.out).map_err(|e| anyhow::anyhow!("{}: {e}", a.out.display()))?;
     for r in &results {

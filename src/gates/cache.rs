@@ -1,6 +1,6 @@
 //! The run cache of the gates: one directory per run, named by a content hash.
 
-use crate::compare::{EngineRun, Status, run_engine};
+use crate::compare::{EngineRun, Status, run_engine_reporting};
 use crate::digest::sha256_hex;
 use crate::engines::RunOutput;
 use crate::scene::Scene;
@@ -66,11 +66,25 @@ impl RunCache {
     }
 
     /// Serve a run from the cache, or run the engine and store the result. Only successful
-    /// runs are stored (a failure may come from the environment and is retried).
+    /// runs are stored (a failure may come from the environment and is retried). Once a Ctrl-C
+    /// has come ([`crate::interrupt`]) no run starts and the runs under way stop, as failures
+    /// that are not stored; the command then reports the interruption, not them.
     pub fn run(&self, engine: &str, scene: &Scene) -> EngineRun {
-        let Some(dir) = &self.dir else {
+        let make = || {
+            if crate::interrupt::requested() {
+                return EngineRun {
+                    engine: engine.to_string(),
+                    status: Status::Failed("not run: the command was interrupted".into()),
+                    output: None,
+                    summary: None,
+                    cached: false,
+                };
+            }
             self.runs.fetch_add(1, Ordering::Relaxed);
-            return run_engine(engine, scene);
+            run_engine_reporting(engine, scene, &crate::interrupt::go_on_unless_interrupted)
+        };
+        let Some(dir) = &self.dir else {
+            return make();
         };
         let key = run_key(engine, scene);
         let entry = dir.join(&key);
@@ -78,8 +92,7 @@ impl RunCache {
             self.hits.fetch_add(1, Ordering::Relaxed);
             return r;
         }
-        self.runs.fetch_add(1, Ordering::Relaxed);
-        let r = run_engine(engine, scene);
+        let r = make();
         if r.status == Status::Ok {
             // A cache that cannot be written only costs a re-run next time.
             let _ = store(&entry, engine, scene, &r);
