@@ -1,11 +1,17 @@
 //! A Ctrl-C (SIGINT) or SIGTERM asked of long work that can stop cleanly.
 //!
-//! While an [`Interrupt`] lives, the first SIGINT or SIGTERM only sets a flag. A checkpointed
-//! native run reads it after every step, writes its checkpoint at that step and exits; a
-//! stability map, a fragility study, a spectrum and a sensitivity study start no run after it,
-//! stop the runs under way ([`go_on_unless_interrupted`], and external workers killed), keep
-//! nothing those runs answered, write no output and end with [`Stopped`]: the same command
-//! resumes from the runs kept in their store (a sensitivity study's runs.csv). The handler is installed with `SA_RESETHAND`, so a second signal ends
+//! While an [`Interrupt`] lives, the first SIGINT or SIGTERM only sets a flag, and:
+//! - a checkpointed native run reads it after every step, writes its checkpoint at that step
+//!   and exits;
+//! - any other run, and a comparison, stops with nothing written;
+//! - a stability map, a fragility study, a spectrum, a sensitivity study, accuracy gates, the
+//!   validation suite and a convergence study start no run after it, stop the runs under way,
+//!   keep nothing those runs answered and write no output; the same command resumes from the
+//!   runs kept in their store or cache (a sensitivity study's runs.csv).
+//!
+//! Runs stop through [`go_on_unless_interrupted`] (native and rapier within a step); an
+//! external engine's worker is killed, not left running. The command ends with [`Stopped`]
+//! (exit status 130). The handler is installed with `SA_RESETHAND`, so a second signal ends
 //! the process as it would have without one.
 
 use std::sync::atomic::{AtomicBool, Ordering};

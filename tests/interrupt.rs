@@ -326,3 +326,67 @@ fn gates_stopped_by_ctrl_c_keep_their_finished_runs_and_resume() {
     );
     assert!(resumed.contains("3 of 3 gates as expected"), "{resumed}");
 }
+
+/// Whether process `pid` catches SIGINT (its `SigCgt` mask in /proc): the command has installed
+/// its handler, so that a signal now asks it to stop rather than ending it.
+fn catches_sigint(pid: u32) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("SigCgt:"))
+        .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+        .is_some_and(|mask| mask & (1 << (libc::SIGINT - 1)) != 0)
+}
+
+/// A run and a comparison without a store stopped by SIGINT or SIGTERM (a batch system's) in
+/// the middle of the toppling wall's 2 s: exit status 130, one line, nothing written.
+#[test]
+fn a_run_and_a_comparison_stopped_by_a_signal_write_nothing() {
+    let dir = common::tmp("rb-interrupt", "run");
+    let wall = common::root().join("validation/scenes/wall-in-motion-pulse.toml");
+    for (command, signal, line) in [
+        (
+            "run",
+            libc::SIGINT,
+            "error: interrupted; nothing is written (`--checkpoint FILE` makes a native run that resumes)",
+        ),
+        (
+            "compare",
+            libc::SIGTERM,
+            "error: interrupted; nothing is written",
+        ),
+    ] {
+        let out = dir.join(command);
+        let mut cmd = common::bin();
+        cmd.arg(command).arg(&wall).arg("--out").arg(&out);
+        if command == "run" {
+            cmd.args(["--engine", "native"]);
+        } else {
+            cmd.args(["--engines", "native", "--reference", "native"]);
+        }
+        let child = cmd
+            .arg("--quiet")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        while !catches_sigint(child.id()) {
+            assert!(
+                t0.elapsed().as_secs() < 60,
+                "{command}: no handler after 60 s"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        // SAFETY: signals a child of this process, which has not been waited for.
+        assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert_eq!(o.status.code(), Some(130), "{command}: {err}");
+        assert_eq!(err.trim_end(), line, "{command}");
+        assert!(
+            !out.exists(),
+            "{command}: an interrupted {command} wrote outputs"
+        );
+    }
+}

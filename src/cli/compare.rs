@@ -1,7 +1,9 @@
 //! `rockbench compare SCENE --engines a,b,c --reference ENGINE|FILE --out DIR`: run every
 //! engine once, compare each with the reference, write the metrics and the report.
 
-use crate::compare::{CompareOptions, ReferenceSpec, compare, default_jobs};
+use crate::compare::{
+    CompareOptions, ReferenceSpec, compare_with_runner, default_jobs, run_engine_reporting,
+};
 use crate::engines::registry::load_scene_with_overrides;
 use crate::report::{summary_paragraphs_for, write_comparison};
 use anyhow::{Result, bail};
@@ -132,7 +134,18 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     opts.jobs = a.jobs.unwrap_or_else(default_jobs);
     opts.progress = !a.quiet;
     opts.timing_runs = a.timing_runs;
-    let c = compare(&scene, &opts)?;
+    // A Ctrl-C stops the runs under way (external workers killed) and writes nothing: a
+    // comparison keeps no runs, so it is made again whole.
+    let interrupt = crate::interrupt::Interrupt::install();
+    let runner = |name: &str, scene: &crate::scene::Scene| {
+        run_engine_reporting(name, scene, &crate::interrupt::go_on_unless_interrupted)
+    };
+    let compared = compare_with_runner(&scene, &opts, &runner);
+    if interrupt.requested() {
+        return Err(crate::interrupt::Stopped("interrupted; nothing is written".into()).into());
+    }
+    drop(interrupt);
+    let c = compared?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     // What an earlier comparison wrote here (its metrics.csv says so) and this one will not
     // (another engine's run, a plot of another block, a paper or video not asked for) would

@@ -149,22 +149,30 @@ pub fn run(a: RunArgs) -> Result<()> {
         super::seconds("--progress-interval", a.progress_interval, true)?,
     );
     let quiet = a.quiet;
-    // A checkpointed run stops cleanly on Ctrl-C: its checkpoint written at the step reached.
-    let interrupt = a
-        .checkpoint
-        .as_ref()
-        .map(|_| crate::interrupt::Interrupt::install());
+    // A run stops cleanly on Ctrl-C: a checkpointed one with its checkpoint written at the
+    // step reached, any other with nothing written (an external engine's worker killed).
+    let interrupt = crate::interrupt::Interrupt::install();
     let progress = |t: f64| {
         if !quiet {
             line.report(t)
         }
-        match &interrupt {
-            Some(i) if i.requested() => ControlFlow::Break(()),
-            _ => ControlFlow::Continue(()),
+        if interrupt.requested() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
         }
     };
     let (output, mut summary) = match &a.checkpoint {
-        None => run_timed_reporting(e.as_ref(), &s, &progress)?,
+        None => {
+            let made = run_timed_reporting(e.as_ref(), &s, &progress);
+            if interrupt.requested() {
+                return Err(crate::interrupt::Stopped(
+                    "interrupted; nothing is written (`--checkpoint FILE` makes a native run that resumes)".into(),
+                )
+                .into());
+            }
+            made?
+        }
         Some(path) => {
             if e.name() != "native" {
                 anyhow::bail!(
@@ -185,6 +193,7 @@ pub fn run(a: RunArgs) -> Result<()> {
             })?
         }
     };
+    drop(interrupt);
     summary.command = Some(std::env::args().collect::<Vec<_>>().join(" "));
     write_outputs(&a.out, &s, &output, &summary)
         .with_context(|| format!("writing {}", a.out.display()))?;
