@@ -8,7 +8,7 @@
 //! reads a [`Comparison`]; this module does not know the report.
 
 use crate::engines::{
-    EngineError, Progress, RunOutput, engine_by_name, run_timed, run_timed_reporting, write_outputs,
+    EngineError, Progress, RunOutput, engine_by_name, run_timed_reporting, write_outputs,
 };
 use crate::metrics::{self, Cost, MetricRow, MetricSettings, Run};
 use crate::scene::Scene;
@@ -465,7 +465,11 @@ fn median_wall_time(er: &mut EngineRun, scene: &Scene, n: usize) {
     };
     let mut walls = vec![first];
     for _ in 1..n {
-        match run_timed(engine.as_ref(), scene) {
+        match run_timed_reporting(
+            engine.as_ref(),
+            scene,
+            &crate::interrupt::go_on_unless_interrupted,
+        ) {
             Ok((_, s)) => walls.push(s.wall_time_s),
             Err(_) => return,
         }
