@@ -7,7 +7,7 @@
 
 use crate::compare::{ReferenceSpec, Status, classify, run_of};
 use crate::engines::registry::load_scene_with_overrides;
-use crate::engines::{engine_by_name, run_timed};
+use crate::engines::{engine_by_name, run_timed_reporting};
 use crate::metrics::{Cost, MetricRow, MetricSettings, Run, compare_runs};
 use crate::report::provenance::Provenance;
 use crate::report::svg::{Curve, Marker, Plot};
@@ -261,7 +261,15 @@ pub fn bench(
     check_engines_and_steps(&base, &opts.engines, &opts.dts)?;
     check_series_sets(&opts.engines, &opts.overrides, true)?;
     check_reference_outside(&opts.engines, &opts.reference, "")?;
-    let reference = reference_run(&opts.reference, &base, &crate::compare::run_engine)?;
+    // The runs stop on a Ctrl-C (`rockbench bench`, [`crate::interrupt`]).
+    let run_reference = |name: &str, scene: &Scene| {
+        crate::compare::run_engine_reporting(
+            name,
+            scene,
+            &crate::interrupt::go_on_unless_interrupted,
+        )
+    };
+    let reference = reference_run(&opts.reference, &base, &run_reference)?;
     let mut rows = Vec::new();
     for engine in &opts.engines {
         let variants = if engine == "native" {
@@ -311,7 +319,12 @@ pub fn bench(
                         let mut walls = Vec::new();
                         let mut first = None;
                         for _ in 0..opts.repeat.max(1) {
-                            let (out, s) = run_timed(e.as_ref(), &scene).map_err(|err| {
+                            let (out, s) = run_timed_reporting(
+                                e.as_ref(),
+                                &scene,
+                                &crate::interrupt::go_on_unless_interrupted,
+                            )
+                            .map_err(|err| {
                                 if let Status::Skipped(_) = classify(&err) {
                                     row.status = "skipped".into();
                                 }

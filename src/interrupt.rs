@@ -3,7 +3,7 @@
 //! While an [`Interrupt`] lives, the first SIGINT or SIGTERM only sets a flag, and:
 //! - a checkpointed native run reads it after every step, writes its checkpoint at that step
 //!   and exits;
-//! - any other run, and a comparison, stops with nothing written;
+//! - any other run, a comparison and a work-precision benchmark stop with nothing written;
 //! - a stability map, a fragility study, a spectrum, a sensitivity study, accuracy gates, the
 //!   validation suite and a convergence study start no run after it, stop the runs under way,
 //!   keep nothing those runs answered and write no output; the same command resumes from the

@@ -54,7 +54,13 @@ pub fn run(a: BenchArgs) -> Result<()> {
         reference: ReferenceSpec::parse(&a.reference),
         overrides: a.set,
     };
+    // A Ctrl-C stops the runs under way (external workers killed) and writes nothing: a
+    // benchmark keeps no runs (it times them), so it is made again whole.
+    let interrupt = crate::interrupt::Interrupt::install();
     let rows = bench(&a.scene, &opts, &|r| {
+        if interrupt.requested() {
+            return;
+        }
         eprintln!(
             "{} {} dt={}: {}{}",
             r.engine,
@@ -70,8 +76,12 @@ pub fn run(a: BenchArgs) -> Result<()> {
                     .unwrap_or_default(),
             }
         )
-    })
-    .map_err(|e| anyhow!(e))?;
+    });
+    if interrupt.requested() {
+        return Err(crate::interrupt::Stopped("interrupted; nothing is written".into()).into());
+    }
+    drop(interrupt);
+    let rows = rows.map_err(|e| anyhow!(e))?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     // An earlier benchmark's paper (its work_precision.csv says one was written here) is not
     // this one's.
