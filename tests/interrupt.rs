@@ -1,7 +1,8 @@
 //! Ctrl-C on long commands (`rockbench::interrupt`): a stability map, a spectrum, a
 //! sensitivity study and accuracy gates stop with exit status 130 and one line saying what is
 //! kept, write no output, keep only what they finished (whole entries in their run store or
-//! cache, whole lines in runs.csv), and the same command then resumes from it. The fragility
+//! cache, whole lines in runs.csv), and the same command then resumes from it; a run, a
+//! comparison and a benchmark, which keep nothing, stop with nothing written. The fragility
 //! study's is `an_interrupted_study_leaves_whole_entries_and_resumes` (tests/fragility.rs).
 
 mod common;
