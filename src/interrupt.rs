@@ -28,6 +28,12 @@ pub const EXIT_STATUS: u8 = 130;
 pub struct Stopped(pub String);
 
 impl Stopped {
+    /// Stopped work that keeps no runs (a run, a comparison, a benchmark); `hint` follows the
+    /// line where there is a way to keep them.
+    pub fn nothing_written(hint: &str) -> Stopped {
+        Stopped(format!("interrupted; nothing is written{hint}"))
+    }
+
     /// Stopped work whose finished runs are kept in the store `store` (none: `--no-cache`),
     /// from which the same command resumes `what`.
     pub fn kept_in(store: Option<&std::path::Path>, what: &str) -> Stopped {

@@ -78,7 +78,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         )
     });
     if interrupt.requested() {
-        return Err(crate::interrupt::Stopped("interrupted; nothing is written".into()).into());
+        return Err(crate::interrupt::Stopped::nothing_written("").into());
     }
     drop(interrupt);
     let rows = rows.map_err(|e| anyhow!(e))?;

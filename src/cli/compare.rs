@@ -142,7 +142,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     };
     let compared = compare_with_runner(&scene, &opts, &runner);
     if interrupt.requested() {
-        return Err(crate::interrupt::Stopped("interrupted; nothing is written".into()).into());
+        return Err(crate::interrupt::Stopped::nothing_written("").into());
     }
     drop(interrupt);
     let c = compared?;

@@ -166,8 +166,8 @@ pub fn run(a: RunArgs) -> Result<()> {
         None => {
             let made = run_timed_reporting(e.as_ref(), &s, &progress);
             if interrupt.requested() {
-                return Err(crate::interrupt::Stopped(
-                    "interrupted; nothing is written (`--checkpoint FILE` makes a native run that resumes)".into(),
+                return Err(crate::interrupt::Stopped::nothing_written(
+                    " (`--checkpoint FILE` makes a native run that resumes)",
                 )
                 .into());
             }
