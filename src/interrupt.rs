@@ -4,6 +4,8 @@
 //! - a checkpointed native run reads it after every step, writes its checkpoint at that step
 //!   and exits;
 //! - any other run, a comparison and a work-precision benchmark stop with nothing written;
+//! - a comparison's or an animation's video stops (ffmpeg killed, the file removed), and the
+//!   generation of the reference data writes nothing;
 //! - a stability map, a fragility study, a spectrum, a sensitivity study, accuracy gates, the
 //!   validation suite and a convergence study start no run after it, stop the runs under way,
 //!   keep nothing those runs answered and write no output; the same command resumes from the

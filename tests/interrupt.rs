@@ -2,7 +2,8 @@
 //! sensitivity study and accuracy gates stop with exit status 130 and one line saying what is
 //! kept, write no output, keep only what they finished (whole entries in their run store or
 //! cache, whole lines in runs.csv), and the same command then resumes from it; a run, a
-//! comparison and a benchmark, which keep nothing, stop with nothing written. The fragility
+//! comparison and a benchmark, which keep nothing, stop with nothing written, as do an
+//! animation's video (ffmpeg killed) and the reference data's generation. The fragility
 //! study's is `an_interrupted_study_leaves_whole_entries_and_resumes` (tests/fragility.rs).
 
 mod common;
@@ -412,4 +413,112 @@ fn a_run_a_comparison_and_a_benchmark_stopped_by_a_signal_write_nothing() {
             "{command}: an interrupted {command} wrote outputs"
         );
     }
+}
+
+/// The child of `parent` whose command is `comm` (its pid), if one runs.
+fn child_named(parent: u32, comm: &str) -> Option<u32> {
+    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
+        let pid: u32 = e.file_name().to_str()?.parse().ok()?;
+        let status = std::fs::read_to_string(e.path().join("status")).ok()?;
+        let field = |name: &str| {
+            status
+                .lines()
+                .find_map(|l| l.strip_prefix(name))
+                .map(|v| v.trim().to_string())
+        };
+        (field("PPid:")? == parent.to_string() && field("Name:")? == comm).then_some(pid)
+    })
+}
+
+/// Whether `pid` is a process that has not ended (a zombie has).
+fn alive(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| {
+            s.rsplit_once(')')
+                .map(|(_, rest)| rest.trim_start().starts_with('Z'))
+        })
+        .is_some_and(|zombie| !zombie)
+}
+
+/// An animation stopped while ffmpeg encodes its video (ten minutes of rocking, some 15000
+/// frames): ffmpeg killed, neither the video nor the page written, exit status 130, one line.
+#[test]
+fn an_animation_stopped_while_its_video_is_encoded_writes_nothing() {
+    let dir = common::tmp("rb-interrupt", "animate");
+    let run = dir.join("run");
+    common::run_ok(
+        common::bin()
+            .arg("run")
+            .arg(common::root().join("validation/scenes/housner-slender.toml"))
+            .args(["--engine", "housner", "--set", "duration=600", "--quiet"])
+            .arg("--out")
+            .arg(&run),
+    );
+    let (page, video) = (dir.join("a.html"), dir.join("a.mp4"));
+    let child = common::bin()
+        .arg("animate")
+        .arg(&run)
+        .arg("--out")
+        .arg(&page)
+        .arg("--video")
+        .arg(&video)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    let ffmpeg = loop {
+        if let Some(pid) = child_named(child.id(), "ffmpeg") {
+            break pid;
+        }
+        assert!(t0.elapsed().as_secs() < 60, "no ffmpeg after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    // SAFETY: signals a child of this process, which has not been waited for.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert_eq!(err.trim(), "error: interrupted; nothing is written");
+    assert!(!alive(ffmpeg), "ffmpeg was left running");
+    assert!(
+        !video.exists() && !page.exists(),
+        "an interrupted animation wrote files"
+    );
+}
+
+/// The reference data's generation stopped before it writes: nothing written.
+#[test]
+fn the_reference_data_stopped_before_it_is_written_writes_nothing() {
+    let dir = common::tmp("rb-interrupt", "references");
+    let out = dir.join("tree");
+    let child = common::bin()
+        .arg("references")
+        .arg("--root")
+        .arg(common::root())
+        .arg("--out")
+        .arg(&out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !catches_sigint(child.id()) {
+        assert!(t0.elapsed().as_secs() < 60, "no handler after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    // SAFETY: signals a child of this process, which has not been waited for.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) },
+        0
+    );
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert_eq!(err.trim(), "error: interrupted; nothing is written");
+    assert!(!out.exists(), "an interrupted generation wrote files");
 }

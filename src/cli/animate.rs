@@ -185,6 +185,8 @@ fn check_run(
 }
 
 pub fn animate(a: AnimateArgs) -> Result<()> {
+    // A Ctrl-C stops a video under way (ffmpeg killed, the file removed) and writes no page.
+    let interrupt = crate::interrupt::Interrupt::install();
     if let Some(v) = &a.video {
         crate::report::animate::video_kind(v).map_err(anyhow::Error::msg)?;
         if super::same_file(v, &a.out) {
@@ -277,7 +279,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
     // The video first: a page is written only with the video asked for beside it.
     if let Some(v) = &a.video {
         let written = anim
-            .write_video(v)
+            .write_video(v, &crate::interrupt::requested)
             .and_then(|()| match std::fs::metadata(v) {
                 Ok(m) if m.len() > 0 => Ok(()),
                 _ => Err(format!(
@@ -288,6 +290,9 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         if let Err(e) = written {
             // Nothing half-written.
             let _ = std::fs::remove_file(v);
+            if interrupt.requested() {
+                return Err(crate::interrupt::Stopped::nothing_written("").into());
+            }
             bail!(e);
         }
     }

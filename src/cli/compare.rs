@@ -135,7 +135,8 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     opts.progress = !a.quiet;
     opts.timing_runs = a.timing_runs;
     // A Ctrl-C stops the runs under way (external workers killed) and writes nothing: a
-    // comparison keeps no runs, so it is made again whole.
+    // comparison keeps no runs, so it is made again whole. After the runs its files are
+    // written whole, and a video under way stops (ffmpeg killed, the file removed).
     let interrupt = crate::interrupt::Interrupt::install();
     let runner = |name: &str, scene: &crate::scene::Scene| {
         run_engine_reporting(name, scene, &crate::interrupt::go_on_unless_interrupted)
@@ -144,7 +145,6 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     if interrupt.requested() {
         return Err(crate::interrupt::Stopped::nothing_written("").into());
     }
-    drop(interrupt);
     let c = compared?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     // What an earlier comparison wrote here (its metrics.csv says so) and this one will not
@@ -167,9 +167,17 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     if let Some(v) = &a.video {
         let path = a.out.join(format!("animation.{v}"));
         let tracks = crate::report::animation_tracks(&c);
-        crate::report::animate::Animation::new(&c.scene, &tracks)
-            .write_video(&path)
-            .map_err(anyhow::Error::msg)?;
+        let written = crate::report::animate::Animation::new(&c.scene, &tracks)
+            .write_video(&path, &crate::interrupt::requested);
+        if interrupt.requested() {
+            return Err(crate::interrupt::Stopped(format!(
+                "interrupted; {} is written without its video (the same command with \
+                 --video writes it again)",
+                a.out.display()
+            ))
+            .into());
+        }
+        written.map_err(anyhow::Error::msg)?;
         println!("wrote {}", path.display());
     }
     for p in summary_paragraphs_for(&c) {

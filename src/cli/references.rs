@@ -26,7 +26,14 @@ pub struct ReferencesArgs {
 }
 
 pub fn references_cmd(a: ReferencesArgs) -> Result<()> {
-    let tree = generate(&a.root).map_err(anyhow::Error::msg)?;
+    // A Ctrl-C stops the generation and writes nothing; once the tree is written, it is
+    // written whole.
+    let interrupt = crate::interrupt::Interrupt::install();
+    let tree = generate(&a.root);
+    if interrupt.requested() {
+        return Err(crate::interrupt::Stopped::nothing_written("").into());
+    }
+    let tree = tree.map_err(anyhow::Error::msg)?;
     if a.check {
         let mut bad = Vec::new();
         for (rel, text) in &tree {

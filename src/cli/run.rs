@@ -71,6 +71,9 @@ impl ProgressLine {
     }
 
     fn report(&self, t: f64) {
+        if t.is_nan() {
+            return; // an external worker's run: its time is not known
+        }
         let now = Instant::now();
         let (Some(start), Some((t_last, at_last))) = (self.start.get(), self.last.get()) else {
             self.start.set(Some(now));

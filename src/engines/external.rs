@@ -355,7 +355,7 @@ impl ExternalEngine {
         let dir = temp_dir(self.engine)
             .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
         let value = serde_json::to_value(early_stop).expect("early-stop specs serialise");
-        let result = self.run_in(scene, &dir, Some(&value));
+        let result = self.run_in(scene, &dir, Some(&value), &super::go_on);
         let _ = std::fs::remove_dir_all(&dir);
         result
     }
@@ -365,6 +365,7 @@ impl ExternalEngine {
         scene: &Scene,
         dir: &Path,
         early_stop: Option<&serde_json::Value>,
+        progress: Progress,
     ) -> Result<(RunOutput, Option<String>), EngineError> {
         let spec = self.spec;
         let input = match spec.input {
@@ -447,12 +448,15 @@ impl ExternalEngine {
         let status = loop {
             match child.try_wait() {
                 Ok(Some(status)) => break status,
-                Ok(None) if crate::interrupt::requested() => {
+                // The worker's simulated time is not known here: the observer is asked with
+                // NaN whether the run goes on (a Ctrl-C in the Python bindings).
+                Ok(None) if crate::interrupt::requested() || progress(f64::NAN).is_break() => {
                     let _ = child.kill();
                     let _ = child.wait();
-                    return Err(self.failed(
-                        "the worker was stopped: the command was interrupted".to_string(),
-                    ));
+                    return Err(EngineError::Interrupted {
+                        engine: self.engine,
+                        t: f64::NAN,
+                    });
                 }
                 Ok(None) if start.elapsed() >= timeout => {
                     let _ = child.kill();
@@ -696,10 +700,10 @@ impl Engine for ExternalEngine {
         self.spec.cannot_model.and_then(|f| f(scene))
     }
 
-    fn run_reporting(&self, scene: &Scene, _progress: Progress) -> Result<RunOutput, EngineError> {
+    fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError> {
         let dir = temp_dir(self.engine)
             .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
-        let result = self.run_in(scene, &dir, None).map(|(out, _)| out);
+        let result = self.run_in(scene, &dir, None, progress).map(|(out, _)| out);
         let _ = std::fs::remove_dir_all(&dir);
         result
     }

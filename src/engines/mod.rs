@@ -45,7 +45,8 @@ pub enum EngineError {
     },
     #[error("stopped after step {step} as asked: `--checkpoint {path}` resumes the run")]
     Stopped { step: u64, path: String },
-    #[error("engine `{engine}` was interrupted at t = {t} s, as its caller asked")]
+    /// `t`: the simulated time reached, NaN where the engine cannot tell (an external worker).
+    #[error("engine `{engine}` was interrupted{}, as its caller asked", at_time(*t))]
     Interrupted { engine: &'static str, t: f64 },
     /// Interrupted with a checkpoint written at the step it stopped after.
     #[error(
@@ -58,11 +59,21 @@ pub enum EngineError {
     Io(String),
 }
 
+/// ` at t = T s`, or nothing where the time is not known (NaN).
+fn at_time(t: f64) -> String {
+    if t.is_nan() {
+        String::new()
+    } else {
+        format!(" at t = {t} s")
+    }
+}
+
 /// A simulation engine.
 pub trait Engine: Send + Sync {
     fn name(&self) -> &'static str;
     /// Run `scene`, calling `progress` with the simulated time reached as it goes (the engines
-    /// that step in time do, after every step; the others ignore it). The answer does not
+    /// that step in time do, after every step; an external engine asks with NaN while it waits
+    /// for its worker, whose time it does not know; Housner's ignores it). The answer does not
     /// depend on `progress`; when it answers [`ControlFlow::Break`] the run stops there with
     /// [`EngineError::Interrupted`] (a Ctrl-C in the Python bindings).
     fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError>;

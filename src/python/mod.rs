@@ -6,9 +6,10 @@
 //!   [`engine_by_name`](crate::engines::engine_by_name) with the GIL released and returns a
 //!   `Run`: sample times and per-block histories as numpy arrays, and the summary as a dict.
 //!   A failed run raises `RuntimeError` with the engine's one-line reason. Called from the
-//!   main thread, a Ctrl-C stops the native and rapier engines within [`SIGNAL_CHECK`] and
-//!   raises `KeyboardInterrupt`; the other engines finish first (an external engine's worker
-//!   shares the terminal's Ctrl-C and stops with it). `compare_rows` is stopped the same way,
+//!   main thread, a Ctrl-C stops the native and rapier engines within [`SIGNAL_CHECK`] and a
+//!   step, kills an external engine's worker (MuJoCo, PyBullet, Siconos) within another 20 ms,
+//!   and raises `KeyboardInterrupt`; Housner's closed form finishes first. `compare_rows` is
+//!   stopped the same way,
 //!   and `fragility_study` starts no further run (those under way finish and are cached).
 //! - `Scene.layout()` and `Scene.ground_motion(t)` expose the crate's single definitions of the
 //!   initial configuration and of the ground motion to the Python engines.

@@ -634,8 +634,9 @@ impl Animation {
 
     /// Rasterise every frame (at `fps`, at most the animation's rate) and encode with ffmpeg:
     /// MP4 (H.264) or GIF, by the extension of `path`. The reference is solid, the engines are
-    /// outlined in their colours; a bar along the bottom shows the time.
-    pub fn write_video(&self, path: &Path) -> Result<(), String> {
+    /// outlined in their colours; a bar along the bottom shows the time. Once `stopped` answers
+    /// true (asked before each frame) ffmpeg is killed, the file removed and an error returned.
+    pub fn write_video(&self, path: &Path, stopped: &dyn Fn() -> bool) -> Result<(), String> {
         let ext = video_kind(path)?;
         let codec: Vec<&str> = match ext {
             "mp4" => vec![
@@ -702,6 +703,13 @@ impl Animation {
         let _ignore_sigpipe = IgnoreSigpipe::new();
         let mut buf = vec![0u8; w * h * 3];
         for &t in &video_times {
+            if stopped() {
+                drop(stdin);
+                let _ = child.kill();
+                let _ = child.wait();
+                let _ = std::fs::remove_file(path);
+                return Err(format!("--video: {} not written: stopped", path.display()));
+            }
             let k = self.frame_at(t);
             self.rasterise(k, scale, w, h, &mut buf);
             // Time bar.

@@ -362,7 +362,9 @@ pub fn generate(root: &Path) -> Result<Tree, String> {
         let case = "two-block-free-rocking";
         let mut scene = load(&format!("{case}.toml"))?;
         scene.set_setting("native", "dt", CONVERGED_DT);
-        let out = NativeEngine.run(&scene).map_err(|e| e.to_string())?;
+        let out = NativeEngine
+            .run_reporting(&scene, &crate::interrupt::go_on_unless_interrupted)
+            .map_err(|e| e.to_string())?;
         let mut r = header("two-block-free-rocking: converged native run and the paper's claims");
         let _ = writeln!(
             r,

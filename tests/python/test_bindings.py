@@ -260,12 +260,39 @@ def _long_study(tmp_path: Path) -> Path:
     return study
 
 
-@pytest.mark.parametrize("call", ["run-native", "run-rapier", "compare", "fragility"])
+def _worker_of(pid: int) -> int | None:
+    """The pid of an external engine's worker started by process `pid`, if one is running."""
+    for status in Path("/proc").glob("[0-9]*/status"):
+        try:
+            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines()
+                          if ":\t" in line)
+            cmdline = (status.parent / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if fields.get("PPid", "").strip() == str(pid) and b"rockbench.worker" in cmdline:
+            return int(status.parent.name)
+    return None
+
+
+def _alive(pid: int) -> bool:
+    """Whether `pid` is a process that has not ended (a zombie has)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.parametrize(
+    "call", ["run-native", "run-rapier", "run-mujoco", "compare", "fragility"]
+)
 def test_ctrl_c_stops_the_work_and_raises_keyboard_interrupt(tmp_path: Path, call: str) -> None:
     """A SIGINT while the extension works (GIL released) stops it and raises KeyboardInterrupt,
     not a panic of NumPy's API: a run or a comparison of runs that would take some 1000 s (four
     hours of rocking at 1e-4 s a step), or a study of 2000 runs, which stops after the runs
-    under way and keeps those done. The process must be done within 60 s of the signal."""
+    under way and keeps those done. The process must be done within 60 s of the signal. An
+    external engine's worker, which the signal sent to the Python process alone does not reach,
+    is killed, not left running."""
     scene = tmp_path / "long.toml"
     scene.write_text(
         'name = "long"\nduration = 14400.0\n[output]\ninterval = 1.0\n[[blocks]]\nname = "b"\n'
@@ -275,6 +302,7 @@ def test_ctrl_c_stops_the_work_and_raises_keyboard_interrupt(tmp_path: Path, cal
     work = {
         "run-native": f"rockbench.run({str(scene)!r}, engine='native')",
         "run-rapier": f"rockbench.run({str(scene)!r}, engine='rapier')",
+        "run-mujoco": f"rockbench.run({str(scene)!r}, engine='mujoco')",
         "compare": f"rockbench.compare({str(scene)!r}, engines=['native', 'rapier'])",
         "fragility": f"rockbench.fragility({str(_long_study(tmp_path))!r})",
     }[call]
@@ -297,6 +325,12 @@ def test_ctrl_c_stops_the_work_and_raises_keyboard_interrupt(tmp_path: Path, cal
         deadline = time.monotonic() + 60
         while not list((tmp_path / "cache").rglob("*.json")) and time.monotonic() < deadline:
             time.sleep(0.05)
+    worker = None
+    if call == "run-mujoco":  # signalled once the worker runs
+        deadline = time.monotonic() + 60
+        while (worker := _worker_of(p.pid)) is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert worker is not None, "no worker started"
     p.send_signal(2)
     try:
         out, err = p.communicate(timeout=60)
@@ -306,6 +340,11 @@ def test_ctrl_c_stops_the_work_and_raises_keyboard_interrupt(tmp_path: Path, cal
         raise AssertionError("the run went on after Ctrl-C") from None
     assert p.returncode == 3, f"{out}\n{err}"
     assert "interrupted" in out and "PanicException" not in err, err
+    if worker is not None:
+        deadline = time.monotonic() + 10
+        while _alive(worker) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not _alive(worker), "the worker was left running"
     if call == "fragility":
         stored = list((tmp_path / "cache").rglob("*.json"))
         assert 0 < len(stored) < 2000, f"{len(stored)} runs stored"
