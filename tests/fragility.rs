@@ -644,6 +644,69 @@ fn the_p695_suites_load_and_check() {
     }
 }
 
+/// The CPU seconds process `pid` has used (utime + stime in /proc, at 100 ticks a second).
+fn cpu_seconds(pid: u32) -> f64 {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .map_or(vec![], |(_, rest)| rest.split_whitespace().collect());
+    // After the command's name: state is field 3, utime 14 and stime 15.
+    let tick = |k: usize| fields.get(k - 3).and_then(|v| v.parse::<f64>().ok());
+    tick(14).zip(tick(15)).map_or(0.0, |(u, s)| (u + s) / 100.0)
+}
+
+/// Ctrl-C while a run with early stops (a study's default) is under way: the run stops, is
+/// not stored, and the study ends at once. The runs take some ten million native steps each
+/// (dt 1e-7 s), and the signal comes once the study has used half a second of CPU, when its
+/// first run is under way: a run left to finish would be stored.
+#[test]
+fn a_run_under_way_with_early_stops_stops_on_ctrl_c_and_is_not_stored() {
+    let d = tmp("rb-fragility", "interrupt-early");
+    let study = fixture(&d, "\"native\"", "");
+    let scene = d.join("block.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&scene, text + "\n[native]\ndt = 1e-7\n").unwrap();
+    let child = bin()
+        .args(["fragility", "--quiet", "--jobs", "1"])
+        .arg(&study)
+        .arg("--out")
+        .arg(d.join("out"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while cpu_seconds(child.id()) < 0.5 {
+        assert!(t0.elapsed().as_secs() < 120, "no work after 120 s");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    // SAFETY: signals a child of this process, which has not been waited for.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) },
+        0
+    );
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains(": interrupted; the runs finished are kept in "),
+        "{err}"
+    );
+    let stored: Vec<_> = std::fs::read_dir(d.join("cache"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .flat_map(|sub| {
+            std::fs::read_dir(sub.path())
+                .into_iter()
+                .flatten()
+                .flatten()
+        })
+        .map(|e| e.path())
+        .collect();
+    assert!(stored.is_empty(), "a stopped run was stored: {stored:?}");
+    assert!(!d.join("out").exists(), "an output folder was written");
+}
+
 /// Ctrl-C in the middle of a study: it exits with status 130 and one line saying where the runs
 /// finished are kept, every cache entry left is whole (parses, no temporary file), no output
 /// folder is written, and the rerun resumes from the entries.

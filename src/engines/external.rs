@@ -348,6 +348,7 @@ impl ExternalEngine {
         &self,
         scene: &Scene,
         early_stop: &crate::fragility::early::EarlyStopSpec,
+        progress: Progress,
     ) -> Result<(RunOutput, Option<String>), EngineError> {
         if self.spec.script.is_some() {
             return Err(self.failed("this worker has no early stops"));
@@ -355,7 +356,7 @@ impl ExternalEngine {
         let dir = temp_dir(self.engine)
             .map_err(|e| self.failed(format!("cannot create a temporary directory: {e}")))?;
         let value = serde_json::to_value(early_stop).expect("early-stop specs serialise");
-        let result = self.run_in(scene, &dir, Some(&value), &super::go_on);
+        let result = self.run_in(scene, &dir, Some(&value), progress);
         let _ = std::fs::remove_dir_all(&dir);
         result
     }

@@ -265,7 +265,8 @@ pub struct Runner {
     last: Mutex<Instant>,
     quiet: bool,
     /// Set from outside (a Ctrl-C in the Python bindings): no run starts after it, nor after
-    /// a signal caught by [`crate::interrupt::Interrupt`] (the command line).
+    /// a signal caught by [`crate::interrupt::Interrupt`] (the command line), and the runs
+    /// under way stop.
     stop: Arc<AtomicBool>,
 }
 
@@ -289,8 +290,8 @@ impl Runner {
         }
     }
 
-    /// A runner that starts no run once `stop` is set: the runs under way finish and are
-    /// stored, so the study resumes from them.
+    /// A runner that starts no run once `stop` is set and stops the runs under way (not
+    /// stored): the study resumes from the runs stored before.
     pub fn stopped_by(mut self, stop: Arc<AtomicBool>) -> Runner {
         self.stop = stop;
         self
@@ -316,7 +317,15 @@ impl Runner {
         if self.stop.load(Ordering::Relaxed) || crate::interrupt::requested() {
             return Err(STOPPED.to_string());
         }
-        let o = run::run_one(spec).map_err(|e| {
+        // The run under way stops too, and what it answered is not kept.
+        let go_on = |_t: f64| {
+            if self.stop.load(Ordering::Relaxed) || crate::interrupt::requested() {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        };
+        let o = run::run_one_reporting(spec, &go_on).map_err(|e| {
             format!(
                 "{}: record {} x{}: {e}",
                 spec.engine, spec.record_id, spec.scale

@@ -27,7 +27,7 @@ use super::early::EarlyStopSpec;
 use crate::engines::auto::not_housner;
 use crate::engines::external::ExternalEngine;
 use crate::engines::native::REST_WINDOW;
-use crate::engines::{EngineError, engine_by_name};
+use crate::engines::{EngineError, Progress, engine_by_name, go_on};
 use crate::events;
 use crate::excitation::GroundMotion;
 use crate::scene::{ExcitationSpec, MotionSpec, Scene};
@@ -210,9 +210,14 @@ impl RunSpec {
 
 /// Run one unit of work.
 pub fn run_one(spec: &RunSpec) -> Result<RunOutcome, EngineError> {
+    run_one_reporting(spec, &go_on)
+}
+
+/// [`run_one`] with an observer that may stop the run ([`Progress`]; a Ctrl-C).
+pub fn run_one_reporting(spec: &RunSpec, progress: Progress) -> Result<RunOutcome, EngineError> {
     spec.check_record()?;
     let start = std::time::Instant::now();
-    let sim = simulate(&spec.engine, &spec.scene, spec.early_stop)?;
+    let sim = simulate_reporting(&spec.engine, &spec.scene, spec.early_stop, progress)?;
     let mut o = outcome(&spec.scene, &sim);
     o.wall_s = start.elapsed().as_secs_f64();
     Ok(o)
@@ -265,6 +270,18 @@ pub struct Simulated {
 
 /// The one place where a study runs an engine.
 pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulated, EngineError> {
+    simulate_reporting(engine, scene, early_stop, &go_on)
+}
+
+/// [`simulate`] with an observer that may stop the run: told the time reached after each step
+/// (NaN while an external worker runs), it stops the run with [`EngineError::Interrupted`].
+/// Housner's closed form, which takes milliseconds, is not stopped.
+pub fn simulate_reporting(
+    engine: &str,
+    scene: &Scene,
+    early_stop: bool,
+    progress: Progress,
+) -> Result<Simulated, EngineError> {
     let engine = if engine == "auto" {
         if not_housner(scene).is_none() {
             "housner"
@@ -275,7 +292,7 @@ pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulat
         engine
     };
     if early_stop && engine == "native" {
-        return native_early(scene);
+        return native_early(scene, progress);
     }
     if early_stop && engine == "housner" && scene.blocks.len() == 1 {
         let (tr, _, stop) = housner_early_stop(scene, true)?;
@@ -294,10 +311,10 @@ pub fn simulate(engine: &str, scene: &Scene, early_stop: bool) -> Result<Simulat
         });
     }
     if early_stop && SOFT_STOP_ENGINES.contains(&engine) {
-        return soft_early(engine, scene);
+        return soft_early(engine, scene, progress);
     }
     let e = engine_by_name(engine)?;
-    let out = e.run_reporting(scene, &crate::interrupt::go_on_unless_interrupted)?;
+    let out = e.run_reporting(scene, progress)?;
     if !out.trajectory.is_finite() {
         return Err(EngineError::Failed {
             engine: e.name(),
@@ -384,16 +401,16 @@ pub fn quiet_after(gm: &GroundMotion, a: f64) -> f64 {
 pub const SOFT_STOP_ENGINES: [&str; 3] = ["rapier", "mujoco", "pybullet"];
 
 /// A run of a soft-contact engine with early stops ([`super::early`]).
-fn soft_early(engine: &str, scene: &Scene) -> Result<Simulated, EngineError> {
+fn soft_early(engine: &str, scene: &Scene, progress: Progress) -> Result<Simulated, EngineError> {
     let spec = EarlyStopSpec::soft(scene)?;
     if engine == "rapier" {
-        return rapier_early(scene, spec);
+        return rapier_early(scene, spec, progress);
     }
     let e = ExternalEngine::new(engine).ok_or_else(|| EngineError::Failed {
         engine: "fragility",
         message: format!("`{engine}` is not a worker engine"),
     })?;
-    let (out, stop) = e.run_with_early_stop(scene, &spec)?;
+    let (out, stop) = e.run_with_early_stop(scene, &spec, progress)?;
     Ok(Simulated {
         trajectory: out.trajectory,
         stop: worker_stop(e.engine, stop.as_deref())?,
@@ -428,7 +445,11 @@ pub fn worker_early_stop(spec: &RunSpec) -> Result<Option<EarlyStopSpec>, Engine
 }
 
 #[cfg(feature = "rapier")]
-fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineError> {
+fn rapier_early(
+    scene: &Scene,
+    spec: EarlyStopSpec,
+    progress: Progress,
+) -> Result<Simulated, EngineError> {
     use super::early::Monitor;
     use crate::engines::RunSteps;
     use crate::engines::rapier::{RAPIER_VERSION, RapierSim};
@@ -445,6 +466,12 @@ fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineE
     let mut stop = Stop::End;
     for k in 1..=n_steps {
         sim.take(&steps, k)?;
+        if progress(sim.t).is_break() {
+            return Err(EngineError::Interrupted {
+                engine: "rapier",
+                t: sim.t,
+            });
+        }
         let states = sim.relative_states()?;
         let s = monitor.check(sim.t, &states);
         if k % every == 0 || k == n_steps || s.is_some() {
@@ -468,11 +495,11 @@ fn rapier_early(scene: &Scene, spec: EarlyStopSpec) -> Result<Simulated, EngineE
 }
 
 #[cfg(not(feature = "rapier"))]
-fn rapier_early(_: &Scene, _: EarlyStopSpec) -> Result<Simulated, EngineError> {
+fn rapier_early(_: &Scene, _: EarlyStopSpec, _: Progress) -> Result<Simulated, EngineError> {
     engine_by_name("rapier").map(|_| unreachable!("rapier is not built in"))
 }
 
-fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
+fn native_early(scene: &Scene, progress: Progress) -> Result<Simulated, EngineError> {
     let failed = |m: String| EngineError::Failed {
         engine: "native",
         message: m,
@@ -526,6 +553,12 @@ fn native_early(scene: &Scene) -> Result<Simulated, EngineError> {
             .step(&mut state)
             .map_err(|e| failed(e.to_string()))?;
         state.t = k as f64 * dt;
+        if progress(state.t).is_break() {
+            return Err(EngineError::Interrupted {
+                engine: "native",
+                t: state.t,
+            });
+        }
         let states = stepper.relative_states(&state);
         if !states.iter().flatten().all(|x| x.is_finite()) {
             return Err(failed("the trajectory contains NaN or infinity".into()));

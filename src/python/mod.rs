@@ -9,8 +9,8 @@
 //!   main thread, a Ctrl-C stops the native and rapier engines within [`SIGNAL_CHECK`] and a
 //!   step, kills an external engine's worker (MuJoCo, PyBullet, Siconos) within another 20 ms,
 //!   and raises `KeyboardInterrupt`; Housner's closed form finishes first. `compare_rows` is
-//!   stopped the same way,
-//!   and `fragility_study` starts no further run (those under way finish and are cached).
+//!   stopped the same way, and `fragility_study` starts no further run and stops those under
+//!   way (the runs finished are in its cache).
 //! - `Scene.layout()` and `Scene.ground_motion(t)` expose the crate's single definitions of the
 //!   initial configuration and of the ground motion to the Python engines.
 //!
