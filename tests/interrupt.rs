@@ -340,16 +340,37 @@ fn catches_sigint(pid: u32) -> bool {
         .is_some_and(|mask| mask & (1 << (libc::SIGINT - 1)) != 0)
 }
 
+/// Waits until `ready` (at most 60 s, then fails naming `what`).
+fn wait_for(what: &str, mut ready: impl FnMut() -> bool) {
+    let t0 = std::time::Instant::now();
+    while !ready() {
+        assert!(t0.elapsed().as_secs() < 60, "{what}: not after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+}
+
+/// Sends `signal` to `child` and gives its exit status and stderr.
+fn signalled(child: std::process::Child, signal: i32) -> (Option<i32>, String) {
+    // SAFETY: signals a child of this process, which has not been waited for.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    let o = child.wait_with_output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).to_string(),
+    )
+}
+
 /// A run, a comparison and a work-precision benchmark (none keeps a store) stopped by SIGINT or
-/// SIGTERM (a batch system's) in the middle of their runs: exit status 130, one line, nothing
-/// written.
+/// SIGTERM (a batch system's) in the middle of their runs, and the reference data's generation
+/// before it writes: exit status 130, one line, nothing written.
 #[test]
-fn a_run_a_comparison_and_a_benchmark_stopped_by_a_signal_write_nothing() {
+fn commands_that_keep_no_runs_stopped_by_a_signal_write_nothing() {
     let dir = common::tmp("rb-interrupt", "run");
-    let wall = common::root().join("validation/scenes/wall-in-motion-pulse.toml");
-    let slender = common::root().join("validation/scenes/housner-slender.toml");
+    let root = common::root();
+    let wall = root.join("validation/scenes/wall-in-motion-pulse.toml");
+    let slender = root.join("validation/scenes/housner-slender.toml");
     let nothing = "error: interrupted; nothing is written";
-    let cases: [(&str, &Path, &[&str], i32, String); 3] = [
+    let cases: [(&str, &Path, &[&str], i32, String); 4] = [
         (
             "run",
             &wall,
@@ -379,12 +400,19 @@ fn a_run_a_comparison_and_a_benchmark_stopped_by_a_signal_write_nothing() {
             libc::SIGINT,
             nothing.to_string(),
         ),
+        // Signalled as its handler is installed, before its runs end.
+        ("references", &root, &[], libc::SIGTERM, nothing.to_string()),
     ];
-    for (command, scene, args, signal, line) in cases {
+    for (command, path, args, signal, line) in cases {
         let out = dir.join(command);
         let child = common::bin()
             .arg(command)
-            .arg(scene)
+            .args(if command == "references" {
+                &["--root"][..]
+            } else {
+                &[]
+            })
+            .arg(path)
             .args(args)
             .arg("--out")
             .arg(&out)
@@ -392,19 +420,10 @@ fn a_run_a_comparison_and_a_benchmark_stopped_by_a_signal_write_nothing() {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let t0 = std::time::Instant::now();
-        while !catches_sigint(child.id()) {
-            assert!(
-                t0.elapsed().as_secs() < 60,
-                "{command}: no handler after 60 s"
-            );
-            std::thread::sleep(std::time::Duration::from_millis(5));
-        }
-        // SAFETY: signals a child of this process, which has not been waited for.
-        assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
-        let o = child.wait_with_output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr).to_string();
-        assert_eq!(o.status.code(), Some(130), "{command}: {err}");
+        let pid = child.id();
+        wait_for(command, || catches_sigint(pid));
+        let (code, err) = signalled(child, signal);
+        assert_eq!(code, Some(130), "{command}: {err}");
         // Progress lines may come before it; the command's last line says it stopped.
         assert_eq!(err.lines().last(), Some(line.as_str()), "{command}: {err}");
         assert_eq!(err.matches("error:").count(), 1, "{command}: {err}");
@@ -467,58 +486,17 @@ fn an_animation_stopped_while_its_video_is_encoded_writes_nothing() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let t0 = std::time::Instant::now();
-    let ffmpeg = loop {
-        if let Some(pid) = child_named(child.id(), "ffmpeg") {
-            break pid;
-        }
-        assert!(t0.elapsed().as_secs() < 60, "no ffmpeg after 60 s");
-        std::thread::sleep(std::time::Duration::from_millis(5));
-    };
-    // SAFETY: signals a child of this process, which has not been waited for.
-    assert_eq!(
-        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
-        0
-    );
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(o.status.code(), Some(130), "{err}");
+    let mut ffmpeg = None;
+    wait_for("ffmpeg", || {
+        ffmpeg = child_named(child.id(), "ffmpeg");
+        ffmpeg.is_some()
+    });
+    let (code, err) = signalled(child, libc::SIGINT);
+    assert_eq!(code, Some(130), "{err}");
     assert_eq!(err.trim(), "error: interrupted; nothing is written");
-    assert!(!alive(ffmpeg), "ffmpeg was left running");
+    assert!(!ffmpeg.is_some_and(alive), "ffmpeg was left running");
     assert!(
         !video.exists() && !page.exists(),
         "an interrupted animation wrote files"
     );
-}
-
-/// The reference data's generation stopped before it writes: nothing written.
-#[test]
-fn the_reference_data_stopped_before_it_is_written_writes_nothing() {
-    let dir = common::tmp("rb-interrupt", "references");
-    let out = dir.join("tree");
-    let child = common::bin()
-        .arg("references")
-        .arg("--root")
-        .arg(common::root())
-        .arg("--out")
-        .arg(&out)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t0 = std::time::Instant::now();
-    while !catches_sigint(child.id()) {
-        assert!(t0.elapsed().as_secs() < 60, "no handler after 60 s");
-        std::thread::sleep(std::time::Duration::from_millis(1));
-    }
-    // SAFETY: signals a child of this process, which has not been waited for.
-    assert_eq!(
-        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) },
-        0
-    );
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(o.status.code(), Some(130), "{err}");
-    assert_eq!(err.trim(), "error: interrupted; nothing is written");
-    assert!(!out.exists(), "an interrupted generation wrote files");
 }
