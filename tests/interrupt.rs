@@ -434,18 +434,15 @@ fn commands_that_keep_no_runs_stopped_by_a_signal_write_nothing() {
     }
 }
 
-/// The child of `parent` whose command is `comm` (its pid), if one runs.
-fn child_named(parent: u32, comm: &str) -> Option<u32> {
+/// The child of `parent` whose command line has `needle` (its pid), if one runs.
+fn child_running(parent: u32, needle: &str) -> Option<u32> {
     std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
         let pid: u32 = e.file_name().to_str()?.parse().ok()?;
         let status = std::fs::read_to_string(e.path().join("status")).ok()?;
-        let field = |name: &str| {
-            status
-                .lines()
-                .find_map(|l| l.strip_prefix(name))
-                .map(|v| v.trim().to_string())
-        };
-        (field("PPid:")? == parent.to_string() && field("Name:")? == comm).then_some(pid)
+        let ppid = status.lines().find_map(|l| l.strip_prefix("PPid:"))?.trim();
+        let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
+        (ppid == parent.to_string() && String::from_utf8_lossy(&cmdline).contains(needle))
+            .then_some(pid)
     })
 }
 
@@ -460,43 +457,71 @@ fn alive(pid: u32) -> bool {
         .is_some_and(|zombie| !zombie)
 }
 
-/// An animation stopped while ffmpeg encodes its video (ten minutes of rocking, some 15000
-/// frames): ffmpeg killed, neither the video nor the page written, exit status 130, one line.
+/// An animation and a comparison stopped while ffmpeg encodes their video (ten minutes of
+/// rocking, some 15000 frames): ffmpeg killed and the video removed, exit status 130, one
+/// line; the animation writes no page, the comparison keeps the files it wrote before.
 #[test]
-fn an_animation_stopped_while_its_video_is_encoded_writes_nothing() {
+fn videos_stopped_while_encoded_are_removed_and_ffmpeg_killed() {
     let dir = common::tmp("rb-interrupt", "animate");
+    let slender = common::root().join("validation/scenes/housner-slender.toml");
     let run = dir.join("run");
     common::run_ok(
         common::bin()
             .arg("run")
-            .arg(common::root().join("validation/scenes/housner-slender.toml"))
+            .arg(&slender)
             .args(["--engine", "housner", "--set", "duration=600", "--quiet"])
             .arg("--out")
             .arg(&run),
     );
     let (page, video) = (dir.join("a.html"), dir.join("a.mp4"));
-    let child = common::bin()
+    let compared = dir.join("compare");
+    let mut animate = common::bin();
+    animate
         .arg("animate")
         .arg(&run)
         .arg("--out")
         .arg(&page)
         .arg("--video")
-        .arg(&video)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut ffmpeg = None;
-    wait_for("ffmpeg", || {
-        ffmpeg = child_named(child.id(), "ffmpeg");
-        ffmpeg.is_some()
-    });
-    let (code, err) = signalled(child, libc::SIGINT);
-    assert_eq!(code, Some(130), "{err}");
-    assert_eq!(err.trim(), "error: interrupted; nothing is written");
-    assert!(!ffmpeg.is_some_and(alive), "ffmpeg was left running");
+        .arg(&video);
+    let mut compare = common::bin();
+    compare
+        .arg("compare")
+        .arg(&slender)
+        .args(["--engines", "housner", "--reference", "housner"])
+        .args(["--set", "duration=600", "--quiet", "--video", "--out"])
+        .arg(&compared);
+    let kept = format!(
+        "error: interrupted; {} is written without its video (the same command with --video \
+         writes it again)",
+        compared.display()
+    );
+    for (mut cmd, line) in [
+        (animate, "error: interrupted; nothing is written"),
+        (compare, kept.as_str()),
+    ] {
+        let child = cmd
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // The encoder (`ffmpeg -f rawvideo ...`), not the check that ffmpeg runs at all.
+        let mut ffmpeg = None;
+        wait_for("ffmpeg", || {
+            ffmpeg = child_running(child.id(), "rawvideo");
+            ffmpeg.is_some()
+        });
+        let (code, err) = signalled(child, libc::SIGINT);
+        assert_eq!(code, Some(130), "{line}: {err}");
+        assert_eq!(err.trim(), line);
+        assert!(!ffmpeg.is_some_and(alive), "ffmpeg was left running");
+    }
     assert!(
         !video.exists() && !page.exists(),
         "an interrupted animation wrote files"
+    );
+    assert!(compared.join("report.html").is_file() && compared.join("metrics.csv").is_file());
+    assert!(
+        !compared.join("animation.mp4").exists(),
+        "a partial video was left"
     );
 }

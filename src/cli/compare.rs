@@ -169,7 +169,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
         let tracks = crate::report::animation_tracks(&c);
         let written = crate::report::animate::Animation::new(&c.scene, &tracks)
             .write_video(&path, &crate::interrupt::requested);
-        if interrupt.requested() {
+        if written.is_err() && interrupt.requested() {
             return Err(crate::interrupt::Stopped(format!(
                 "interrupted; {} is written without its video (the same command with \
                  --video writes it again)",

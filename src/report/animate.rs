@@ -729,6 +729,8 @@ impl Animation {
             .wait_with_output()
             .map_err(|e| format!("--video: ffmpeg: {e}"))?;
         if !out.status.success() {
+            // Nothing half-written (an ffmpeg stopped by the terminal's Ctrl-C, or failed).
+            let _ = std::fs::remove_file(path);
             return Err(format!(
                 "--video: ffmpeg failed writing {}: {}",
                 path.display(),

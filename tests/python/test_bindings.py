@@ -289,8 +289,8 @@ def _alive(pid: int) -> bool:
 def test_ctrl_c_stops_the_work_and_raises_keyboard_interrupt(tmp_path: Path, call: str) -> None:
     """A SIGINT while the extension works (GIL released) stops it and raises KeyboardInterrupt,
     not a panic of NumPy's API: a run or a comparison of runs that would take some 1000 s (four
-    hours of rocking at 1e-4 s a step), or a study of 2000 runs, which stops after the runs
-    under way and keeps those done. The process must be done within 60 s of the signal. An
+    hours of rocking at 1e-4 s a step), or a study of 2000 runs, which stops the runs under way
+    and keeps those done. The process must be done within 60 s of the signal. An
     external engine's worker, which the signal sent to the Python process alone does not reach,
     is killed, not left running."""
     scene = tmp_path / "long.toml"
