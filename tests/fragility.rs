@@ -644,7 +644,7 @@ fn the_p695_suites_load_and_check() {
     }
 }
 
-/// The CPU seconds process `pid` has used (utime + stime in /proc, at 100 ticks a second).
+/// The CPU seconds process `pid` has used (utime + stime in /proc, in clock ticks).
 fn cpu_seconds(pid: u32) -> f64 {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
     let fields: Vec<&str> = stat
@@ -652,13 +652,17 @@ fn cpu_seconds(pid: u32) -> f64 {
         .map_or(vec![], |(_, rest)| rest.split_whitespace().collect());
     // After the command's name: state is field 3, utime 14 and stime 15.
     let tick = |k: usize| fields.get(k - 3).and_then(|v| v.parse::<f64>().ok());
-    tick(14).zip(tick(15)).map_or(0.0, |(u, s)| (u + s) / 100.0)
+    // SAFETY: sysconf reads a constant of the system.
+    let per_second = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
+    tick(14)
+        .zip(tick(15))
+        .map_or(0.0, |(u, s)| (u + s) / per_second)
 }
 
 /// Ctrl-C while a run with early stops (a study's default) is under way: the run stops, is
-/// not stored, and the study ends at once. The runs take some ten million native steps each
-/// (dt 1e-7 s), and the signal comes once the study has used half a second of CPU, when its
-/// first run is under way: a run left to finish would be stored.
+/// not stored, and the study ends at once. The native runs take ten million steps a simulated
+/// second (dt 1e-7 s), and the signal comes once the study has used half a second of CPU, when
+/// its first run is under way: a run left to finish would be stored.
 #[test]
 fn a_run_under_way_with_early_stops_stops_on_ctrl_c_and_is_not_stored() {
     let d = tmp("rb-fragility", "interrupt-early");
