@@ -203,7 +203,11 @@ pub fn parse_two_column(text: &str, quantity: Quantity) -> Result<Samples, Strin
         } else {
             line.split_whitespace().collect()
         };
-        let header = may_be_header && cols[0].parse::<f64>().is_err();
+        // A line of separators alone (`,` or `;;`) holds no field, not even a header's.
+        let Some(first_field) = cols.first() else {
+            return Err(format!("line {}: no values: `{line}`", ln + 1));
+        };
+        let header = may_be_header && first_field.parse::<f64>().is_err();
         if !header && cols.contains(&"") {
             return Err(format!("line {}: an empty field: `{line}`", ln + 1));
         }
@@ -540,6 +544,14 @@ mod tests {
         assert!(parse_two_column("time,,acc\n0,0\n0.1,1\n", ACC).is_ok());
         let e = parse_two_column("0,0\n0.1,,0.2\n", ACC).unwrap_err();
         assert_eq!(e, "line 2: an empty field: `0.1,,0.2`");
+        // A line of separators alone, where a header or the first samples may stand.
+        for (text, line) in [
+            (",\n0,0\n0.1,1\n", "line 1: no values: `,`"),
+            ("# acc\n ; ;\n0,0\n", "line 2: no values: `; ;`"),
+            ("0,0\n,,\n0.1,1\n", "line 2: no values: `,,`"),
+        ] {
+            assert_eq!(parse_two_column(text, ACC).unwrap_err(), line, "{text:?}");
+        }
     }
 
     #[test]
