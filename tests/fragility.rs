@@ -646,10 +646,7 @@ fn the_p695_suites_load_and_check() {
 
 /// The CPU seconds process `pid` has used (utime + stime in /proc, in clock ticks).
 fn cpu_seconds(pid: u32) -> f64 {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit_once(')')
-        .map_or(vec![], |(_, rest)| rest.split_whitespace().collect());
+    let fields = common::proc_stat(pid);
     // After the command's name: state is field 3, utime 14 and stime 15.
     let tick = |k: usize| fields.get(k - 3).and_then(|v| v.parse::<f64>().ok());
     // SAFETY: sysconf reads a constant of the system.

@@ -448,13 +448,9 @@ fn child_running(parent: u32, needle: &str) -> Option<u32> {
 
 /// Whether `pid` is a process that has not ended (a zombie has).
 fn alive(pid: u32) -> bool {
-    std::fs::read_to_string(format!("/proc/{pid}/stat"))
-        .ok()
-        .and_then(|s| {
-            s.rsplit_once(')')
-                .map(|(_, rest)| rest.trim_start().starts_with('Z'))
-        })
-        .is_some_and(|zombie| !zombie)
+    common::proc_stat(pid)
+        .first()
+        .is_some_and(|state| state != "Z")
 }
 
 /// An animation and a comparison stopped while ffmpeg encodes their video (ten minutes of

@@ -318,11 +318,11 @@ impl Runner {
             return Err(STOPPED.to_string());
         }
         // The run under way stops too, and what it answered is not kept.
-        let go_on = |_t: f64| {
-            if self.stop.load(Ordering::Relaxed) || crate::interrupt::requested() {
+        let go_on = |t: f64| {
+            if self.stop.load(Ordering::Relaxed) {
                 std::ops::ControlFlow::Break(())
             } else {
-                std::ops::ControlFlow::Continue(())
+                crate::interrupt::go_on_unless_interrupted(t)
             }
         };
         let o = run::run_one_reporting(spec, &go_on).map_err(|e| {

@@ -14,6 +14,18 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The fields of `/proc/PID/stat` after the command's name (the first is the state, field 3
+/// of proc(5)); empty when the process has gone.
+pub fn proc_stat(pid: u32) -> Vec<String> {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| {
+            s.rsplit_once(')')
+                .map(|(_, rest)| rest.split_whitespace().map(String::from).collect())
+        })
+        .unwrap_or_default()
+}
+
 /// A scratch directory, removed when dropped; a test that panics keeps it for inspection
 /// (its path is printed). Derefs to its [`Path`].
 pub struct TmpDir(tempfile::TempDir);
