@@ -5,14 +5,38 @@
 use rockbench::engines::registry::check_scene_str;
 use rockbench::excitation::records::{Quantity, parse_at2, parse_two_column};
 use rockbench::scene::parse_scene_str;
+use rockbench::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
 
+/// The files the suite, study and gate targets find beside their input (its `folder`, the fuzzers'
+/// own, is not used here).
+#[path = "../fuzz/fuzz_targets/fixture.rs"]
+#[allow(dead_code)]
+mod fixture;
+
 fn inputs(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fuzz_regressions")
-        .join(target);
-    let mut v: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
+    files(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fuzz_regressions")
+            .join(target),
+    )
+}
+
+/// A fuzz target's seeds (fuzz/seeds/<target>/): inputs it must accept.
+fn seeds(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
+    files(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fuzz/seeds")
+            .join(target),
+    )
+}
+
+/// Every file of a folder, sorted by path; none for a folder that does not exist.
+fn files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut v: Vec<_> = entries
         .map(|e| e.unwrap().path())
         .map(|p| {
             let b = std::fs::read(&p).unwrap();
@@ -35,6 +59,16 @@ fn scene(target: &str, is_json: bool) -> usize {
         let base = Path::new("/nonexistent-rockbench-fuzz");
         let r = check_scene_str(text, is_json, "fuzz", &[], base);
         assert!(r.is_err(), "{}: expected a refusal", p.display());
+    }
+    for (p, data) in seeds(target) {
+        let text = std::str::from_utf8(&data).unwrap();
+        let r = parse_scene_str(text, is_json, "fuzz", &[]);
+        assert!(
+            r.is_ok(),
+            "{}: seed refused: {}",
+            p.display(),
+            r.unwrap_err()
+        );
     }
     cases.len()
 }
@@ -71,5 +105,91 @@ fn record_regressions() {
                 Err(e) => assert!(!e.contains('\n'), "{}: {e}", p.display()),
             }
         }
+        let good = seeds(target);
+        assert!(!good.is_empty(), "{target}: no seed");
+        for (p, data) in good {
+            let r = parse(&String::from_utf8_lossy(&data));
+            assert!(
+                r.is_ok(),
+                "{}: seed refused: {}",
+                p.display(),
+                r.unwrap_err()
+            );
+        }
+    }
+}
+
+/// The suite, study and gate targets' inputs: the seeds are accepted, the regressions refused
+/// in one line that names the file read.
+#[test]
+fn suite_study_and_gate_regressions_and_seeds() {
+    // Each loader's error as (the file it names, its line).
+    type Load = fn(&Path) -> Result<(), (String, String)>;
+    for (target, load) in [
+        (
+            "suite_manifest",
+            (|p| {
+                rockbench::excitation::suite::load_suite(p)
+                    .map(|_| ())
+                    .map_err(|e| (e.file.clone(), e.to_string()))
+            }) as Load,
+        ),
+        ("study_file", |p| {
+            rockbench::fragility::study::load_study(p)
+                .map(|_| ())
+                .map_err(|e| (e.file.clone(), e.to_string()))
+        }),
+        ("gate_file", |p| {
+            rockbench::gates::load_gates(p)
+                .map(|_| ())
+                .map_err(|e| (e.file.clone(), e.to_string()))
+        }),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        fixture::write_into(dir.path());
+        let name = format!("replayed-{target}.toml");
+        let good = seeds(target);
+        assert!(!good.is_empty(), "{target}: no seed");
+        for (p, data) in good {
+            let r = load(&fixture::input(dir.path(), &name, &data));
+            assert!(r.is_ok(), "{}: refused: {}", p.display(), r.unwrap_err().1);
+        }
+        for (p, data) in inputs(target) {
+            let path = fixture::input(dir.path(), &name, &data);
+            let (file, line) = load(&path).expect_err(&format!("{}: accepted", p.display()));
+            assert!(!line.contains('\n'), "{}: {line}", p.display());
+            // A gate file's error may name a file it includes, all of them in the folder.
+            let named = if target == "gate_file" {
+                Path::new(&file).parent() == Some(dir.path())
+            } else {
+                file == path.display().to_string()
+            };
+            assert!(named, "{}: names another file: {line}", p.display());
+        }
+    }
+}
+
+/// The trajectory target's inputs: the seeds read and write back to themselves, the
+/// regressions are refused in one line.
+#[test]
+fn trajectory_regressions_and_seeds() {
+    let good = seeds("trajectory_csv");
+    assert!(!good.is_empty());
+    for (p, data) in good {
+        let tr = Trajectory::parse_csv(&String::from_utf8_lossy(&data))
+            .unwrap_or_else(|e| panic!("{}: refused: {e}", p.display()));
+        let mut out = Vec::new();
+        tr.write_csv_to(&mut out).unwrap();
+        assert_eq!(
+            Trajectory::parse_csv(std::str::from_utf8(&out).unwrap()).unwrap(),
+            tr,
+            "{}",
+            p.display()
+        );
+    }
+    for (p, data) in inputs("trajectory_csv") {
+        let e = Trajectory::parse_csv(&String::from_utf8_lossy(&data))
+            .expect_err(&format!("{}: accepted", p.display()));
+        assert!(!e.contains('\n'), "{}: {e}", p.display());
     }
 }

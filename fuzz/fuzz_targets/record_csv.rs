@@ -5,7 +5,10 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);
-    match rockbench::excitation::records::parse_two_column(&text, rockbench::excitation::records::Quantity::Acceleration) {
+    match rockbench::excitation::records::parse_two_column(
+        &text,
+        rockbench::excitation::records::Quantity::Acceleration,
+    ) {
         Ok(s) => {
             assert_eq!(s.t.len(), s.v.len());
             assert!(s.t.len() >= 2);

@@ -15,7 +15,8 @@ fuzz_target!(|data: &[u8]| {
     }
     // Format and every check (record files are looked up in an empty directory).
     let base = std::path::Path::new("/nonexistent-rockbench-fuzz");
-    if let Err(e) = rockbench::engines::registry::check_scene_str(text, is_json, "fuzz", &[], base) {
+    if let Err(e) = rockbench::engines::registry::check_scene_str(text, is_json, "fuzz", &[], base)
+    {
         assert!(!e.to_string().contains('\n'), "multi-line error: {e}");
     }
 });
