@@ -4,8 +4,10 @@
 //! outputs, to the bit.
 //!
 //! The checkpoint is CBOR, written whole to a temporary file and renamed over the last one, so
-//! an interruption leaves the previous checkpoint or the new one, never a part. It is refused by
-//! another build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied).
+//! an interruption leaves the previous checkpoint or the new one, never a part. It is sealed
+//! with the SHA-256 of its bytes ([`Sealed`]): a damaged file is refused, where one changed
+//! bit of a number in the state would resume into another answer. It is refused by another
+//! build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied).
 //! The samples go to a file beside it ([`SampleLog`], `FILE.samples`), appended at each write:
 //! a write costs the samples since the last one, not the whole history (a 215-block wall sampled
 //! every step gathers 10 kB a step). The checkpoint keeps the SHA-256 of the samples it counts,
@@ -13,7 +15,7 @@
 
 use super::solver::{Blob, from_bytes, to_bytes};
 use super::stepper::NativeState;
-use crate::digest::hex;
+use crate::digest::{hex, sha256_hex};
 use crate::trajectory::Trajectory;
 use sha2::{Digest, Sha256};
 use std::path::Path;
@@ -51,6 +53,13 @@ pub struct Checkpoint {
     pub wall_s: f64,
 }
 
+/// The checkpoint file: a [`Checkpoint`]'s CBOR bytes and their SHA-256 (hex).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Sealed {
+    sha256: String,
+    checkpoint: Blob,
+}
+
 /// The temporary file a checkpoint is written to before it is renamed over `path`.
 fn part_of(path: &Path) -> std::path::PathBuf {
     let mut tmp = path.as_os_str().to_owned();
@@ -84,7 +93,11 @@ pub fn this_build() -> String {
 impl Checkpoint {
     /// Write to `path` whole (a temporary file beside it, renamed over it).
     pub fn write(&self, path: &Path) -> Result<(), String> {
-        let bytes = to_bytes(self);
+        let checkpoint = to_bytes(self);
+        let bytes = to_bytes(&Sealed {
+            sha256: sha256_hex(&checkpoint),
+            checkpoint: Blob(checkpoint),
+        });
         let tmp = part_of(path);
         let fail = |e: std::io::Error| format!("{}: {e}", path.display());
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -101,8 +114,16 @@ impl Checkpoint {
     /// text as run).
     pub fn read(path: &Path, scene: &str) -> Result<Checkpoint, String> {
         let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let c: Checkpoint = from_bytes(&bytes, "not a rockbench checkpoint")
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let not_one = |e: String| format!("{}: {e}", path.display());
+        let sealed: Sealed = from_bytes(&bytes, "not a rockbench checkpoint").map_err(not_one)?;
+        if sha256_hex(&sealed.checkpoint.0) != sealed.sha256 {
+            return Err(format!(
+                "{}: damaged: its bytes are not those it was written with (their SHA-256 differs)",
+                path.display()
+            ));
+        }
+        let c: Checkpoint =
+            from_bytes(&sealed.checkpoint.0, "not a rockbench checkpoint").map_err(not_one)?;
         if c.build != this_build() {
             return Err(format!(
                 "{}: written by another rockbench build (source hash {}, this build {}): a checkpoint resumes only in the build that wrote it",
