@@ -1,7 +1,9 @@
 //! A content-addressed store of run results: each entry is one JSON file named by the SHA-256
 //! of what produced it (the run's inputs and the program that ran it), written whole or not at
-//! all. Fragility studies, spectra and stability maps keep their runs in one, so that an
-//! interrupted study resumes where it stopped and an unchanged one costs nothing.
+//! all, and sealed with the SHA-256 of its own text, `{"sha256":"...","entry":ENTRY}`: an entry
+//! whose bytes changed on the disk is no entry (the run is made again), never a result read
+//! with a changed number. Fragility studies, spectra and stability maps keep their runs in one,
+//! so that an interrupted study resumes where it stopped and an unchanged one costs nothing.
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -66,14 +68,33 @@ pub fn entry_path(dir: &Path, key: &str) -> PathBuf {
     dir.join(&key[..2]).join(format!("{key}.json"))
 }
 
-/// The entry of `key`, if the store has a whole one that reads as a `T` (none for a string that
-/// is not a key).
+/// The file's text of an entry's JSON text `entry`: the entry sealed with its SHA-256.
+fn seal(entry: &str) -> String {
+    format!(
+        "{SEAL_HEAD}{}{SEAL_MIDDLE}{entry}}}",
+        crate::digest::sha256_hex(entry.as_bytes())
+    )
+}
+
+const SEAL_HEAD: &str = "{\"sha256\":\"";
+const SEAL_MIDDLE: &str = "\",\"entry\":";
+
+/// The entry's JSON text in a file's `text`, if it is sealed and its SHA-256 is the seal's.
+fn unseal(text: &str) -> Option<&str> {
+    let rest = text.strip_prefix(SEAL_HEAD)?;
+    let (sha256, rest) = (rest.get(..64)?, rest.get(64..)?);
+    let entry = rest.strip_prefix(SEAL_MIDDLE)?.strip_suffix('}')?;
+    (crate::digest::sha256_hex(entry.as_bytes()) == sha256).then_some(entry)
+}
+
+/// The entry of `key`, if the store has a whole, undamaged one that reads as a `T` (none for a
+/// string that is not a key).
 pub fn load<T: DeserializeOwned>(dir: &Path, key: &str) -> Option<T> {
     if !is_key(key) {
         return None;
     }
     let text = std::fs::read_to_string(entry_path(dir, key)).ok()?;
-    serde_json::from_str::<T>(&text).ok()
+    serde_json::from_str::<T>(unseal(&text)?).ok()
 }
 
 /// Store an entry: written to a temporary file unique to this process and thread, then renamed
@@ -100,7 +121,7 @@ pub fn store<T: Serialize>(dir: &Path, key: &str, entry: &T) -> Result<(), Strin
         std::process::id(),
         SEQ.fetch_add(1, Ordering::Relaxed)
     ));
-    let text = serde_json::to_string(entry).expect("entries serialise");
+    let text = seal(&serde_json::to_string(entry).expect("entries serialise"));
     std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
     std::fs::rename(&tmp, &path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
@@ -163,9 +184,21 @@ mod tests {
         assert_eq!(load::<Vec<f64>>(&dir, &k), Some(vec![1.0, 2.5]));
         // An entry that does not read as the type asked for is no entry.
         assert_eq!(load::<String>(&dir, &k), None);
-        // A truncated entry is no entry.
-        std::fs::write(entry_path(&dir, &k), "[1.0, 2").unwrap();
+        // The file is the entry sealed with its SHA-256, itself JSON.
+        let text = std::fs::read_to_string(entry_path(&dir, &k)).unwrap();
+        let sealed: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(sealed["entry"], serde_json::json!([1.0, 2.5]));
+        assert_eq!(sealed["sha256"], crate::digest::sha256_hex(b"[1.0,2.5]"));
+        // A number changed on the disk (2.5 -> 2.4), with or without its seal, is no entry.
+        std::fs::write(entry_path(&dir, &k), text.replace("2.5", "2.4")).unwrap();
         assert_eq!(load::<Vec<f64>>(&dir, &k), None);
+        std::fs::write(entry_path(&dir, &k), "[1.0,2.4]").unwrap();
+        assert_eq!(load::<Vec<f64>>(&dir, &k), None);
+        // A truncated entry is no entry.
+        std::fs::write(entry_path(&dir, &k), &text[..text.len() - 2]).unwrap();
+        assert_eq!(load::<Vec<f64>>(&dir, &k), None);
+        std::fs::write(entry_path(&dir, &k), &text).unwrap();
+        assert_eq!(load::<Vec<f64>>(&dir, &k), Some(vec![1.0, 2.5]));
         assert!(store(&dir, "../escape", &1).is_err());
         assert_eq!(load::<i32>(&dir, "../escape"), None);
         std::fs::remove_dir_all(&dir).unwrap();

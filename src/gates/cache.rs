@@ -1,4 +1,7 @@
-//! The run cache of the gates: one directory per run, named by a content hash.
+//! The run cache of the gates: one directory per run, named by a content hash. An entry's
+//! files are served only as they were stored: `contents.sha256` (the format of `sha256sum`)
+//! holds the SHA-256 of the trajectory, the summary and the exact impacts, and an entry one of
+//! whose files was cut or changed is run again.
 
 use crate::compare::{EngineRun, Status, run_engine_reporting};
 use crate::digest::sha256_hex;
@@ -11,7 +14,7 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Bumped when the layout of a cache entry changes.
-const CACHE_FORMAT: u32 = 2;
+const CACHE_FORMAT: u32 = 3;
 
 pub struct RunCache {
     dir: Option<PathBuf>,
@@ -101,19 +104,29 @@ impl RunCache {
     }
 }
 
+/// The files of an entry that `contents.sha256` seals, in its order.
+const SEALED: [&str; 3] = ["trajectory.csv", "summary.json", "exact_impacts.json"];
+
+/// `contents.sha256` of an entry's files' bytes (in [`SEALED`]'s order).
+fn contents_sha256(files: &[&[u8]; 3]) -> String {
+    SEALED
+        .iter()
+        .zip(files)
+        .map(|(name, bytes)| format!("{}  {name}\n", sha256_hex(bytes)))
+        .collect()
+}
+
 fn load(entry: &Path, engine: &str) -> Option<EngineRun> {
-    let summary: Summary =
-        serde_json::from_str(&std::fs::read_to_string(entry.join("summary.json")).ok()?).ok()?;
-    // The trajectory as it was stored, to the byte (a cut or altered file is not served).
-    let csv = std::fs::read(entry.join("trajectory.csv")).ok()?;
-    let digest = std::fs::read_to_string(entry.join("trajectory.sha256")).ok()?;
-    if digest.trim() != sha256_hex(&csv) {
+    // The files as they were stored, to the byte (a cut or altered file is not served).
+    let [csv, summary, impacts] = SEALED.map(|f| std::fs::read(entry.join(f)).ok());
+    let (csv, summary, impacts) = (csv?, summary?, impacts?);
+    let sealed = std::fs::read_to_string(entry.join("contents.sha256")).ok()?;
+    if sealed != contents_sha256(&[&csv, &summary, &impacts]) {
         return None;
     }
+    let summary: Summary = serde_json::from_slice(&summary).ok()?;
     let trajectory = Trajectory::parse_csv(std::str::from_utf8(&csv).ok()?).ok()?;
-    let exact_impacts: Option<Vec<Vec<f64>>> =
-        serde_json::from_str(&std::fs::read_to_string(entry.join("exact_impacts.json")).ok()?)
-            .ok()?;
+    let exact_impacts: Option<Vec<Vec<f64>>> = serde_json::from_slice(&impacts).ok()?;
     Some(EngineRun {
         engine: engine.to_string(),
         status: Status::Ok,
@@ -147,16 +160,13 @@ fn store(entry: &Path, engine: &str, scene: &Scene, r: &EngineRun) -> std::io::R
     std::fs::create_dir_all(&tmp)?;
     let mut csv = Vec::new();
     out.trajectory.write_csv_to(&mut csv)?;
-    std::fs::write(tmp.join("trajectory.csv"), &csv)?;
-    std::fs::write(tmp.join("trajectory.sha256"), sha256_hex(&csv) + "\n")?;
-    std::fs::write(
-        tmp.join("summary.json"),
-        serde_json::to_string_pretty(summary).expect("summaries serialise"),
-    )?;
-    std::fs::write(
-        tmp.join("exact_impacts.json"),
-        serde_json::to_string(&out.exact_impacts).expect("impacts serialise"),
-    )?;
+    let summary = serde_json::to_string_pretty(summary).expect("summaries serialise");
+    let impacts = serde_json::to_string(&out.exact_impacts).expect("impacts serialise");
+    let files: [&[u8]; 3] = [&csv, summary.as_bytes(), impacts.as_bytes()];
+    for (name, bytes) in SEALED.iter().zip(files) {
+        std::fs::write(tmp.join(name), bytes)?;
+    }
+    std::fs::write(tmp.join("contents.sha256"), contents_sha256(&files))?;
     std::fs::write(
         tmp.join("key.json"),
         serde_json::to_string_pretty(&key_json(engine, scene)).expect("keys serialise"),
@@ -220,7 +230,8 @@ mod tests {
         assert_eq!(first.summary, again.summary);
 
         // A stored trajectory cut short, or with a value changed, is run again.
-        let csv = dir.join(run_key("housner", &scene)).join("trajectory.csv");
+        let entry = dir.join(run_key("housner", &scene));
+        let csv = entry.join("trajectory.csv");
         let text = std::fs::read_to_string(&csv).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         let cut = lines[..lines.len() / 2].join("\n") + "\n";
@@ -235,5 +246,43 @@ mod tests {
             assert_eq!(r.output.unwrap().trajectory, b.trajectory);
             assert_eq!(std::fs::read_to_string(&csv).unwrap(), text, "not replaced");
         }
+        // So is an entry whose exact impact instants or summary changed by one digit, or
+        // whose seal is gone.
+        let impacts = entry.join("exact_impacts.json");
+        let stored = std::fs::read_to_string(&impacts).unwrap();
+        let digit = stored
+            .find(|c: char| c.is_ascii_digit() && c != '0')
+            .unwrap();
+        let mut changed = stored.clone();
+        changed.replace_range(digit..digit + 1, "0");
+        std::fs::write(&impacts, &changed).unwrap();
+        let r = cache.run("housner", &scene);
+        assert!(
+            !r.cached,
+            "a changed impact instant was served from the cache"
+        );
+        assert_eq!(r.output.unwrap().exact_impacts, b.exact_impacts);
+        assert_eq!(std::fs::read_to_string(&impacts).unwrap(), stored);
+        let summary = entry.join("summary.json");
+        let stored = std::fs::read_to_string(&summary).unwrap();
+        std::fs::write(&summary, stored.replacen("\"steps\": ", "\"steps\": 1", 1)).unwrap();
+        assert!(
+            !cache.run("housner", &scene).cached,
+            "a changed summary was served"
+        );
+        // Replaced by the new run's (its wall time aside).
+        let without_wall = |text: &str| {
+            let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
+            v.as_object_mut().unwrap().remove("wall_time_s");
+            v
+        };
+        let now = std::fs::read_to_string(&summary).unwrap();
+        assert_eq!(without_wall(&now), without_wall(&stored));
+        std::fs::remove_file(entry.join("contents.sha256")).unwrap();
+        assert!(
+            !cache.run("housner", &scene).cached,
+            "an unsealed entry was served"
+        );
+        assert!(cache.run("housner", &scene).cached);
     }
 }
