@@ -8,10 +8,8 @@ use rockbench::scene::parse_scene_str;
 use rockbench::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
 
-/// The files the suite, study and gate targets find beside their input (its `folder`, the fuzzers'
-/// own, is not used here).
+/// The files the suite, study and gate targets find beside their input.
 #[path = "../fuzz/fuzz_targets/fixture.rs"]
-#[allow(dead_code)]
 mod fixture;
 
 fn inputs(target: &str) -> Vec<(PathBuf, Vec<u8>)> {

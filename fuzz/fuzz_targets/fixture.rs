@@ -1,6 +1,8 @@
 //! The files a suite manifest or a study names: a scene, a two-column CSV record, a PEER .AT2
 //! record and a valid suite of the two. The fuzz targets write their input beside them in a
 //! folder of the process's own; tests/fuzz_regressions.rs replays in a temporary folder.
+// Each target, and the replay, uses a part of it.
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -42,4 +44,14 @@ pub fn folder() -> &'static Path {
         write_into(&dir);
         dir
     })
+}
+
+/// A loader's refusal of `input`: one line, naming `input` as its file.
+pub fn assert_one_line_naming(input: &Path, file: &str, line: &str) {
+    assert!(!line.contains('\n'), "multi-line error: {line}");
+    assert_eq!(
+        file,
+        input.display().to_string(),
+        "names another file: {line}"
+    );
 }

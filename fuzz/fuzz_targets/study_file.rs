@@ -16,13 +16,6 @@ fuzz_target!(|data: &[u8]| {
             assert!(!levels.is_empty() && levels.iter().all(|l| l.is_finite() && *l > 0.0));
             assert!(s.file.tail.is_finite() && s.file.tail >= 0.0);
         }
-        Err(e) => {
-            assert!(!e.to_string().contains('\n'), "multi-line error: {e}");
-            assert_eq!(
-                e.file,
-                path.display().to_string(),
-                "names another file: {e}"
-            );
-        }
+        Err(e) => fixture::assert_one_line_naming(&path, &e.file, &e.to_string()),
     }
 });

@@ -31,13 +31,6 @@ fuzz_target!(|data: &[u8]| {
                 assert_eq!(r.sha256.len(), 64);
             }
         }
-        Err(e) => {
-            assert!(!e.to_string().contains('\n'), "multi-line error: {e}");
-            assert_eq!(
-                e.file,
-                path.display().to_string(),
-                "names another file: {e}"
-            );
-        }
+        Err(e) => fixture::assert_one_line_naming(&path, &e.file, &e.to_string()),
     }
 });
