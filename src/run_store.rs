@@ -68,6 +68,10 @@ pub fn entry_path(dir: &Path, key: &str) -> PathBuf {
     dir.join(&key[..2]).join(format!("{key}.json"))
 }
 
+/// What comes before an entry's SHA-256 in its file, and between that and the entry.
+const SEAL_HEAD: &str = "{\"sha256\":\"";
+const SEAL_MIDDLE: &str = "\",\"entry\":";
+
 /// The file's text of an entry's JSON text `entry`: the entry sealed with its SHA-256.
 fn seal(entry: &str) -> String {
     format!(
@@ -75,9 +79,6 @@ fn seal(entry: &str) -> String {
         crate::digest::sha256_hex(entry.as_bytes())
     )
 }
-
-const SEAL_HEAD: &str = "{\"sha256\":\"";
-const SEAL_MIDDLE: &str = "\",\"entry\":";
 
 /// The entry's JSON text in a file's `text`, if it is sealed and its SHA-256 is the seal's.
 fn unseal(text: &str) -> Option<&str> {

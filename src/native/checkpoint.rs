@@ -114,8 +114,8 @@ impl Checkpoint {
     /// text as run).
     pub fn read(path: &Path, scene: &str) -> Result<Checkpoint, String> {
         let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let not_one = |e: String| format!("{}: {e}", path.display());
-        let sealed: Sealed = from_bytes(&bytes, "not a rockbench checkpoint").map_err(not_one)?;
+        let in_file = |e: String| format!("{}: {e}", path.display());
+        let sealed: Sealed = from_bytes(&bytes, "not a rockbench checkpoint").map_err(in_file)?;
         if sha256_hex(&sealed.checkpoint.0) != sealed.sha256 {
             return Err(format!(
                 "{}: damaged: its bytes are not those it was written with (their SHA-256 differs)",
@@ -123,7 +123,7 @@ impl Checkpoint {
             ));
         }
         let c: Checkpoint =
-            from_bytes(&sealed.checkpoint.0, "not a rockbench checkpoint").map_err(not_one)?;
+            from_bytes(&sealed.checkpoint.0, "not a rockbench checkpoint").map_err(in_file)?;
         if c.build != this_build() {
             return Err(format!(
                 "{}: written by another rockbench build (source hash {}, this build {}): a checkpoint resumes only in the build that wrote it",
