@@ -73,7 +73,7 @@ const SEAL_HEAD: &str = "{\"sha256\":\"";
 const SEAL_MIDDLE: &str = "\",\"entry\":";
 
 /// The file's text of an entry's JSON text `entry`: the entry sealed with its SHA-256.
-fn seal(entry: &str) -> String {
+pub fn seal(entry: &str) -> String {
     format!(
         "{SEAL_HEAD}{}{SEAL_MIDDLE}{entry}}}",
         crate::digest::sha256_hex(entry.as_bytes())
