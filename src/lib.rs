@@ -44,6 +44,7 @@ pub mod fragility;
 pub mod gallery;
 pub mod gates;
 pub mod geometry;
+pub mod input_file;
 pub mod instructions;
 pub mod interrupt;
 pub mod invariants;

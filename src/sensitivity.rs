@@ -363,7 +363,7 @@ impl Study {
     /// The first line of `runs.csv`: what makes two studies' runs comparable (the scene's
     /// text and the record files it reads, hashed).
     fn parameters(&self) -> anyhow::Result<String> {
-        let text = std::fs::read_to_string(&self.scene)
+        let text = crate::input_file::read_to_string(&self.scene)
             .with_context(|| format!("cannot read {}", self.scene.display()))?;
         let base = load_scene_with_overrides(&self.scene, &self.sets)?;
         let records = serde_json::to_string(&base.record_hashes()).expect("hashes serialise");
@@ -544,7 +544,7 @@ fn drop_unfinished_line(path: &Path) -> anyhow::Result<()> {
 /// last line (no line end) is not a run; a run given twice, a block index beyond the scene's or
 /// a displacement that is not finite is an error naming the line.
 fn read_runs(path: &Path, parameters: &str, n_blocks: usize) -> anyhow::Result<Vec<Run>> {
-    let text = match std::fs::read_to_string(path) {
+    let text = match crate::input_file::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => bail!("cannot read {}: {e}", path.display()),

@@ -526,7 +526,7 @@ impl KnownList {
     /// is an error naming it, as is an entry given twice.
     pub fn load(path: &Path) -> Result<KnownList, String> {
         let at = |field: &str, m: String| format!("{}: {field}: {m}", path.display());
-        let text = std::fs::read_to_string(path)
+        let text = crate::input_file::read_to_string(path)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
         let table: toml::Table = toml::from_str(&text).map_err(|e| {
             let (line, message) = crate::scene::toml_error_at(&text, &e, "(file)");

@@ -153,7 +153,7 @@ impl Trajectory {
 
     /// Read a `trajectory.csv` (as written by any engine). Errors name the line.
     pub fn read_csv(path: &Path) -> Result<Trajectory, String> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::input_file::read_to_string(path)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
         Self::parse_csv(&text).map_err(|e| format!("{}: {e}", path.display()))
     }

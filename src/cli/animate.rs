@@ -32,7 +32,7 @@ pub struct AnimateArgs {
 
 fn read_run(dir: &Path) -> Result<(Summary, Trajectory)> {
     let sp = dir.join("summary.json");
-    let text = std::fs::read_to_string(&sp).map_err(|e| {
+    let text = crate::input_file::read_to_string(&sp).map_err(|e| {
         anyhow::anyhow!(
             "{}: cannot read ({e}); is it a `rockbench run` output directory?",
             sp.display()
@@ -54,7 +54,7 @@ fn run_scene(dir: &Path, summary: &Summary) -> Result<Option<serde_json::Value>>
     if !p.is_file() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&p)
+    let text = crate::input_file::read_to_string(&p)
         .map_err(|e| anyhow::anyhow!("{}: cannot read ({e})", p.display()))?;
     let scene: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| anyhow::anyhow!("{}: not a scene's JSON: {e}", p.display()))?;
@@ -113,7 +113,7 @@ fn check_run(
 ) -> Result<()> {
     let csv = dir.join("trajectory.csv");
     if !summary.trajectory_sha256.is_empty() {
-        let bytes = std::fs::read(&csv)
+        let bytes = crate::input_file::read(&csv)
             .map_err(|e| anyhow::anyhow!("{}: cannot read ({e})", csv.display()))?;
         if crate::digest::sha256_hex(&bytes) != summary.trajectory_sha256 {
             bail!(

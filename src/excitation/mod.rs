@@ -547,7 +547,7 @@ fn component(scene: &Scene, m: &MotionSpec, field: &str) -> Result<Component, Sc
 }
 
 fn read(path: &std::path::Path, file: &str, field: &str) -> Result<String, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    let text = crate::input_file::read_to_string(path).map_err(|e| {
         SceneError::new(
             file,
             format!("{field}.file"),

@@ -129,7 +129,7 @@ pub fn peaks(s: &records::Samples, unit: f64) -> (f64, f64) {
 /// Read and check a suite manifest and every record it names.
 pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
+    let text = crate::input_file::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "suite", format!("cannot read the manifest: {e}")))?;
     let m: ManifestFile = crate::scene::toml_fields(&file, &text, "suite")?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
@@ -165,7 +165,7 @@ pub fn load_suite(path: &Path) -> Result<Suite, SceneError> {
                 RecordFormat::Csv
             }
         });
-        let bytes = std::fs::read(&fpath)
+        let bytes = crate::input_file::read(&fpath)
             .map_err(|e| err("file", format!("cannot read {}: {e}", fpath.display())))?;
         let text = String::from_utf8(bytes.clone())
             .map_err(|_| err("file", format!("{} is not UTF-8 text", fpath.display())))?;

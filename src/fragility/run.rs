@@ -195,7 +195,7 @@ impl RunSpec {
         else {
             return Ok(());
         };
-        let bytes = std::fs::read(file)
+        let bytes = crate::input_file::read(std::path::Path::new(file))
             .map_err(|e| EngineError::Io(format!("record {}: {file}: {e}", self.record_id)))?;
         let found = crate::digest::sha256_hex(&bytes);
         if found != self.record_sha256 {

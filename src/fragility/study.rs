@@ -243,7 +243,7 @@ pub const MAX_BOOTSTRAP: usize = 1_000_000;
 /// Read and check a study and everything it names.
 pub fn load_study(path: &Path) -> Result<Study, SceneError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
+    let text = crate::input_file::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "study", format!("cannot read the study: {e}")))?;
     let f: StudyFile = crate::scene::toml_fields(&file, &text, "study")?;
     let err = |field: &str, msg: String| SceneError::new(&file, field, msg);

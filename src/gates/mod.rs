@@ -145,7 +145,7 @@ fn load_gates_nested(path: &Path, depth: usize) -> Result<Vec<Gate>, GateError> 
         field,
         message,
     };
-    let text = std::fs::read_to_string(path)
+    let text = crate::input_file::read_to_string(path)
         .map_err(|e| err("(file)".into(), format!("cannot read: {e}")))?;
     let table: toml::Table = toml::from_str(&text).map_err(|e| {
         let (line, message) = crate::scene::toml_error_at(&text, &e, "(file)");

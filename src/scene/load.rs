@@ -22,7 +22,7 @@ pub fn load_scene_checked(
     tables: Option<super::TableCheck>,
 ) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
+    let text = crate::input_file::read_to_string(path)
         .map_err(|e| SceneError::new(&file, "(file)", format!("cannot read: {e}")))?;
     let is_json = path
         .extension()

@@ -529,7 +529,7 @@ impl Scene {
     pub fn record_hashes(&self) -> serde_json::Map<String, serde_json::Value> {
         let mut records = serde_json::Map::new();
         for p in self.record_files() {
-            let h = std::fs::read(&p)
+            let h = crate::input_file::read(&p)
                 .map(|b| crate::digest::sha256_hex(&b))
                 .unwrap_or_else(|e| format!("unreadable: {e}"));
             records.insert(p.display().to_string(), h.into());

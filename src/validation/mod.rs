@@ -107,7 +107,7 @@ pub fn load_suite(path: &Path) -> Result<Vec<Case>, SuiteError> {
         field,
         message,
     };
-    let text = std::fs::read_to_string(path)
+    let text = crate::input_file::read_to_string(path)
         .map_err(|e| err("(file)".into(), format!("cannot read: {e}")))?;
     let value: toml::Value = toml::from_str(&text).map_err(|e| {
         err(
