@@ -50,7 +50,7 @@ fn read_at_most(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
 /// `bytes` in GiB where it is a whole number of them.
 fn size(bytes: u64) -> String {
     const GIB: u64 = 1 << 30;
-    if bytes >= GIB && bytes % GIB == 0 {
+    if bytes >= GIB && bytes.is_multiple_of(GIB) {
         format!("{} GiB", bytes / GIB)
     } else {
         format!("{bytes} bytes")
@@ -68,7 +68,10 @@ mod tests {
         let text = "0,0\n0.01,1.5\n".repeat(1000);
         std::fs::write(&p, &text).unwrap();
         assert_eq!(read_to_string(&p).unwrap(), text);
-        assert_eq!(read_at_most(&p, text.len() as u64).unwrap(), text.as_bytes());
+        assert_eq!(
+            read_at_most(&p, text.len() as u64).unwrap(),
+            text.as_bytes()
+        );
     }
 
     #[test]

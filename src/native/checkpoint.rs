@@ -113,7 +113,8 @@ impl Checkpoint {
     /// Read `path`, which must have been written by this build for `scene` (the scene's JSON
     /// text as run).
     pub fn read(path: &Path, scene: &str) -> Result<Checkpoint, String> {
-        let bytes = crate::input_file::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bytes =
+            crate::input_file::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let in_file = |e: String| format!("{}: {e}", path.display());
         let sealed: Sealed = from_bytes(&bytes, "not a rockbench checkpoint").map_err(in_file)?;
         if sha256_hex(&sealed.checkpoint.0) != sealed.sha256 {
