@@ -370,23 +370,10 @@ pub fn bench(
 
 /// What made the timings: the program, each engine's version, the machine and the date.
 fn provenance_md(rows: &[BenchRow], prov: &Provenance) -> String {
-    let mut md = format!("\n## Provenance\n\n- {}\n", prov.program());
-    let mut engines: Vec<(&str, &str)> = rows
-        .iter()
-        .filter_map(|r| Some((r.engine.as_str(), r.engine_version.as_deref()?)))
-        .collect();
-    engines.sort_unstable();
-    engines.dedup();
-    for (engine, version) in engines {
-        let _ = writeln!(md, "- engine `{engine}`: {version}");
-    }
-    let _ = writeln!(
-        md,
-        "- machine: {}\n- date (UTC): {}",
-        prov.machine(),
-        prov.date
-    );
-    md
+    prov.markdown(
+        rows.iter()
+            .filter_map(|r| Some((r.engine.as_str(), r.engine_version.as_deref()?))),
+    )
 }
 
 fn opt(x: Option<f64>) -> String {

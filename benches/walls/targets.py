@@ -14,7 +14,10 @@ the same runs:
   length").
 
 It prints, and writes to DIR/targets.md, one row a target: what was measured and whether it
-is met. The targets (docs/walls.md):
+is met, and below the table what made the figures, from each series' `provenance.json`: the
+program (commit and sources), each engine's version, the machine and when each series ran.
+Series made by different programs or on different machines are named apart, so that a table
+of mixed runs says so. The targets (docs/walls.md):
 
 - the 215-block wall at most `WALL_215_MS` a step, no slower than rapier, no fallback;
 - the standing series' cost growing with log-log slope at most `SLOPE` in the blocks;
@@ -30,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -121,6 +125,64 @@ def load(directory: Path) -> Series:
     return Series(rows, slopes)
 
 
+@dataclass
+class MadeBy:
+    """What made a series' timings (`bench_dynamic`'s `provenance.json`)."""
+
+    program: str
+    machine: str
+    date: str
+    engines: dict[str, str]
+
+
+def made_by(directory: Path) -> MadeBy:
+    path = directory / "provenance.json"
+    try:
+        data = json.loads(path.read_text())
+    except OSError as e:
+        raise BadRun(f"{path}: {e.strerror or e}") from None
+    except json.JSONDecodeError as e:
+        raise BadRun(f"{path}: not JSON ({e.msg}, line {e.lineno})") from None
+    try:
+        p = data["provenance"]
+        engines = data["engine_versions"]
+        made = MadeBy(
+            program=f"rockbench {p['rockbench_version']} (commit {p['git_commit']}, "
+            f"sources {p['source_hash']})",
+            machine=f"{p['hostname']} ({p['cpu']}, {p['cores']} cores), {p['os']}",
+            date=p["date"],
+            engines={str(e): str(v) for e, v in engines.items()},
+        )
+    except (KeyError, TypeError, AttributeError) as e:
+        raise BadRun(f"{path}: not bench_dynamic's provenance (no {e})") from None
+    return made
+
+
+def provenance(directory: Path) -> str:
+    """The Markdown section below the table: one line for what every series shares, and the
+    series named apart where they differ."""
+    made = {name: made_by(directory / name) for name in SERIES}
+    lines = ["", "## Provenance", ""]
+
+    def one_or_each(what: str, value) -> None:
+        values = {name: value(m) for name, m in made.items()}
+        if len(set(values.values())) == 1:
+            lines.append(f"- {what}: {next(iter(values.values()))}")
+        else:
+            lines.append(f"- {what}, differing between the series:")
+            lines.extend(f"  - `{name}`: {v}" for name, v in values.items())
+
+    one_or_each("program", lambda m: m.program)
+    engines = sorted({e for m in made.values() for e in m.engines})
+    for engine in engines:
+        one_or_each(f"engine `{engine}`", lambda m, e=engine: m.engines.get(e, "not run"))
+    one_or_each("machine", lambda m: m.machine)
+    lines.append(
+        "- series run (UTC): " + ", ".join(f"`{name}` {m.date}" for name, m in made.items())
+    )
+    return "\n".join(lines) + "\n"
+
+
 def verdict(met: bool) -> str:
     return "met" if met else "not met"
 
@@ -199,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("directory", type=Path, help="where the four series were written")
     args = parser.parse_args(argv)
     try:
-        text = markdown(targets(args.directory))
+        text = markdown(targets(args.directory)) + provenance(args.directory)
     except BadRun as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

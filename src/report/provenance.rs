@@ -45,6 +45,23 @@ impl Provenance {
         )
     }
 
+    /// The `## Provenance` section of a table of timings: the program, each engine's version
+    /// (`(engine, version)`, listed once each in order of name), the machine and the date.
+    pub fn markdown<'a>(&self, engines: impl IntoIterator<Item = (&'a str, &'a str)>) -> String {
+        let mut engines: Vec<(&str, &str)> = engines.into_iter().collect();
+        engines.sort_unstable();
+        engines.dedup();
+        let mut md = format!("\n## Provenance\n\n- {}\n", self.program());
+        for (engine, version) in engines {
+            md += &format!("- engine `{engine}`: {version}\n");
+        }
+        md + &format!(
+            "- machine: {}\n- date (UTC): {}\n",
+            self.machine(),
+            self.date
+        )
+    }
+
     pub fn collect(command: &str) -> Provenance {
         let hostname = std::fs::read_to_string("/proc/sys/kernel/hostname")
             .or_else(|_| std::fs::read_to_string("/etc/hostname"))

@@ -1,9 +1,10 @@
 """`benches/walls/targets.py`: each of issue 14's targets is judged from the series
-`bench_dynamic` writes, on either side of its threshold, and a series it cannot read is one line
-naming the file, with nothing written."""
+`bench_dynamic` writes, on either side of its threshold, the table names what made its figures,
+and a series it cannot read is one line naming the file, with nothing written."""
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -22,6 +23,24 @@ RUNS_HEADER = (
 GROWTH_HEADER = "engine,against,walls,slope,std_error,end_to_end,local_min,local_max"
 
 
+def provenance(commit: str = "abc123", date: str = "2026-12-07T20:00:00Z") -> dict:
+    """`bench_dynamic`'s `provenance.json`."""
+    return {
+        "provenance": {
+            "rockbench_version": "0.1.0",
+            "git_commit": commit,
+            "source_hash": "0123456789abcdef",
+            "hostname": "bench",
+            "cpu": "AMD EPYC",
+            "cores": 2,
+            "os": "Debian GNU/Linux 13",
+            "date": date,
+            "command": "bench_dynamic --courses 10",
+        },
+        "engine_versions": {"native": "rockbench 0.1.0", "rapier": "rapier2d-f64 0.23.0"},
+    }
+
+
 def series(
     directory: Path,
     runs: list[tuple[int, str, float, str]],
@@ -36,6 +55,7 @@ def series(
     (directory / "dynamic.csv").write_text("\n".join(lines) + "\n")
     lines = [GROWTH_HEADER] + [f"{e},{a},5,{s},0.01,{s},{s},{s}" for e, a, s in slopes]
     (directory / "growth.csv").write_text("\n".join(lines) + "\n")
+    (directory / "provenance.json").write_text(json.dumps(provenance()))
 
 
 def bench(
@@ -126,6 +146,27 @@ def test_the_table_is_written_beside_the_series(
     written = (root / "targets.md").read_text()
     assert written == capsys.readouterr().out
     assert written.count("| met |") == 8
+    # Below the table, what made the figures: the four series share all of it.
+    made_by = written[written.index("## Provenance") :].splitlines()
+    assert made_by[2:7] == [
+        "- program: rockbench 0.1.0 (commit abc123, sources 0123456789abcdef)",
+        "- engine `native`: rockbench 0.1.0",
+        "- engine `rapier`: rapier2d-f64 0.23.0",
+        "- machine: bench (AMD EPYC, 2 cores), Debian GNU/Linux 13",
+        "- series run (UTC): `wall-215` 2026-12-07T20:00:00Z, `standing` 2026-12-07T20:00:00Z, "
+        "`sliding` 2026-12-07T20:00:00Z, `long` 2026-12-07T20:00:00Z",
+    ]
+
+
+def test_series_made_by_different_programs_are_named_apart(tmp_path: Path) -> None:
+    root = bench(tmp_path / "b", 0.9, 1.5, 1.1, 1.1, 4.0)
+    (root / "sliding" / "provenance.json").write_text(json.dumps(provenance(commit="def456")))
+    text = targets.provenance(root)
+    assert "- program, differing between the series:" in text
+    assert "  - `sliding`: rockbench 0.1.0 (commit def456, sources 0123456789abcdef)" in text
+    assert "  - `long`: rockbench 0.1.0 (commit abc123, sources 0123456789abcdef)" in text
+    # What they share stays one line.
+    assert "- machine: bench (AMD EPYC, 2 cores), Debian GNU/Linux 13" in text
 
 
 @pytest.mark.parametrize(
@@ -152,6 +193,18 @@ def test_the_table_is_written_beside_the_series(
         (
             lambda r: (r / "long" / "dynamic.csv").unlink(),
             "long/dynamic.csv: No such file or directory",
+        ),
+        (
+            lambda r: (r / "standing" / "provenance.json").unlink(),
+            "standing/provenance.json: No such file or directory",
+        ),
+        (
+            lambda r: (r / "wall-215" / "provenance.json").write_text("{"),
+            "wall-215/provenance.json: not JSON",
+        ),
+        (
+            lambda r: (r / "long" / "provenance.json").write_text('{"provenance": {}}'),
+            "long/provenance.json: not bench_dynamic's provenance (no 'engine_versions')",
         ),
     ],
 )
