@@ -371,7 +371,7 @@ bench-walls-in-motion:
 # pulse for 0.2 s, 0.5 s) against the sliding block's closed form: cost a step and the largest
 # error of a block's final displacement, the native engine's settings and laws and rapier's, each
 # at several steps, each on three round-off paths (one path of the 64-block wall cost a quarter
-# less than four others); out/bench-walls-sliding-whole (results.csv, a work-precision figure per wall).
+# less than four others); out/bench-walls-sliding-whole (results.csv, results.md with the provenance of its timings, a work-precision figure per wall).
 # About 10 minutes (docs/walls.md, "A wall that slides whole").
 bench-walls-sliding-whole:
 	$(CARGO) run --release --example wall_sliding_whole -- --courses 3,10,20 --paths 3 --out out/bench-walls-sliding-whole

@@ -668,11 +668,11 @@ fn benchmark() -> anyhow::Result<()> {
 /// each engine's version once, the machine, the date) and `provenance.json` (the same and the
 /// command). `versions`: `(engine, version)` of every finished run.
 fn made_by(provenance: &Provenance, versions: &[(String, String)]) -> (String, serde_json::Value) {
-    let md = provenance.markdown(versions.iter().map(|(e, v)| (&e[..], &v[..])));
-    let by_engine: std::collections::BTreeMap<&str, &str> =
-        versions.iter().map(|(e, v)| (&e[..], &v[..])).collect();
-    let json = serde_json::json!({ "provenance": provenance, "engine_versions": by_engine });
-    (md, json)
+    let engines = || versions.iter().map(|(e, v)| (&e[..], &v[..]));
+    (
+        provenance.markdown(engines()),
+        provenance.json_with_engines(engines()),
+    )
 }
 
 /// A finished run, for the growth section.

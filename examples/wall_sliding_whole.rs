@@ -8,7 +8,9 @@
 //! its base falls short) are written to `OUT/results.csv` and as a table on stdout, and each
 //! wall's work-precision figure (largest error against the wall time for the 0.5 s, one curve
 //! per configuration through its step sizes) to `OUT/work_precision_BLOCKS.svg`
-//! (docs/walls.md, "A wall that slides whole, against its closed form").
+//! (docs/walls.md, "A wall that slides whole, against its closed form"). The table, also in
+//! `OUT/results.md`, ends with what made its timings (the program's commit and sources, each
+//! engine's version, the machine, the date), which `OUT/provenance.json` holds with the command.
 //!
 //! A sliding wall's path is decided at round-off, and so is its cost: `--paths K` runs every
 //! configuration on K paths, the pulse's amplitude times `1 + k 1e-12` (k = 0 .. K-1), as the
@@ -24,6 +26,7 @@ use flags::{arg, check_flags};
 use rockbench::bench::{ConfigPoint, configs_plot, median};
 use rockbench::engines::{engine_by_name, run_timed};
 use rockbench::loglog;
+use rockbench::report::provenance::Provenance;
 use rockbench::scene::parse_scene_str;
 use rockbench::sensitivity::parse_configs;
 use rockbench::sliding::Slide;
@@ -139,6 +142,9 @@ fn benchmark() -> anyhow::Result<()> {
     // Per configuration, (blocks, ms a step) of the runs that finished; per wall, the runs'
     // (configuration, wall time, largest error) for its work-precision figure.
     let mut costs: Vec<Vec<(f64, f64)>> = vec![Vec::new(); configs.len()];
+    let provenance = Provenance::collect(&std::env::args().collect::<Vec<_>>().join(" "));
+    // (engine, version) of every finished run.
+    let mut versions: Vec<(String, String)> = Vec::new();
     let mut accuracy: Vec<(usize, ConfigPoint)> = Vec::new();
     for (i, (c, blocks, config, scenes)) in runs.iter().enumerate() {
         let mut done: Vec<PathRun> = Vec::new();
@@ -149,6 +155,7 @@ fn benchmark() -> anyhow::Result<()> {
             eprintln!("{} blocks, {}, path {k} ...", blocks, config.label);
             match run_timed(engine.as_ref(), scene) {
                 Ok((output, summary)) => {
+                    versions.push((config.engine.clone(), output.engine_version.clone()));
                     let r = PathRun::of(&output.trajectory, &summary, slide(k));
                     let _ = writeln!(
                         csv,
@@ -226,9 +233,20 @@ fn benchmark() -> anyhow::Result<()> {
             );
         }
     }
+    let engines = || versions.iter().map(|(e, v)| (&e[..], &v[..]));
+    table.push_str(&provenance.markdown(engines()));
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let write = |name: &str, text: &str| {
+        let path = out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    };
+    write("results.csv", &csv)?;
+    write("results.md", &table)?;
+    write(
+        "provenance.json",
+        &serde_json::to_string_pretty(&provenance.json_with_engines(engines()))?,
+    )?;
     let path = out.join("results.csv");
-    std::fs::write(&path, csv).with_context(|| format!("cannot write {}", path.display()))?;
     let mut walls: Vec<usize> = accuracy.iter().map(|a| a.0).collect();
     walls.dedup();
     for blocks in walls {

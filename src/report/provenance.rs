@@ -62,6 +62,16 @@ impl Provenance {
         )
     }
 
+    /// The `provenance.json` beside a table of timings: this provenance and each engine's
+    /// version (`engine_versions`, by name).
+    pub fn json_with_engines<'a>(
+        &self,
+        engines: impl IntoIterator<Item = (&'a str, &'a str)>,
+    ) -> serde_json::Value {
+        let by_engine: std::collections::BTreeMap<&str, &str> = engines.into_iter().collect();
+        serde_json::json!({ "provenance": self, "engine_versions": by_engine })
+    }
+
     pub fn collect(command: &str) -> Provenance {
         let hostname = std::fs::read_to_string("/proc/sys/kernel/hostname")
             .or_else(|_| std::fs::read_to_string("/etc/hostname"))
