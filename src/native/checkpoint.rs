@@ -5,7 +5,7 @@
 //!
 //! The checkpoint is CBOR, written whole to a temporary file and renamed over the last one, so
 //! an interruption leaves the previous checkpoint or the new one, never a part. It is sealed
-//! with the SHA-256 of its bytes ([`Sealed`]): a damaged file is refused, where one changed
+//! with the SHA-256 of its bytes (`Sealed`): a damaged file is refused, where one changed
 //! bit of a number in the state would resume into another answer. It is refused by another
 //! build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied).
 //! The samples go to a file beside it ([`SampleLog`], `FILE.samples`), appended at each write:
