@@ -29,19 +29,30 @@ pub fn read_to_string(path: &Path) -> io::Result<String> {
 }
 
 fn read_at_most(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
-    let file = std::fs::File::open(path)?;
-    // A regular file's length sizes the buffer once; a device or a pipe reports 0.
-    let hint = file.metadata().map(|m| m.len()).unwrap_or(0).min(limit);
-    let mut bytes = Vec::with_capacity(usize::try_from(hint).unwrap_or(0).saturating_add(1));
-    file.take(limit + 1).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > limit {
-        return Err(io::Error::new(
+    let too_large = |why: &str| {
+        io::Error::new(
             io::ErrorKind::FileTooLarge,
             format!(
-                "more than {}: an input is read whole, and one this large is refused \
-                 (a device such as /dev/zero, or a pipe that does not end?)",
+                "more than {}: an input is read whole, and one this large is refused{why}",
                 size(limit)
             ),
+        )
+    };
+    let file = std::fs::File::open(path)?;
+    // A regular file's length is known before it is read, and sizes the buffer once; a device
+    // or a pipe reports 0 and is read up to one byte past the bound.
+    let length = file.metadata().map(|m| m.len()).unwrap_or(0);
+    if length > limit {
+        return Err(too_large(&format!(" ({length} bytes)")));
+    }
+    let mut bytes = Vec::new();
+    bytes
+        .try_reserve_exact(usize::try_from(length).unwrap_or(0).saturating_add(1))
+        .map_err(|_| io::Error::from(io::ErrorKind::OutOfMemory))?;
+    file.take(limit + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(
+            " (a device such as /dev/zero, or a pipe that does not end?)",
         ));
     }
     Ok(bytes)
@@ -82,6 +93,22 @@ mod tests {
         let e = read_at_most(&p, 9).unwrap_err();
         assert_eq!(e.kind(), io::ErrorKind::FileTooLarge);
         assert!(e.to_string().starts_with("more than 9 bytes"), "{e}");
+    }
+
+    #[test]
+    fn a_file_longer_than_the_bound_is_refused_before_it_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("f.csv");
+        let f = std::fs::File::create(&p).unwrap();
+        f.set_len(3 << 30).unwrap(); // sparse: no 3 GiB written
+        let e = read(&p).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::FileTooLarge);
+        assert!(
+            e.to_string()
+                .starts_with("more than 2 GiB: an input is read whole"),
+            "{e}"
+        );
+        assert!(e.to_string().ends_with("(3221225472 bytes)"), "{e}");
     }
 
     #[test]
