@@ -4,7 +4,9 @@
 //! file, a trajectory, a checkpoint) is read whole. A path that names something without end,
 //! such as `/dev/zero` or a pipe that never closes, would otherwise be read until memory runs
 //! out; past [`MAX_BYTES`] it is refused instead, as an error of the read. Pipes and process
-//! substitutions (`<(...)`) of an ordinary size are read as files are.
+//! substitutions (`<(...)`) of an ordinary size are read as files are. The samples beside a
+//! checkpoint, which grow with the run, are read to the count the checkpoint gives instead
+//! (`native::checkpoint::SampleLog`).
 
 use std::io::{self, Read};
 use std::path::Path;

@@ -18,6 +18,7 @@ use super::stepper::NativeState;
 use crate::digest::{hex, sha256_hex};
 use crate::trajectory::Trajectory;
 use sha2::{Digest, Sha256};
+use std::io::Read as _;
 use std::path::Path;
 
 /// Where and how often a run writes its checkpoint.
@@ -216,24 +217,46 @@ impl SampleLog {
         let per = Self::values_per_sample(tr);
         let count = usize::try_from(count)
             .map_err(|_| format!("{}: too many samples", self.path.display()))?;
-        let need = count * per * 8;
-        let bytes = crate::input_file::read(&self.path).map_err(fail)?;
-        if bytes.len() < need {
+        let need = count
+            .checked_mul(per * 8)
+            .ok_or_else(|| format!("{}: too many samples", self.path.display()))?;
+        // The samples the checkpoint counts, and no more: the file grows with the run, and
+        // what an interrupted write appended after them is cut below.
+        let file = std::fs::File::open(&self.path).map_err(fail)?;
+        let length = file.metadata().map_err(fail)?.len();
+        if length < need as u64 {
             return Err(format!(
                 "{}: holds {} samples of {} blocks, the checkpoint needs {count}",
                 self.path.display(),
-                bytes.len() / (per * 8),
+                length / (per as u64 * 8),
                 tr.blocks.len()
             ));
         }
-        let digest = Sha256::new_with_prefix(&bytes[..need]);
+        let mut bytes = Vec::new();
+        bytes.try_reserve_exact(need).map_err(|_| {
+            format!(
+                "{}: no memory for the {need} bytes of its samples",
+                self.path.display()
+            )
+        })?;
+        file.take(need as u64)
+            .read_to_end(&mut bytes)
+            .map_err(fail)?;
+        if bytes.len() < need {
+            return Err(format!(
+                "{}: ended after {} of its {need} bytes while it was read",
+                self.path.display(),
+                bytes.len()
+            ));
+        }
+        let digest = Sha256::new_with_prefix(&bytes);
         if hex(&digest.clone().finalize()) != sha256 {
             return Err(format!(
                 "{}: its first {count} samples are not those the checkpoint counted (damaged, or written by another run)",
                 self.path.display()
             ));
         }
-        let values: Vec<f64> = bytes[..need]
+        let values: Vec<f64> = bytes
             .chunks_exact(8)
             .map(|b| f64::from_le_bytes(b.try_into().expect("eight bytes")))
             .collect();
@@ -244,7 +267,7 @@ impl SampleLog {
             }
             tr.push(sample[0], &states);
         }
-        if bytes.len() > need {
+        if length > need as u64 {
             std::fs::OpenOptions::new()
                 .write(true)
                 .open(&self.path)
