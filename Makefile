@@ -67,11 +67,13 @@ test-no-default-features: chromium ffmpeg valgrind records paper-tools siconos .
 	$(CARGO) test --release --no-default-features
 
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
-# 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five).
+# 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five). The
+# API documentation is built with its links checked (`make doc`, about 40 s on a clean clone).
 test-rust: chromium ffmpeg valgrind records paper-tools siconos .venv
 	$(CARGO) test --release
 	$(MAKE) gates-full
 	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
+	$(MAKE) doc
 
 test-python: .venv build siconos
 	$(VPY) -m pytest -q tests/python
