@@ -404,9 +404,13 @@ def distribute(
         try:
             while inflight:
                 try:
-                    ended = wait(  # type: ignore[no-untyped-call]
-                        list(inflight.values()), timeout=WORKER_POLL_S, return_when="FIRST_COMPLETED"
-                    ).done
+                    # Dask's `wait` waits with the current client, not the futures' own: made
+                    # `client` here, or another (the caller's `with Client(...)`) would await
+                    # these futures on its own event loop.
+                    with client.as_current():
+                        ended = wait(  # type: ignore[no-untyped-call]
+                            list(inflight.values()), timeout=WORKER_POLL_S, return_when="FIRST_COMPLETED"
+                        ).done
                 except TimeoutError:
                     ended = set()
                 except CancelledError:

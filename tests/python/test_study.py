@@ -944,6 +944,38 @@ def test_ida_runs_the_workers_cache_already_holds_reach_the_clients_store(
     assert cache_entries(cache) == cache_entries(elsewhere)
 
 
+def _squares(xs: list[int]) -> dict[str, Any]:
+    return {"results": [x * x for x in xs], "made": len(xs), "work_s": 0.0, "pid": os.getpid()}
+
+
+def test_distribute_talks_only_to_its_own_client_when_another_is_current(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Inside the caller's `with Client(...)` (the current client) a study given another client
+    waits for its futures with that one: Dask's `wait` takes the current client, which awaited
+    another client's futures on its own event loop (a study failed with "Event ... is bound to
+    a different event loop")."""
+    from rockbench import studies
+
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1, dashboard_address=":0") as ca, \
+            Client(ca) as current, \
+            LocalCluster(n_workers=1, processes=False, threads_per_worker=1, dashboard_address=":0") as cb, \
+            Client(cb, set_as_default=False) as given:
+        calls: list[Client] = []
+        sync = Client.sync
+
+        def spy(self: Client, *args: Any, **kwargs: Any) -> Any:
+            calls.append(self)
+            return sync(self, *args, **kwargs)
+
+        monkeypatch.setattr(Client, "sync", spy)
+        results, info = studies.distribute(given, _squares, list(range(20)), per_task=2)
+        monkeypatch.undo()
+        assert results == [x * x for x in range(20)] and info["tasks"] == 10
+        assert calls and all(c is given for c in calls), {id(c) for c in calls} - {id(given)}
+        assert Client.current() is current
+
+
 def test_a_study_whose_workers_all_left_gives_up_after_the_timeout(
     study: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
