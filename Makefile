@@ -13,7 +13,7 @@ RUST_SOURCES := $(shell find src -name '*.rs') Cargo.toml Cargo.lock build.rs
 
 .PHONY: all build demo validate references records test test-rust test-no-default-features \
 	test-python stubtest settings-sweep rapier-sweep gates gates-full compare-demo chromium ffmpeg valgrind bench bench-steps bench-dynamic bench-walls-instructions wall-problems bench-walls-external-qp bench-walls-closed-rows bench-walls-ipm-rows bench-walls-targets bench-walls-in-motion bench-walls-sliding-whole bench-walls-sensitivity bench-gallery bench-colonnades \
-	stress proptest proptest-assemblies fuzz fmt clippy doc clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
+	stress proptest proptest-assemblies fuzz fmt fmt-check clippy doc clean .venv wheel-test paper-tools paper converge siconos siconos-sweep spectrum \
 	validate-siconos fragility fragility-rapier fragility-mujoco fragility-pybullet \
 	fragility-engines
 
@@ -69,7 +69,10 @@ test-no-default-features: chromium ffmpeg valgrind records paper-tools siconos .
 # The quick stability map on the engines built into Rust (about 3 s); MuJoCo and PyBullet add
 # 2-8 min to it on 2 cores (`rockbench stress --quick` with no --engines runs all five). The
 # API documentation is built with its links checked (`make doc`, about 40 s on a clean clone).
+# The sources must be as `cargo fmt` leaves them (`make fmt-check`, a second; clippy, some
+# minutes on a clean clone, is `make clippy`).
 test-rust: chromium ffmpeg valgrind records paper-tools siconos .venv
+	$(MAKE) fmt-check
 	$(CARGO) test --release
 	$(MAKE) gates-full
 	$(BIN) stress --quick --engines native,housner,rapier --out out/stress-quick
@@ -245,6 +248,12 @@ fuzz:
 
 fmt:
 	$(CARGO) fmt --all
+
+# What `make fmt` would change, as a diff and an error (part of `make test`); the fuzz targets
+# are a crate of their own.
+fmt-check:
+	$(CARGO) fmt --all --check
+	cd fuzz && $(CARGO) fmt --all --check
 
 clippy:
 	$(CARGO) clippy --release --all-targets -- -D warnings

@@ -524,20 +524,39 @@ fn in_standard_errors(rms: f64, standard_error: f64) -> String {
 }
 
 /// Cut an unfinished last line (a run interrupted while it was written) from `path`, so that
-/// the next run's line starts on a line of its own. Its run is made again.
+/// the next run's line starts on a line of its own. Its run is made again. Only the file's
+/// tail is read, back to its last line end.
 fn drop_unfinished_line(path: &Path) -> anyhow::Result<()> {
-    let Ok(text) = std::fs::read(path) else {
-        return Ok(());
-    };
-    if text.is_empty() || text.ends_with(b"\n") {
-        return Ok(());
-    }
-    let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-    std::fs::OpenOptions::new()
+    use std::io::{Read as _, Seek as _, SeekFrom};
+    const CHUNK: u64 = 64 * 1024;
+    let cannot = || format!("cannot cut the unfinished last line of {}", path.display());
+    let mut file = match std::fs::OpenOptions::new()
+        .read(true)
         .write(true)
         .open(path)
-        .and_then(|f| f.set_len(whole as u64))
-        .with_context(|| format!("cannot cut the unfinished last line of {}", path.display()))
+    {
+        Ok(file) => file,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e).with_context(cannot),
+    };
+    let mut end = file.metadata().with_context(cannot)?.len();
+    let mut chunk = vec![0u8; CHUNK as usize];
+    let mut last = true;
+    while end > 0 {
+        let start = end.saturating_sub(CHUNK);
+        let part = &mut chunk[..(end - start) as usize];
+        file.seek(SeekFrom::Start(start)).with_context(cannot)?;
+        file.read_exact(part).with_context(cannot)?;
+        if last && part.last() == Some(&b'\n') {
+            return Ok(());
+        }
+        last = false;
+        if let Some(i) = part.iter().rposition(|&b| b == b'\n') {
+            return file.set_len(start + i as u64 + 1).with_context(cannot);
+        }
+        end = start;
+    }
+    file.set_len(0).with_context(cannot)
 }
 
 /// The runs already in `path` (made with `parameters`, for `n_blocks` blocks). An unfinished
@@ -656,6 +675,32 @@ fn text_hash(text: &str) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unfinished_last_line_is_cut_back_to_the_last_line_end() {
+        let dir = std::env::temp_dir().join(format!("rockbench-unfinished-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("runs.csv");
+        let cut = |text: &[u8]| {
+            std::fs::write(&path, text).unwrap();
+            drop_unfinished_line(&path).unwrap();
+            std::fs::read(&path).unwrap()
+        };
+        assert_eq!(cut(b"a\nb\n"), b"a\nb\n");
+        assert_eq!(cut(b"a\nb\nhalf"), b"a\nb\n");
+        assert_eq!(cut(b"half"), b"");
+        assert_eq!(cut(b""), b"");
+        // A last line longer than the chunks read from the end, and a line end at a chunk's
+        // last byte.
+        let long = [b"head\n".as_slice(), &vec![b'x'; 200_000]].concat();
+        assert_eq!(cut(&long), b"head\n");
+        let at_edge = [vec![b'y'; 65_535], b"\n".to_vec(), vec![b'z'; 65_536]].concat();
+        assert_eq!(cut(&at_edge), [vec![b'y'; 65_535], b"\n".to_vec()].concat());
+        std::fs::remove_dir_all(&dir).unwrap();
+        // No file: nothing to cut.
+        drop_unfinished_line(&path).unwrap();
+        assert!(!path.exists());
+    }
 
     /// Deterministic ensembles (every member the same: a spread of 0) differ by none or by
     /// infinitely many standard errors; the table said "NaN" for 0/0.
