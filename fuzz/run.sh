@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 SECS="${FUZZ_SECONDS:-600}"
 TARGETS=("$@")
-[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(scene_toml scene_json record_at2 record_csv trajectory_csv suite_manifest study_file gate_file)
+[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(scene_toml scene_json record_at2 record_csv trajectory_csv suite_manifest study_file gate_file checkpoint)
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 export RUSTC_BOOTSTRAP=1
 # -s none: the code under test is safe Rust (no C), so coverage without a sanitizer runs
@@ -19,6 +19,7 @@ for t in "${TARGETS[@]}"; do
     case "$t" in
         scene_*) dict=(-dict=fuzz/scene.dict) ;;
         suite_manifest | study_file | gate_file) dict=(-dict=fuzz/manifest.dict) ;;
+        checkpoint) dict=(-dict=fuzz/checkpoint.dict) ;;
     esac
     echo "== fuzzing $t for $SECS s"
     cargo fuzz run --fuzz-dir fuzz -s none -a "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \

@@ -263,6 +263,7 @@ fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
         &["--checkpoint", ck_arg, "--stop-after-step", "100"],
     );
     assert!(!stopped.status.success());
+    let written = std::fs::read(&ck).unwrap();
     let one_error = |o: &Output, says: &str| {
         assert!(!o.status.success());
         let err = String::from_utf8_lossy(&o.stderr);
@@ -299,6 +300,20 @@ fn a_checkpoint_of_another_scene_or_not_a_checkpoint_is_one_clear_error() {
     );
     one_error(&junk, "not a rockbench checkpoint");
     assert!(!dir.join("d").exists());
+    // A sealed file (its SHA-256 holds) whose content is not a checkpoint: a map of another
+    // field, and the first half of a checkpoint file's bytes.
+    let half = written[..written.len() / 2].to_vec();
+    for (name, payload) in [("map", b"\xa1\x61a\x01".to_vec()), ("half", half)] {
+        std::fs::write(&ck, rockbench::native::checkpoint::seal(payload)).unwrap();
+        let o = run(
+            &path,
+            &["duration=1"],
+            &dir.join(name),
+            &["--checkpoint", ck_arg],
+        );
+        one_error(&o, "not a rockbench checkpoint");
+        assert!(!dir.join(name).exists());
+    }
 }
 
 /// The samples go to `FILE.samples`, appended at each write (here after every step). A run

@@ -190,3 +190,37 @@ fn trajectory_regressions_and_seeds() {
         assert!(!e.contains('\n'), "{}: {e}", p.display());
     }
 }
+
+/// The checkpoint target's seeds are a checkpoint file and its sealed content, written by an
+/// earlier build: each is read whole, to the check of the build that wrote it (this build's
+/// own, or "another rockbench build"), so the fuzzer starts from the format as it is. A change
+/// of the format fails here: write them again as fuzz/fuzz_targets/checkpoint.rs says.
+#[test]
+fn checkpoint_regressions_and_seeds() {
+    use rockbench::native::checkpoint::{Checkpoint, seal};
+    let read = |data: &[u8]| {
+        let (&mode, rest) = data.split_first().expect("a mode byte");
+        let file = if mode % 2 == 1 {
+            seal(rest.to_vec())
+        } else {
+            rest.to_vec()
+        };
+        Checkpoint::from_file_bytes(&file, fixture::SCENE)
+    };
+    let good = seeds("checkpoint");
+    assert_eq!(good.len(), 2);
+    for (p, data) in good {
+        if let Err(e) = read(&data) {
+            assert!(
+                e.starts_with("written by another rockbench build")
+                    || e == "written for another scene, other --set overrides or other record files",
+                "{}: the seed is not read to its build's check: {e}",
+                p.display()
+            );
+        }
+    }
+    for (p, data) in inputs("checkpoint") {
+        let e = read(&data).map(|_| ()).expect_err(&p.display().to_string());
+        assert!(!e.contains('\n'), "{}: {e}", p.display());
+    }
+}

@@ -94,11 +94,7 @@ pub fn this_build() -> String {
 impl Checkpoint {
     /// Write to `path` whole (a temporary file beside it, renamed over it).
     pub fn write(&self, path: &Path) -> Result<(), String> {
-        let checkpoint = to_bytes(self);
-        let bytes = to_bytes(&Sealed {
-            sha256: sha256_hex(&checkpoint),
-            checkpoint: Blob(checkpoint),
-        });
+        let bytes = seal(to_bytes(self));
         let tmp = part_of(path);
         let fail = |e: std::io::Error| format!("{}: {e}", path.display());
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -116,32 +112,46 @@ impl Checkpoint {
     pub fn read(path: &Path, scene: &str) -> Result<Checkpoint, String> {
         let bytes =
             crate::input_file::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let in_file = |e: String| format!("{}: {e}", path.display());
-        let sealed: Sealed = from_bytes(&bytes, "not a rockbench checkpoint").map_err(in_file)?;
-        if sha256_hex(&sealed.checkpoint.0) != sealed.sha256 {
-            return Err(format!(
-                "{}: damaged: its bytes are not those it was written with (their SHA-256 differs)",
-                path.display()
-            ));
-        }
-        let c: Checkpoint =
-            from_bytes(&sealed.checkpoint.0, "not a rockbench checkpoint").map_err(in_file)?;
+        Self::from_file_bytes(&bytes, scene).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// A checkpoint file's bytes, as [`Checkpoint::read`] checks them; the error does not name
+    /// the file.
+    pub fn from_file_bytes(bytes: &[u8], scene: &str) -> Result<Checkpoint, String> {
+        let c: Checkpoint = from_bytes(&unseal(bytes)?, "not a rockbench checkpoint")?;
         if c.build != this_build() {
             return Err(format!(
-                "{}: written by another rockbench build (source hash {}, this build {}): a checkpoint resumes only in the build that wrote it",
-                path.display(),
+                "written by another rockbench build (source hash {}, this build {}): a checkpoint resumes only in the build that wrote it",
                 c.build,
                 this_build()
             ));
         }
         if c.scene != scene {
-            return Err(format!(
-                "{}: written for another scene, other --set overrides or other record files",
-                path.display()
-            ));
+            return Err(
+                "written for another scene, other --set overrides or other record files".into(),
+            );
         }
         Ok(c)
     }
+}
+
+/// A checkpoint file's bytes: `checkpoint` (a [`Checkpoint`]'s CBOR) sealed with its SHA-256.
+pub fn seal(checkpoint: Vec<u8>) -> Vec<u8> {
+    to_bytes(&Sealed {
+        sha256: sha256_hex(&checkpoint),
+        checkpoint: Blob(checkpoint),
+    })
+}
+
+/// The sealed bytes of a checkpoint file, if their SHA-256 is the one sealed with them.
+fn unseal(file: &[u8]) -> Result<Vec<u8>, String> {
+    let sealed: Sealed = from_bytes(file, "not a rockbench checkpoint")?;
+    if sha256_hex(&sealed.checkpoint.0) != sealed.sha256 {
+        return Err(
+            "damaged: its bytes are not those it was written with (their SHA-256 differs)".into(),
+        );
+    }
+    Ok(sealed.checkpoint.0)
 }
 
 /// The samples of a checkpointed run, in the file beside its checkpoint: each sample `t`, then
