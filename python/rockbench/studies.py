@@ -404,9 +404,9 @@ def distribute(
         try:
             while inflight:
                 try:
-                    # Dask's `wait` waits with the current client, not the futures' own: made
-                    # `client` here, or another (the caller's `with Client(...)`) would await
-                    # these futures on its own event loop.
+                    # Dask's `wait` waits with the current client, not the futures' own:
+                    # `client` is made current here, else another (the caller's `with
+                    # Client(...)`) would await these futures on its own event loop.
                     with client.as_current():
                         ended = wait(  # type: ignore[no-untyped-call]
                             list(inflight.values()), timeout=WORKER_POLL_S, return_when="FIRST_COMPLETED"
