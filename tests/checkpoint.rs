@@ -483,3 +483,89 @@ fn a_checkpoint_resumes_only_with_the_records_it_was_written_with() {
     assert!(err.contains("other record files"), "{err}");
     assert!(!dir.join("a").exists());
 }
+
+/// The seal holds against damage, not against a checkpoint written again by hand and sealed
+/// anew. One whose state does not fit the run (the state of another number of blocks, numbers
+/// that are not finite, another step, instant or count of samples) is one error naming the file
+/// and the field, and no outputs: before the check the first resumed into a panic and most of
+/// the others into a run that ended as if nothing were wrong.
+#[test]
+fn a_sealed_checkpoint_that_does_not_fit_the_run_is_one_error_naming_its_field() {
+    use rockbench::native::checkpoint::{Checkpoint, seal, unseal};
+    use rockbench::native::solver::{from_bytes, to_bytes};
+    let dir = common::tmp("rb-checkpoint", "forged");
+    let path = scene("two-block-free-rocking");
+    let sets = ["duration=0.5"];
+    let ck = dir.join("run.ckpt");
+    let ck_arg = ck.to_str().unwrap();
+    let stopped = run(
+        &path,
+        &sets,
+        &dir.join("a"),
+        &["--checkpoint", ck_arg, "--stop-after-step", "100"],
+    );
+    assert!(!stopped.status.success() && ck.exists());
+    let content = unseal(&std::fs::read(&ck).unwrap()).unwrap();
+    let samples = std::fs::read(dir.join("run.ckpt.samples")).unwrap();
+    type Change = fn(&mut Checkpoint);
+    let forged: [(&str, Change, &str); 13] = [
+        ("unchanged", |_| {}, ""),
+        (
+            "q-short",
+            |c| c.state.q.truncate(5),
+            "field `state.q`: 5 values",
+        ),
+        (
+            "v-long",
+            |c| c.state.v.push(0.0),
+            "field `state.v`: 7 values",
+        ),
+        (
+            "q-nan",
+            |c| c.state.q[4] = f64::NAN,
+            "field `state.q`: value 4 is NaN",
+        ),
+        (
+            "v-inf",
+            |c| c.state.v[0] = f64::INFINITY,
+            "field `state.v`: value 0 is inf",
+        ),
+        (
+            "steps-beyond",
+            |c| c.steps_done = 10_000,
+            "field `steps_done`: 10000",
+        ),
+        ("step", |c| c.state.step += 7, "field `state.step`: 107"),
+        ("t", |c| c.state.t += 0.25, "field `state.t`: 0.3"),
+        (
+            "ground",
+            |c| c.state.ground_w.1 = f64::NAN,
+            "field `state.ground_w`",
+        ),
+        (
+            "ground-t",
+            |c| c.state.ground_t += 1e-3,
+            "field `state.ground_t`",
+        ),
+        ("samples", |c| c.samples -= 1, "field `samples`: 100"),
+        ("still", |c| c.still = 101, "field `still`: 101"),
+        ("wall", |c| c.wall_s = -1.0, "field `wall_s`: -1"),
+    ];
+    for (name, change, says) in forged {
+        let mut c: Checkpoint = from_bytes(&content, "checkpoint").unwrap();
+        change(&mut c);
+        std::fs::write(&ck, seal(to_bytes(&c))).unwrap();
+        std::fs::write(dir.join("run.ckpt.samples"), &samples).unwrap();
+        let out = dir.join(name);
+        let o = run(&path, &sets, &out, &["--checkpoint", ck_arg]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        if says.is_empty() {
+            assert!(o.status.success(), "{name}: {err}");
+            continue;
+        }
+        assert_eq!(o.status.code(), Some(1), "{name}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
+        assert!(err.contains(&format!("run.ckpt: {says}")), "{name}: {err}");
+        assert!(!out.exists(), "{name}: outputs written");
+    }
+}

@@ -2,7 +2,7 @@
 
 use super::{Engine, EngineError, Progress, RunOutput};
 use crate::excitation::GroundMotion;
-use crate::native::checkpoint::{Checkpoint, Checkpointing, SampleLog, this_build};
+use crate::native::checkpoint::{Checkpoint, Checkpointing, RunShape, SampleLog, this_build};
 use crate::native::solver::Blob;
 use crate::native::stepper_for;
 use std::time::Instant;
@@ -89,6 +89,15 @@ impl NativeEngine {
             let io = EngineError::Io;
             let saved =
                 Checkpoint::read(&c.path, scene_text.as_deref().unwrap_or_default()).map_err(io)?;
+            let shape = RunShape {
+                blocks: scene.blocks.len(),
+                steps: n_steps,
+                dt,
+                sample_every: every,
+            };
+            saved
+                .fits(shape)
+                .map_err(|e| io(format!("{}: {e}", c.path.display())))?;
             stepper
                 .restore(&saved.stepper.0)
                 .map_err(|e| io(format!("{}: {e}", c.path.display())))?;

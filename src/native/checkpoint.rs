@@ -7,7 +7,9 @@
 //! an interruption leaves the previous checkpoint or the new one, never a part. It is sealed
 //! with the SHA-256 of its bytes (`Sealed`): a damaged file is refused, where one changed
 //! bit of a number in the state would resume into another answer. It is refused by another
-//! build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied).
+//! build (`RB_SOURCE_HASH`) or for another scene (the scene as run, overrides applied), and
+//! one whose state does not fit the run ([`Checkpoint::fits`]): the seal tells damage, not a
+//! file written again and sealed anew.
 //! The samples go to a file beside it ([`SampleLog`], `FILE.samples`), appended at each write:
 //! a write costs the samples since the last one, not the whole history (a 215-block wall sampled
 //! every step gathers 10 kB a step). The checkpoint keeps the SHA-256 of the samples it counts,
@@ -135,6 +137,105 @@ impl Checkpoint {
     }
 }
 
+/// What a run of the scene is made of, for [`Checkpoint::fits`].
+#[derive(Debug, Clone, Copy)]
+pub struct RunShape {
+    pub blocks: usize,
+    /// Steps of the whole run.
+    pub steps: u64,
+    pub dt: f64,
+    /// A sample every this many steps.
+    pub sample_every: u64,
+}
+
+impl Checkpoint {
+    /// Whether this checkpoint is one the run `shape` writes: after a step before its last, with
+    /// the state of every block, finite numbers, the step's instant and its samples. The seal
+    /// holds against damage, not against a file written again by hand and sealed anew, which
+    /// would otherwise resume into a panic or into an answer of another run. The stepper's
+    /// warm starts and counters inside are checked only for their sizes
+    /// ([`super::Stepper::restore`]).
+    pub fn fits(&self, shape: RunShape) -> Result<(), String> {
+        let k = self.steps_done;
+        let bad = |field: &str, problem: String| Err(format!("field `{field}`: {problem}"));
+        if k == 0 || k >= shape.steps {
+            return bad(
+                "steps_done",
+                format!(
+                    "{k}, not one of the steps before this run's last ({})",
+                    shape.steps
+                ),
+            );
+        }
+        let state = &self.state;
+        if state.step != k {
+            return bad(
+                "state.step",
+                format!("{}, not the steps done ({k})", state.step),
+            );
+        }
+        let t = k as f64 * shape.dt;
+        if state.t != t {
+            return bad(
+                "state.t",
+                format!("{}, not the instant of step {k} ({t})", state.t),
+            );
+        }
+        for (field, values) in [("state.q", &state.q), ("state.v", &state.v)] {
+            if values.len() != 3 * shape.blocks {
+                return bad(
+                    field,
+                    format!(
+                        "{} values, where the scene's {} blocks have {}",
+                        values.len(),
+                        shape.blocks,
+                        3 * shape.blocks
+                    ),
+                );
+            }
+            if let Some(i) = values.iter().position(|x| !x.is_finite()) {
+                return bad(field, format!("value {i} is {}", values[i]));
+            }
+        }
+        let (gd, gw) = (state.ground_d, state.ground_w);
+        for (field, x) in [
+            ("state.ground_d", gd.0),
+            ("state.ground_d", gd.1),
+            ("state.ground_w", gw.0),
+            ("state.ground_w", gw.1),
+            ("wall_s", self.wall_s),
+        ] {
+            if !x.is_finite() {
+                return bad(field, format!("{x}, not a finite number"));
+            }
+        }
+        if self.wall_s < 0.0 {
+            return bad("wall_s", format!("{}, a negative time", self.wall_s));
+        }
+        // The ground's increments add up to the instant of the step, to their rounding.
+        if !state.ground_t.is_finite() || (state.ground_t - t).abs() > 1e-6 * shape.dt {
+            return bad(
+                "state.ground_t",
+                format!("{}, not the instant of step {k} ({t})", state.ground_t),
+            );
+        }
+        if self.still > k {
+            return bad("still", format!("{} still steps of {k} done", self.still));
+        }
+        let samples = 1 + k / shape.sample_every;
+        if self.samples != samples {
+            return bad(
+                "samples",
+                format!(
+                    "{}, where {k} steps sampled every {} take {samples}",
+                    self.samples, shape.sample_every
+                ),
+            );
+        }
+        Ok(())
+    }
+}
+
 /// A checkpoint file's bytes: `checkpoint` (a [`Checkpoint`]'s CBOR) sealed with its SHA-256.
 pub fn seal(checkpoint: Vec<u8>) -> Vec<u8> {
     to_bytes(&Sealed {
@@ -144,7 +245,7 @@ pub fn seal(checkpoint: Vec<u8>) -> Vec<u8> {
 }
 
 /// The sealed bytes of a checkpoint file, if their SHA-256 is the one sealed with them.
-fn unseal(file: &[u8]) -> Result<Vec<u8>, String> {
+pub fn unseal(file: &[u8]) -> Result<Vec<u8>, String> {
     let sealed: Sealed = from_bytes(file, "not a rockbench checkpoint")?;
     if sha256_hex(&sealed.checkpoint.0) != sealed.sha256 {
         return Err(

@@ -311,6 +311,46 @@ impl Envelope {
         }
     }
 
+    /// Whether a restored envelope is the one [`Envelope::new`] builds for the blocks in
+    /// contact `pairs`, with values of its sizes and no rank-one update under way: a saved
+    /// state written again by hand would otherwise index outside its rows.
+    pub fn check_built_from(&self, pairs: &[(usize, usize)]) -> Result<(), String> {
+        let n = self.first.len();
+        if !n.is_multiple_of(DOFS) {
+            return Err(format!("the envelope: {n} DOFs, not {DOFS} a block"));
+        }
+        let n_blocks = n / DOFS;
+        if let Some(&(a, b)) = pairs.iter().find(|&&(a, b)| a.max(b) >= n_blocks) {
+            return Err(format!(
+                "the envelope: blocks {a} and {b} in contact, of {n_blocks} blocks"
+            ));
+        }
+        // A back-end that has not solved a problem yet holds the empty default.
+        let built = if n == 0 && self.start.is_empty() {
+            Envelope::default()
+        } else {
+            Envelope::new(n_blocks, pairs)
+        };
+        let sizes = [
+            self.val.len() == built.val.len(),
+            self.diag.len() == n,
+            self.work.len() == n,
+            self.sweep.len() == n,
+            self.rotation.len() == n,
+        ];
+        if self.pos != built.pos
+            || self.first != built.first
+            || self.start != built.start
+            || sizes.contains(&false)
+        {
+            return Err("the envelope: not the one its blocks in contact make".into());
+        }
+        if self.sweep.iter().any(|&w| w != 0.0) {
+            return Err("the envelope: a rank-one update under way".into());
+        }
+        Ok(())
+    }
+
     /// Number of DOFs.
     pub fn dofs(&self) -> usize {
         self.first.len()
@@ -791,6 +831,52 @@ mod tests {
             env.add_outer(1e4 * (rnd() + 1.5), &idx, &coef);
         }
         env
+    }
+
+    /// A saved envelope is taken back only as the one its blocks in contact make: through
+    /// CBOR, a factored wall's envelope is accepted and solves as before; one whose rows,
+    /// order or sizes were changed, one with a block out of range, and one caught in a
+    /// rank-one update are each refused, never indexed.
+    #[test]
+    fn a_restored_envelope_is_the_one_its_blocks_in_contact_make() {
+        let mut rnd = sequence(11);
+        let (n_blocks, pairs) = running_bond(3, 4);
+        let mut env = random_wall_matrix(3, 4, &mut rnd);
+        assert!(env.factor());
+        let again: Envelope =
+            crate::native::solver::from_bytes(&crate::native::solver::to_bytes(&env), "x").unwrap();
+        assert_eq!(again.check_built_from(&pairs), Ok(()));
+        assert_eq!(Envelope::default().check_built_from(&[]), Ok(()));
+        assert!(Envelope::default().check_built_from(&pairs).is_err());
+        let b: Vec<f64> = (0..3 * n_blocks).map(|_| rnd()).collect();
+        let (mut x, mut y) = (b.clone(), b);
+        env.solve(&mut x);
+        again.clone().solve(&mut y);
+        assert_eq!(x, y);
+
+        let refused = |change: &dyn Fn(&mut Envelope), pairs: &[(usize, usize)], says: &str| {
+            let mut e = again.clone();
+            change(&mut e);
+            let err = e.check_built_from(pairs).expect_err(says);
+            assert!(err.contains(says), "{err}");
+        };
+        let built = "not the one its blocks in contact make";
+        refused(&|e| e.start[5] += 1, &pairs, built);
+        refused(&|e| e.first[7] += 1, &pairs, built);
+        refused(&|e| e.pos.swap(0, 4), &pairs, built);
+        refused(&|e| e.val.push(0.0), &pairs, built);
+        refused(&|e| e.rotation.pop().map(|_| ()).unwrap(), &pairs, built);
+        // The envelope of other blocks in contact (a pair left out).
+        refused(&|_| {}, &[], built);
+        refused(
+            &|e| e.first.truncate(3 * n_blocks - 1),
+            &pairs,
+            "not 3 a block",
+        );
+        let mut beyond = pairs.clone();
+        beyond.push((0, n_blocks));
+        refused(&|_| {}, &beyond, "in contact, of");
+        refused(&|e| e.sweep[2] = 1.0, &pairs, "a rank-one update under way");
     }
 
     /// The row-by-row (bordering) algorithm of the module's text, one entry at a time, each

@@ -773,7 +773,12 @@ impl ContactSolver for SparseSolver {
         super::to_bytes(self)
     }
     fn restore(&mut self, state: &[u8]) -> Result<(), String> {
-        *self = super::from_bytes(state, "the sparse back-end")?;
+        let restored: Self = super::from_bytes(state, "the sparse back-end")?;
+        restored
+            .envelope
+            .check_built_from(&restored.pairs)
+            .map_err(|e| format!("the sparse back-end: {e}"))?;
+        *self = restored;
         Ok(())
     }
 
