@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 SECS="${FUZZ_SECONDS:-600}"
 TARGETS=("$@")
-[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(scene_toml scene_json record_at2 record_csv trajectory_csv suite_manifest study_file gate_file checkpoint)
+[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(scene_toml scene_json record_at2 record_csv trajectory_csv suite_manifest study_file gate_file checkpoint resume)
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 export RUSTC_BOOTSTRAP=1
 # -s none: the code under test is safe Rust (no C), so coverage without a sanitizer runs
@@ -15,16 +15,18 @@ export RUSTC_BOOTSTRAP=1
 failed=()
 for t in "${TARGETS[@]}"; do
     mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
-    dict=()
+    extra=()
     case "$t" in
-        scene_*) dict=(-dict=fuzz/scene.dict) ;;
-        suite_manifest | study_file | gate_file) dict=(-dict=fuzz/manifest.dict) ;;
-        checkpoint) dict=(-dict=fuzz/checkpoint.dict) ;;
+        scene_*) extra=(-dict=fuzz/scene.dict) ;;
+        suite_manifest | study_file | gate_file) extra=(-dict=fuzz/manifest.dict) ;;
+        checkpoint) extra=(-dict=fuzz/checkpoint.dict) ;;
+        # Its inputs are lists of five-byte changes: long enough for several from the start.
+        resume) extra=(-max_len=256 -len_control=0) ;;
     esac
     echo "== fuzzing $t for $SECS s"
     cargo fuzz run --fuzz-dir fuzz -s none -a "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
         -max_total_time="$SECS" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-        -artifact_prefix="fuzz/artifacts/$t/" "${dict[@]}" || failed+=("$t")
+        -artifact_prefix="fuzz/artifacts/$t/" "${extra[@]}" || failed+=("$t")
 done
 if [ ${#failed[@]} -gt 0 ]; then
     echo "fuzz: crashes in ${failed[*]}: inputs under fuzz/artifacts/; add each to tests/fuzz_regressions/<target>/" >&2

@@ -224,3 +224,23 @@ fn checkpoint_regressions_and_seeds() {
         assert!(!e.contains('\n'), "{}: {e}", p.display());
     }
 }
+
+/// The resume target's seeds pick each stopped run with nothing changed: it resumes to its end.
+/// Its crashes replay here: each ends in the outputs or one error line.
+#[test]
+fn resume_regressions_and_seeds() {
+    let dir = std::env::temp_dir().join(format!("rb-fuzz-resume-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let good = seeds("resume");
+    assert_eq!(good.len(), 2);
+    for (p, data) in good {
+        let resumed = fixture::resume_changed(&dir, &data);
+        assert_eq!(resumed, Ok(()), "{}", p.display());
+    }
+    for (p, data) in inputs("resume") {
+        if let Err(e) = fixture::resume_changed(&dir, &data) {
+            assert!(!e.contains('\n'), "{}: {e}", p.display());
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
