@@ -402,6 +402,33 @@ fn samples_beyond_the_checkpoint_are_dropped_and_missing_or_damaged_ones_are_one
     assert!(!dir.join("damaged").exists());
 }
 
+/// Run `scene` in `dir` with a checkpoint, stopped after step `stop`: the checkpoint's path, its
+/// bytes and those of its samples.
+fn stopped_after(
+    dir: &Path,
+    scene: &Path,
+    sets: &[&str],
+    stop: u64,
+) -> (PathBuf, Vec<u8>, Vec<u8>) {
+    let ck = dir.join("run.ckpt");
+    let stop = stop.to_string();
+    let stopped = run(
+        scene,
+        sets,
+        &dir.join("a"),
+        &[
+            "--checkpoint",
+            ck.to_str().unwrap(),
+            "--stop-after-step",
+            &stop,
+        ],
+    );
+    assert!(!stopped.status.success() && ck.exists());
+    let checkpoint = std::fs::read(&ck).unwrap();
+    let samples = std::fs::read(dir.join("run.ckpt.samples")).unwrap();
+    (ck, checkpoint, samples)
+}
+
 /// One bit changed anywhere in a checkpoint (a damaged disk) is one error and no outputs, never
 /// a resumed run: unsealed, such a bit in a number of the state resumed into another trajectory
 /// (2 of 41 bits, one every 96 bytes of the file).
@@ -410,17 +437,8 @@ fn a_checkpoint_damaged_anywhere_is_one_error() {
     let dir = common::tmp("rb-checkpoint", "damaged-checkpoint");
     let path = scene("two-block-free-rocking");
     let sets = ["duration=1"];
-    let ck = dir.join("run.ckpt");
+    let (ck, checkpoint, samples) = stopped_after(&dir, &path, &sets, 300);
     let ck_arg = ck.to_str().unwrap();
-    let stopped = run(
-        &path,
-        &sets,
-        &dir.join("a"),
-        &["--checkpoint", ck_arg, "--stop-after-step", "300"],
-    );
-    assert!(!stopped.status.success() && ck.exists());
-    let checkpoint = std::fs::read(&ck).unwrap();
-    let samples = std::fs::read(dir.join("run.ckpt.samples")).unwrap();
     let n = checkpoint.len();
     let mut said_damaged = 0;
     // Some 60 bits, the first and the last byte's among them.
@@ -496,17 +514,9 @@ fn a_sealed_checkpoint_that_does_not_fit_the_run_is_one_error_naming_its_field()
     let dir = common::tmp("rb-checkpoint", "forged");
     let path = scene("two-block-free-rocking");
     let sets = ["duration=0.5"];
-    let ck = dir.join("run.ckpt");
+    let (ck, file, samples) = stopped_after(&dir, &path, &sets, 100);
     let ck_arg = ck.to_str().unwrap();
-    let stopped = run(
-        &path,
-        &sets,
-        &dir.join("a"),
-        &["--checkpoint", ck_arg, "--stop-after-step", "100"],
-    );
-    assert!(!stopped.status.success() && ck.exists());
-    let content = unseal(&std::fs::read(&ck).unwrap()).unwrap();
-    let samples = std::fs::read(dir.join("run.ckpt.samples")).unwrap();
+    let content = unseal(&file).unwrap();
     type Change = fn(&mut Checkpoint);
     let forged: [(&str, Change, &str); 13] = [
         ("unchanged", |_| {}, ""),
