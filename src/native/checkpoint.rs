@@ -152,9 +152,10 @@ impl Checkpoint {
     /// Whether this checkpoint is one the run `shape` writes: after a step before its last, with
     /// the state of every block, finite numbers, the step's instant and its samples. The seal
     /// holds against damage, not against a file written again by hand and sealed anew, which
-    /// would otherwise resume into a panic or into an answer of another run. The stepper's
-    /// warm starts and counters inside are checked only for their sizes
-    /// ([`super::Stepper::restore`]).
+    /// would otherwise resume into a panic or into an answer of another run. Of the stepper's
+    /// state inside ([`super::Stepper::restore`]), what would index outside its arrays is
+    /// checked (its blocks, the sparse back-end's envelope), not its warm starts' values nor
+    /// its counters.
     pub fn fits(&self, shape: RunShape) -> Result<(), String> {
         let k = self.steps_done;
         let bad = |field: &str, problem: String| Err(format!("field `{field}`: {problem}"));

@@ -865,8 +865,8 @@ mod tests {
         refused(&|e| e.first[7] += 1, &pairs, built);
         refused(&|e| e.pos.swap(0, 4), &pairs, built);
         refused(&|e| e.val.push(0.0), &pairs, built);
-        refused(&|e| e.rotation.pop().map(|_| ()).unwrap(), &pairs, built);
-        // The envelope of other blocks in contact (a pair left out).
+        refused(&|e| e.rotation.truncate(1), &pairs, built);
+        // The envelope of other blocks in contact (here none).
         refused(&|_| {}, &[], built);
         refused(
             &|e| e.first.truncate(3 * n_blocks - 1),
