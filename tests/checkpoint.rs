@@ -502,11 +502,45 @@ fn a_checkpoint_resumes_only_with_the_records_it_was_written_with() {
     assert!(!dir.join("a").exists());
 }
 
+/// `cbor` with its first number within a nested state (a back-end's, inside the stepper's)
+/// set to `x`.
+fn first_float_set(cbor: &[u8], x: f64) -> Vec<u8> {
+    use ciborium::Value;
+    fn set(v: &mut Value, x: f64, nested: bool) -> bool {
+        match v {
+            Value::Float(f) if nested => {
+                *f = x;
+                true
+            }
+            Value::Array(items) => items.iter_mut().any(|i| set(i, x, nested)),
+            Value::Map(entries) => entries.iter_mut().any(|(_, e)| set(e, x, nested)),
+            Value::Bytes(b) => {
+                let Ok(mut inner) = ciborium::from_reader::<Value, _>(&b[..]) else {
+                    return false;
+                };
+                if !set(&mut inner, x, true) {
+                    return false;
+                }
+                b.clear();
+                ciborium::into_writer(&inner, &mut *b).unwrap();
+                true
+            }
+            _ => false,
+        }
+    }
+    let mut value: Value = ciborium::from_reader(cbor).unwrap();
+    assert!(set(&mut value, x, false), "no number in a nested state");
+    let mut out = Vec::new();
+    ciborium::into_writer(&value, &mut out).unwrap();
+    out
+}
+
 /// The seal holds against damage, not against a checkpoint written again by hand and sealed
 /// anew. One whose state does not fit the run (the state of another number of blocks, numbers
-/// that are not finite, another step, instant or count of samples) is one error naming the file
-/// and the field, and no outputs: before the check the first resumed into a panic and most of
-/// the others into a run that ended as if nothing were wrong.
+/// that are not finite, the stepper's and its back-ends' included, another step, instant or
+/// count of samples) is one error naming the file and the field, and no outputs: before the
+/// check the first resumed into a panic and most of the others into a run that ended as if
+/// nothing were wrong (a NaN in a back-end's saved rows among them).
 #[test]
 fn a_sealed_checkpoint_that_does_not_fit_the_run_is_one_error_naming_its_field() {
     use rockbench::native::checkpoint::{Checkpoint, seal, unseal};
@@ -518,8 +552,18 @@ fn a_sealed_checkpoint_that_does_not_fit_the_run_is_one_error_naming_its_field()
     let ck_arg = ck.to_str().unwrap();
     let content = unseal(&file).unwrap();
     type Change = fn(&mut Checkpoint);
-    let forged: [(&str, Change, &str); 13] = [
+    let forged: [(&str, Change, &str); 15] = [
         ("unchanged", |_| {}, ""),
+        (
+            "stepper-nan",
+            |c| c.stepper.0 = first_float_set(&c.stepper.0, f64::NAN),
+            "field `stepper.solver",
+        ),
+        (
+            "stepper-inf",
+            |c| c.stepper.0 = first_float_set(&c.stepper.0, f64::NEG_INFINITY),
+            "field `stepper.solver",
+        ),
         (
             "q-short",
             |c| c.state.q.truncate(5),
@@ -576,6 +620,14 @@ fn a_sealed_checkpoint_that_does_not_fit_the_run_is_one_error_naming_its_field()
         assert_eq!(o.status.code(), Some(1), "{name}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
         assert!(err.contains(&format!("run.ckpt: {says}")), "{name}: {err}");
+        if let Some(x) = name.strip_prefix("stepper-") {
+            let x = if x == "nan" { "NaN" } else { "-inf" };
+            assert!(
+                err.trim()
+                    .ends_with(&format!("`: {x}, not a finite number")),
+                "{name}: {err}"
+            );
+        }
         assert!(!out.exists(), "{name}: outputs written");
     }
 }

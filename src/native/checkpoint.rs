@@ -154,8 +154,9 @@ impl Checkpoint {
     /// holds against damage, not against a file written again by hand and sealed anew, which
     /// would otherwise resume into a panic or into an answer of another run. Of the stepper's
     /// state inside ([`super::Stepper::restore`]), what would index outside its arrays is
-    /// checked (its blocks, the sparse back-end's envelope), not its warm starts' values nor
-    /// its counters.
+    /// checked (its blocks, the sparse back-end's envelope) and every number must be finite;
+    /// finite warm starts and counters that another run would not have written are not
+    /// detected (they resume; every step's solution is still held to its back-end's tolerances).
     pub fn fits(&self, shape: RunShape) -> Result<(), String> {
         let k = self.steps_done;
         let bad = |field: &str, problem: String| Err(format!("field `{field}`: {problem}"));
@@ -220,6 +221,15 @@ impl Checkpoint {
                 format!("{}, not the instant of step {k} ({t})", state.ground_t),
             );
         }
+        // Every number of the stepper's state, its back-ends' within it: a warm start that is
+        // not a number would be one for the steps that follow.
+        let stepper = from_bytes::<ciborium::Value>(&self.stepper.0, "");
+        if let Some((path, x)) = stepper.ok().as_ref().and_then(first_non_finite) {
+            return bad(
+                &format!("stepper{path}"),
+                format!("{x}, not a finite number"),
+            );
+        }
         if self.still > k {
             return bad("still", format!("{} still steps of {k} done", self.still));
         }
@@ -234,6 +244,30 @@ impl Checkpoint {
             );
         }
         Ok(())
+    }
+}
+
+/// The first number of a saved state (CBOR, and the CBOR of its byte strings: the nested states
+/// of [`Blob`]) that is not finite, with its path in the state (`.field[index]...`).
+fn first_non_finite(value: &ciborium::Value) -> Option<(String, f64)> {
+    use ciborium::Value;
+    match value {
+        Value::Float(x) if !x.is_finite() => Some((String::new(), *x)),
+        Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| first_non_finite(v).map(|(path, x)| (format!("[{i}]{path}"), x))),
+        Value::Map(entries) => entries.iter().find_map(|(key, v)| {
+            first_non_finite(v).map(|(path, x)| match key {
+                Value::Text(name) => (format!(".{name}{path}"), x),
+                other => (format!("[{other:?}]{path}"), x),
+            })
+        }),
+        Value::Bytes(b) => from_bytes::<Value>(b, "")
+            .ok()
+            .and_then(|inner| first_non_finite(&inner)),
+        Value::Tag(_, v) => first_non_finite(v),
+        _ => None,
     }
 }
 
