@@ -248,25 +248,36 @@ impl Checkpoint {
 }
 
 /// The first number of a saved state (CBOR, and the CBOR of its byte strings: the nested states
-/// of [`Blob`]) that is not finite, with its path in the state (`.field[index]...`).
+/// of [`Blob`], to `NESTED_STATES` levels) that is not finite, with its path in the state
+/// (`.field[index]...`).
 fn first_non_finite(value: &ciborium::Value) -> Option<(String, f64)> {
+    first_non_finite_within(value, NESTED_STATES)
+}
+
+/// Byte strings read as nested states: the stepper's holds its back-ends' (two levels where
+/// islands wrap a back-end); a forged file's byte strings nested deeper are not followed, so
+/// they cannot take the stack.
+const NESTED_STATES: usize = 8;
+
+fn first_non_finite_within(value: &ciborium::Value, levels: usize) -> Option<(String, f64)> {
     use ciborium::Value;
+    let walk = |v| first_non_finite_within(v, levels);
     match value {
         Value::Float(x) if !x.is_finite() => Some((String::new(), *x)),
         Value::Array(items) => items
             .iter()
             .enumerate()
-            .find_map(|(i, v)| first_non_finite(v).map(|(path, x)| (format!("[{i}]{path}"), x))),
+            .find_map(|(i, v)| walk(v).map(|(path, x)| (format!("[{i}]{path}"), x))),
         Value::Map(entries) => entries.iter().find_map(|(key, v)| {
-            first_non_finite(v).map(|(path, x)| match key {
+            walk(v).map(|(path, x)| match key {
                 Value::Text(name) => (format!(".{name}{path}"), x),
                 other => (format!("[{other:?}]{path}"), x),
             })
         }),
-        Value::Bytes(b) => from_bytes::<Value>(b, "")
+        Value::Bytes(b) if levels > 0 => from_bytes::<Value>(b, "")
             .ok()
-            .and_then(|inner| first_non_finite(&inner)),
-        Value::Tag(_, v) => first_non_finite(v),
+            .and_then(|inner| first_non_finite_within(&inner, levels - 1)),
+        Value::Tag(_, v) => walk(v),
         _ => None,
     }
 }
@@ -423,5 +434,49 @@ impl SampleLog {
         self.written = count;
         self.digest = digest;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ciborium::Value;
+
+    fn cbor(v: &Value) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        ciborium::into_writer(v, &mut bytes).unwrap();
+        bytes
+    }
+
+    /// `inner` inside `levels` byte strings, each a map `{"state": <bytes>}`.
+    fn nested(inner: Value, levels: usize) -> Value {
+        (0..levels).fold(inner, |v, _| {
+            Value::Map(vec![(Value::Text("state".into()), Value::Bytes(cbor(&v)))])
+        })
+    }
+
+    #[test]
+    fn a_number_that_is_not_finite_is_found_with_its_path_through_nested_states() {
+        let state = Value::Map(vec![
+            (
+                Value::Text("q".into()),
+                Value::Array(vec![1.0.into(), 2.0.into()]),
+            ),
+            (
+                Value::Text("l".into()),
+                Value::Array(vec![0.5.into(), f64::NAN.into()]),
+            ),
+        ]);
+        let (path, x) = first_non_finite(&nested(state.clone(), 2)).unwrap();
+        assert_eq!(path, ".state.state.l[1]");
+        assert!(x.is_nan());
+        let finite = Value::Array(vec![1.0.into(), f64::MAX.into(), (-0.0).into()]);
+        assert_eq!(first_non_finite(&nested(finite, 2)), None);
+        // A forged file's byte strings nested without end are followed to `NESTED_STATES`
+        // levels only, not to the end of the stack.
+        assert!(first_non_finite(&nested(state.clone(), NESTED_STATES)).is_some());
+        assert_eq!(first_non_finite(&nested(state, NESTED_STATES + 1)), None);
+        let deep = nested(Value::Float(f64::INFINITY), 20_000);
+        assert_eq!(first_non_finite(&deep), None);
     }
 }
