@@ -119,7 +119,8 @@ fn errors(scene: &Scene, rows: &[MetricRow], row: &mut BenchRow) {
 
 /// The engines and step sizes of a series checked before anything runs: every name in the
 /// registry, every step a positive time no longer than the scene (one that is has no step to
-/// take, and every cell of it would fail), none given twice.
+/// take, and every cell of it would fail) nor than its fastest block's time scale, none given
+/// twice.
 pub fn check_engines_and_steps(
     scene: &Scene,
     engines: &[String],
@@ -189,6 +190,9 @@ fn check_steps(scene: &Scene, dts: &[f64]) -> Result<(), String> {
                 num(scene.duration),
                 crate::scene::MAX_STEPS
             ));
+        }
+        if let Some(problem) = crate::scene::steps_over_motion(scene, dt) {
+            return Err(format!("--dt: {problem}"));
         }
         if dts[..k].contains(&dt) {
             return Err(format!("--dt: {} s is given twice", num(dt)));

@@ -48,6 +48,21 @@ fn bad_engine_names_and_steps_are_one_line_naming_the_option() {
             ],
             "--dt: 10 s is longer than the scene's run, 4 s".into(),
         ),
+        // A step longer than the block's time scale 1/p (p = sqrt(3 g / 4R), R = 1.3463 m):
+        // milliseconds given as seconds ran 4 steps and answered (the first impact at 0.76 s
+        // where Housner's is at 0.47 s).
+        (
+            vec!["bench", scene, "--engines", "native", "--dt", "1e-3,1"],
+            "--dt: 1 s is longer than the time scale 1/p = 0.4278 s of block `block`".into(),
+        ),
+        (
+            vec!["run", scene, "--set", "native.dt=0.5"],
+            "housner-slender.toml: native.dt: 0.5 s is longer than the time scale 1/p = 0.4278 s of block `block` (p = sqrt(3 g / 4R)): a step would step over its motion (ms given for s?)".into(),
+        ),
+        (
+            vec!["run", scene, "--engine", "rapier", "--set", "rapier.dt=0.05", "--set", "blocks[0].width=0.01", "--set", "blocks[0].height=0.025"],
+            "rapier.dt: 0.05 s is longer than the time scale 1/p = 0.04278 s of block `block`".into(),
+        ),
         // Steps too short for any engine: every cell failed, exit 0, outputs written.
         (
             vec!["bench", scene, "--engines", "native", "--dt", "1e-300"],

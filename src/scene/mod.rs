@@ -25,6 +25,7 @@ pub(crate) use load::{toml_error_at, toml_fields};
 pub(crate) use validate::num;
 pub use validate::{
     MAX_FRICTION, MAX_PEAK_G, MAX_STEPS, MIN_EVENT_TOLERANCE_REL, check_samples, check_step,
+    fastest_block, steps_over_motion,
 };
 
 use serde::{Deserialize, Serialize, Serializer};
@@ -188,6 +189,12 @@ impl BlockSpec {
         let alpha = (self.width / self.height).atan();
         let c = ((e / g + 0.5 * self.height) / r).clamp(-1.0, 1.0);
         (alpha - c.acos()).max(s[2].abs())
+    }
+    /// Housner's frequency parameter `p = sqrt(3 g / (4 R))`, 1/s (`R` the half-diagonal): `1/p`
+    /// is the time scale of the block's rocking, and of any motion of a body its size under
+    /// gravity.
+    pub fn frequency_parameter(&self, g: f64) -> f64 {
+        (3.0 * g / (2.0 * self.width.hypot(self.height))).sqrt()
     }
     /// The energy per unit mass the block at rest needs to tip over its corner: `g (R - H/2)`.
     pub fn tipping_energy_per_mass(&self, g: f64) -> f64 {

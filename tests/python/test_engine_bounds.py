@@ -249,7 +249,28 @@ def test_a_bad_count_through_the_harness_is_one_line_naming_the_field() -> None:
     assert "pybullet.num_solver_iterations: must be a whole number from 1 to 2147483647" in msg, msg
 
 
-# 6. The last step ends at the duration.
+# 6. A step longer than the time scale of the fastest block, as the harness refuses it.
+
+
+@pytest.mark.parametrize("engine, field", [("mujoco", "timestep"), ("pybullet", "fixed_time_step")])
+def test_a_step_longer_than_the_fastest_blocks_time_scale_is_refused_as_the_harness_refuses_it(
+    engine: str, field: str
+) -> None:
+    # housner-square: B = H = 1.25 m, R = 0.8839 m, p = sqrt(3 g / 4R) = 2.885 1/s.
+    msg = refused(
+        engine,
+        {field: 0.4},
+        rf"^{engine}\.{field}: 0\.4 s is longer than the time scale 1/p = 0\.3466 s of block `block` "
+        r"\(p = sqrt\(3 g / 4R\)\): a step would step over its motion \(ms given for s\?\)$",
+        duration=2.0,
+    )
+    with pytest.raises(ValueError) as e:
+        rockbench.load_scene({**scene_dict(duration=2.0), "native": {"dt": 0.4}})
+    assert str(e.value).endswith("native.dt: " + msg.removeprefix(f"{engine}.{field}: ")), e.value
+    common.check_step_resolves(scene_dict(duration=2.0), 0.34, f"{engine}.{field}")
+
+
+# 7. The last step ends at the duration.
 
 
 def test_the_time_grid_ends_at_the_duration() -> None:

@@ -242,6 +242,28 @@ MAX_STEPS = 1e9
 WHOLE_STEP_TOLERANCE = 1e-9
 
 
+def check_step_resolves(spec: dict[str, Any], step: float, step_name: str) -> None:
+    """A step longer than the time scale ``1/p`` of the scene's fastest block (Housner's
+    ``p = sqrt(3 g / (4 R))``, ``R`` the half-diagonal) steps over its motion, most likely ms
+    given for s: a ``SettingsError`` (the Rust harness's rule, ``check_step`` in
+    src/scene/validate.rs)."""
+    g = float(spec["gravity"])
+    fastest = max(
+        (
+            (b["name"], math.sqrt(1.5 * g / math.hypot(b["width"], b["height"])))
+            for b in spec["blocks"]
+        ),
+        key=lambda named: named[1],
+        default=None,
+    )
+    if fastest is not None and fastest[1] * step > 1.0:
+        name, p = fastest
+        raise SettingsError(
+            f"{step_name}: {step!r} s is longer than the time scale 1/p = {1.0 / p:.4g} s of block "
+            f"`{name}` (p = sqrt(3 g / 4R)): a step would step over its motion (ms given for s?)"
+        )
+
+
 def time_grid(
     duration: float,
     output_interval: float,

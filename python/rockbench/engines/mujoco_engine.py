@@ -38,6 +38,7 @@ from rockbench.engines.common import (
     SettingsError,
     block_dimensions,
     check_depth,
+    check_step_resolves,
     excitation_notes,
     mean_ground_acceleration,
     numbers,
@@ -229,6 +230,7 @@ def run(scene: Any, spec: dict[str, Any], early_stop: dict[str, Any] | None = No
         s["excitation_interval"] if excited else None,
         "mujoco.timestep",
     )
+    check_step_resolves(spec, h, "mujoco.timestep")
     check_settings(spec, s)
     mujoco = import_mujoco()
     model = mujoco.MjModel.from_xml_string(build_xml(scene, spec, s))

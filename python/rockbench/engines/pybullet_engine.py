@@ -50,6 +50,7 @@ from rockbench.engines.common import (
     TimeGrid,
     block_dimensions,
     check_depth,
+    check_step_resolves,
     excitation_notes,
     farthest_corner,
     fraction,
@@ -202,6 +203,7 @@ def run(scene: Any, spec: dict[str, Any], early_stop: dict[str, Any] | None = No
     grid = time_grid(
         spec["duration"], spec["output_interval"], h, h if excited else None, "pybullet.fixed_time_step"
     )
+    check_step_resolves(spec, h, "pybullet.fixed_time_step")
     internal = grid.n_steps * s["num_sub_steps"]
     if internal > MAX_STEPS:
         raise SettingsError(
