@@ -134,15 +134,7 @@ impl HousnerSettings {
             );
         }
         // The fastest block's step, `max_phase_step / p`, bounds the steps as well.
-        let p_max = scene
-            .blocks
-            .iter()
-            .map(|b| {
-                HousnerBlock::new(b.width, b.height, scene.gravity, None)
-                    .p2
-                    .sqrt()
-            })
-            .fold(0.0, f64::max);
+        let p_max = crate::scene::fastest_block(scene).map_or(0.0, |(_, p)| p);
         let phase_steps = scene.duration * p_max / self.max_phase_step;
         if phase_steps > MAX_STEPS {
             return err(

@@ -529,7 +529,7 @@ pub const MIN_EVENT_TOLERANCE_REL: f64 = 1e-13;
 /// steps and the fastest block's time scale `1/p` (Housner's `p = sqrt(3 g / (4 R))`): a step
 /// longer than that steps over the block's motion (a 4 s rocking run at `dt = 1` took 4 steps
 /// and put the first impact at 0.76 s where it is at 0.47 s), most likely ms given for s. For
-/// the engines' checks of their own tables and `bench --dt`.
+/// the engines' checks of their own tables (`bench --dt` checks [`steps_over_motion`]).
 pub fn check_step(scene: &Scene, field: &str, dt: f64) -> Result<(), SceneError> {
     let file = scene.source.as_str();
     if dt > scene.duration {
