@@ -198,7 +198,7 @@ compare-demo: build .venv
 	$(BIN) compare validation/scenes/housner-square.toml --engines native,rapier,mujoco,pybullet,housner --reference housner --out out/compare/housner-square
 	$(BIN) compare validation/scenes/two-block-free-rocking.toml --engines native,rapier,mujoco,pybullet,housner --reference native --out out/compare/two-block-free-rocking
 
-# The measurement behind the MuJoCo and PyBullet defaults (about a minute).
+# The measurement behind the MuJoCo and PyBullet defaults (about 20 s).
 settings-sweep: .venv build
 	$(VPY) -m rockbench.settings_sweep --out out/settings-sweep.md
 
@@ -222,10 +222,14 @@ $(VENV)/.native.stamp: $(VENV)/.requirements.stamp $(RUST_SOURCES) pyproject.tom
 	cd $(CURDIR) && VIRTUAL_ENV=$(CURDIR)/$(VENV) $(VENV)/bin/maturin develop --release --quiet
 	touch $@
 
-# The full stability map (every engine built in; about 15-30 min on 2 cores), each engine
-# judged against its own contract (the registry's, src/engines/registry.rs): round-off for
-# native and housner, the measured soft-contact limits for rapier, MuJoCo and PyBullet, and
-# Siconos' measured limits (its quick map alone takes ~20 min). Writes out/stress/index.html.
+# The full stability map (the registry's default engines: native, housner, rapier, MuJoCo and
+# PyBullet; about an hour on 2 cores, most of it PyBullet's: 48 min on 2026-12-08 beside other
+# work, with PyBullet's 10-brick column standing for 60 s, five runs of some 200 s, cut at 600 s
+# before `--timeout` was each run's), each engine judged against its own contract (the
+# registry's, src/engines/registry.rs): round-off for native and housner, the measured
+# soft-contact limits for rapier, MuJoCo and PyBullet.
+# Siconos, by its measured limits, with `--engines siconos` (its quick map alone takes ~20 min).
+# Writes out/stress/index.html.
 stress: build
 	$(BIN) stress --out out/stress
 
@@ -234,7 +238,7 @@ PROPTEST_CASES ?= 10000
 proptest:
 	PROPTEST_CASES=$(PROPTEST_CASES) $(CARGO) test --release --test proptest_scenes
 
-# Random large assemblies (walls and colonnades of 30-400 blocks set moving) on the native
+# Random large assemblies (walls and colonnades of 19-430 blocks set moving) on the native
 # engine's wide path: ASSEMBLY_CASES (default 600, about 10 min on one core) cases.
 ASSEMBLY_CASES ?= 600
 proptest-assemblies:
@@ -330,7 +334,7 @@ bench-walls-external-qp: $(VENV)/.requirements.stamp wall-problems
 # The closed rows that change from one step's problem to the next on the sliding walls
 # (wall-problems), with the factorisations the native back-end spent on each problem: what
 # bounds the cost of an exact active-set solve of a moving wall's step;
-# out/bench-walls-closed-rows/closed-rows.{md,json}. About a minute (docs/walls.md:
+# out/bench-walls-closed-rows/closed-rows.{md,json}. About 15 s (docs/walls.md:
 # "How many rows a moving wall's step changes, and what an exact solve of it costs").
 bench-walls-closed-rows: $(VENV)/.requirements.stamp wall-problems
 	$(VPY) benches/walls/closed_rows.py $(WALL_PROBLEM_DIRS) --out out/bench-walls-closed-rows/closed-rows.md
@@ -362,13 +366,13 @@ bench-walls-targets: records $(VENV)/.requirements.stamp
 
 # The walls in motion: every block sliding under a rectangular pulse of 0.8 g, ten steps, native
 # and rapier in the same series; impacts located (the default: 43, 107 and 215 blocks, the
-# 215-block wall some 7 s) and taken at the end of their step (215, 430 and 860 blocks);
+# 215-block wall some 2.5 s) and taken at the end of their step (215, 430 and 860 blocks);
 # out/bench-walls-in-motion/{located,step-ends}. The joints of these walls are at their cones'
 # edges (the base slides at the joints' friction) and slip; in one-piece/{located,step-ends} the
 # bottom course's interfaces are at 0.5, and the walls of up to 430 blocks slide as one piece
 # (the 860-block wall's joints still open). In long/step-ends the walls of 10 courses grow
 # along their length instead (21 / 42 / 84 blocks a course: 215, 425 and 845 blocks), so their
-# envelope keeps its width where the series above widens to a course. About a minute
+# envelope keeps its width where the series above widens to a course. About 20 s
 # (docs/walls.md, "Why a sliding wall is the worst case", "A rigidly sliding wall",
 # "Walls grown along their length").
 bench-walls-in-motion:

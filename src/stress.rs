@@ -35,7 +35,7 @@
 
 use crate::contract::Contract;
 use crate::engines::registry::{self, check_scene_str};
-use crate::engines::{Engine, EngineError, engine_by_name};
+use crate::engines::{Engine, EngineError, Progress, RunOutput, engine_by_name};
 use crate::invariants::{CHECK_NAMES, InvariantReport, Tolerances};
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -715,7 +715,7 @@ fn measure(
         r.reason = e.to_string();
         return (r, false);
     }
-    let (tx, rx) = mpsc::channel();
+    let (tx, rx) = mpsc::channel::<CellMessage>();
     let name = engine.to_string();
     let tol = *tol;
     let start = Instant::now();
@@ -723,7 +723,10 @@ fn measure(
         .name(format!("stress {engine} {}={}", cell.factor, cell.label))
         .spawn(move || {
             let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                let e = make(&name)?;
+                let e: Box<dyn Engine> = Box::new(Announced {
+                    inner: make(&name)?,
+                    starts: tx.clone(),
+                });
                 let t0 = Instant::now();
                 let main = e.run_reporting(&scene, &crate::interrupt::go_on_unless_interrupted);
                 let wall = t0.elapsed().as_secs_f64();
@@ -735,19 +738,28 @@ fn measure(
                 report.checks.extend(extra.checks);
                 Ok::<_, EngineError>((out.steps, wall, report))
             }));
-            let _ = tx.send(res.map_err(|p| {
+            let _ = tx.send(CellMessage::Done(res.map_err(|p| {
                 p.downcast_ref::<&str>()
                     .map(|s| s.to_string())
                     .or_else(|| p.downcast_ref::<String>().cloned())
                     .unwrap_or_else(|| "unknown panic".into())
-            }));
+            })));
         });
     if let Err(e) = spawned {
         r.status = Status::Failed;
         r.reason = format!("cannot start a worker thread: {e}");
         return (r, false);
     }
-    let keep = match rx.recv_timeout(timeout) {
+    // Each of the cell's runs (the main run, the mirrored run, the rerun, the mirror's probes)
+    // has `timeout` to itself: the wait starts again as each starts.
+    let answer = loop {
+        match rx.recv_timeout(timeout) {
+            Ok(CellMessage::RunStarts) => continue,
+            Ok(CellMessage::Done(answer)) => break Ok(answer),
+            Err(e) => break Err(e),
+        }
+    };
+    let keep = match answer {
         Ok(Ok(Ok((steps, wall, report)))) => {
             r.steps = steps;
             r.wall_s = wall;
@@ -785,6 +797,33 @@ fn measure(
         }
     };
     (r, keep)
+}
+
+/// What a cell's thread tells the thread waiting for it: a run starts, or the cell's answer
+/// (its main run's steps and wall time and the invariants' report, an engine's error, or a
+/// panic's message).
+enum CellMessage {
+    RunStarts,
+    Done(Result<Result<(u64, f64, InvariantReport), EngineError>, String>),
+}
+
+/// A cell's engine, each of whose runs is announced to the thread waiting for the cell.
+struct Announced {
+    inner: Box<dyn Engine>,
+    starts: mpsc::Sender<CellMessage>,
+}
+
+impl Engine for Announced {
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+    fn run_reporting(&self, scene: &Scene, progress: Progress) -> Result<RunOutput, EngineError> {
+        let _ = self.starts.send(CellMessage::RunStarts);
+        self.inner.run_reporting(scene, progress)
+    }
+    fn cannot_model(&self, scene: &Scene) -> Option<String> {
+        self.inner.cannot_model(scene)
+    }
 }
 
 /// Bumped when the meaning of a stored stress run changes.
@@ -1565,6 +1604,8 @@ mod fault_tests {
         NaN,
         Truncated,
         Error,
+        /// Every run takes this long (ms) and answers right.
+        Slow(u64),
     }
 
     struct Faulty(Fault);
@@ -1590,6 +1631,7 @@ mod fault_tests {
                     std::thread::sleep(Duration::from_millis(50));
                 },
                 Fault::NaN => out.trajectory.blocks[0].phi[5] = f64::NAN,
+                Fault::Slow(ms) => std::thread::sleep(Duration::from_millis(ms)),
                 Fault::Truncated => {
                     let n = out.trajectory.len() / 2;
                     out.trajectory.t.truncate(n);
@@ -1679,6 +1721,26 @@ mod fault_tests {
         let t0 = Instant::now();
         let r = run(Fault::Hang);
         assert!(t0.elapsed() < Duration::from_secs(10));
+        assert_eq!(r.status, Status::Failed);
+        assert!(r.reason.contains("timed out after 1.5 s"), "{}", r.reason);
+    }
+
+    /// The timeout is each run's, not the cell's: a cell makes three runs or more (the main
+    /// run, the mirrored run, the rerun), and PyBullet's 10-brick column standing for 60 s
+    /// (about 200 s a run, five runs with the mirror's probes) was abandoned at 600 s, its
+    /// first timeout in the full map.
+    #[test]
+    fn a_cell_of_runs_each_within_the_timeout_finishes_however_long_it_takes() {
+        let t0 = Instant::now();
+        let r = run(Fault::Slow(600));
+        assert!(
+            t0.elapsed() > Duration::from_millis(1800),
+            "{:?}",
+            t0.elapsed()
+        );
+        assert_eq!(r.status, Status::Finished, "{}", r.reason);
+        assert_eq!(r.unexplained(), 0, "{:?}", r.issues);
+        let r = run(Fault::Slow(2000));
         assert_eq!(r.status, Status::Failed);
         assert!(r.reason.contains("timed out after 1.5 s"), "{}", r.reason);
     }

@@ -26,7 +26,8 @@ pub struct StressArgs {
     /// it exists; a file given here must exist).
     #[arg(long)]
     known: Option<PathBuf>,
-    /// A run longer than this (s) is abandoned and counted as failed.
+    /// A run longer than this (s) is abandoned and its cell counted as failed (each of a cell's
+    /// runs: the main run, the mirrored run and its probes, the rerun).
     #[arg(long, default_value_t = 600.0)]
     timeout: f64,
     /// Only the cells of these factors (comma-separated; default all).
