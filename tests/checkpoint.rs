@@ -506,6 +506,7 @@ fn a_checkpoint_resumes_only_with_the_records_it_was_written_with() {
 /// set to `x`.
 fn first_float_set(cbor: &[u8], x: f64) -> Vec<u8> {
     use ciborium::Value;
+    use rockbench::native::solver::{from_bytes, to_bytes};
     fn set(v: &mut Value, x: f64, nested: bool) -> bool {
         match v {
             Value::Float(f) if nested => {
@@ -515,24 +516,21 @@ fn first_float_set(cbor: &[u8], x: f64) -> Vec<u8> {
             Value::Array(items) => items.iter_mut().any(|i| set(i, x, nested)),
             Value::Map(entries) => entries.iter_mut().any(|(_, e)| set(e, x, nested)),
             Value::Bytes(b) => {
-                let Ok(mut inner) = ciborium::from_reader::<Value, _>(&b[..]) else {
+                let Ok(mut inner) = from_bytes::<Value>(b, "") else {
                     return false;
                 };
-                if !set(&mut inner, x, true) {
-                    return false;
+                let found = set(&mut inner, x, true);
+                if found {
+                    *b = to_bytes(&inner);
                 }
-                b.clear();
-                ciborium::into_writer(&inner, &mut *b).unwrap();
-                true
+                found
             }
             _ => false,
         }
     }
-    let mut value: Value = ciborium::from_reader(cbor).unwrap();
+    let mut value: Value = from_bytes(cbor, "").unwrap();
     assert!(set(&mut value, x, false), "no number in a nested state");
-    let mut out = Vec::new();
-    ciborium::into_writer(&value, &mut out).unwrap();
-    out
+    to_bytes(&value)
 }
 
 /// The seal holds against damage, not against a checkpoint written again by hand and sealed

@@ -442,16 +442,13 @@ mod tests {
     use super::*;
     use ciborium::Value;
 
-    fn cbor(v: &Value) -> Vec<u8> {
-        let mut bytes = Vec::new();
-        ciborium::into_writer(v, &mut bytes).unwrap();
-        bytes
-    }
-
     /// `inner` inside `levels` byte strings, each a map `{"state": <bytes>}`.
     fn nested(inner: Value, levels: usize) -> Value {
         (0..levels).fold(inner, |v, _| {
-            Value::Map(vec![(Value::Text("state".into()), Value::Bytes(cbor(&v)))])
+            Value::Map(vec![(
+                Value::Text("state".into()),
+                Value::Bytes(to_bytes(&v)),
+            )])
         })
     }
 
